@@ -1,0 +1,128 @@
+#include "server/cli/analysis_options.h"
+#include "server/cli/commands.h"
+#include "server/io/image_io.h"
+#include "server/io/texton_file.h"
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+namespace textond::cli {
+
+const std::set<std::string> kAnalysisOptions = {"--size", "--order",   "--iterations",
+                                                "--seed", "--threads", "--max-pixels"};
+const std::set<std::string> kAnalysisFlags = {"--no-periodic"};
+const char* kAnalysisHelp = R"(analysis options:
+  --size R          texton support R x R, 8..256, at most half the short side   [64]
+  --order N         interpolation order: 0 (discrete SOT), 1 (bilinear), 3 (cubic)   [1]
+  --iterations N    alternating projections, 1..1000                            [50]
+  --seed N          analysis seed (random phase start)                          [0]
+  --no-periodic     skip the periodic component (not recommended)
+  --threads N       worker threads, 0 = all cores (never changes the result)    [0]
+  --max-pixels N    refuse exemplars over N pixels                              [16777216]
+)";
+
+Result<core::AnalysisParams> analysis_params_from(const Args& a) {
+    core::AnalysisParams p;
+    auto size = a.get_int("--size", p.size, 8, 256);
+    if (!size) return size.error();
+    auto order = a.get_int("--order", p.order, 0, 3);
+    if (!order) return order.error();
+    auto iterations = a.get_int("--iterations", p.iterations, 1, 1000);
+    if (!iterations) return iterations.error();
+    auto seed = a.get_u64("--seed", p.seed);
+    if (!seed) return seed.error();
+    auto threads = a.get_int("--threads", 0, 0, 256);
+    if (!threads) return threads.error();
+    p.size = static_cast<int>(size.value());
+    p.order = static_cast<int>(order.value());
+    p.iterations = static_cast<int>(iterations.value());
+    p.seed = seed.value();
+    p.threads = static_cast<int>(threads.value());
+    p.periodic = !a.flags.count("--no-periodic");
+    return p;
+}
+
+Result<io::DecodeLimits> decode_limits_from(const Args& a) {
+    io::DecodeLimits limits;
+    auto max_pixels =
+        a.get_int("--max-pixels", static_cast<long long>(limits.max_pixels), 1, 1LL << 40);
+    if (!max_pixels) return max_pixels.error();
+    limits.max_pixels = static_cast<std::uint64_t>(max_pixels.value());
+    return limits;
+}
+
+core::ProgressFn progress_reporter(const std::string& label) {
+    using clock = std::chrono::steady_clock;
+    auto state = std::make_shared<std::pair<clock::time_point, clock::time_point>>(clock::now(),
+                                                                                   clock::now());
+    return [state, label](int done, int total) {
+        const auto now = clock::now();
+        if (now - state->first < std::chrono::seconds(1)) return;
+        if (done < total && now - state->second < std::chrono::seconds(1)) return;
+        state->second = now;
+        spdlog::info("{}: projection {}/{}", label, done, total);
+    };
+}
+
+namespace {
+const char* kHelp =
+    R"(usage: textond analyze EXEMPLAR [options] [-o TEXTON.exr] [--export-v1 FILE.texton]
+
+Estimates the Gaussian model of EXEMPLAR (any format OpenImageIO reads), computes its texton by
+alternating projections and prints a JSON summary (id, RME, mean, timings) on stdout.
+  -o, --output FILE     write the texton file (OpenEXR + metadata, see api/TEXTON_FORMAT.md)
+  --export-v1 FILE      also write the authors' .texton v1 text format (their OpenGL viewer)
+)";
+} // namespace
+
+int analyze_command(const Argv& argv) {
+    std::set<std::string> options = kAnalysisOptions;
+    options.insert({"--output", "--export-v1"});
+    std::set<std::string> flags = kAnalysisFlags;
+    flags.insert("--help");
+    auto args = parse_args(argv, options, flags);
+    if (!args) return fail(2, args.error().message + " (see textond analyze --help)");
+    const Args& a = args.value();
+    if (a.flags.count("--help")) {
+        std::printf("%s\n%s", kHelp, kAnalysisHelp);
+        return 0;
+    }
+    if (a.positional.size() != 1)
+        return fail(2, "analyze needs exactly one EXEMPLAR (see textond analyze --help)");
+    auto params = analysis_params_from(a);
+    if (!params) return fail(2, params.error().message);
+    auto limits = decode_limits_from(a);
+    if (!limits) return fail(2, limits.error().message);
+
+    const std::string& path = a.positional[0];
+    auto image = io::decode_image_file(path, limits.value());
+    if (!image) return fail(1, path + ": " + image.error().message);
+    auto result =
+        core::analyze_texton(image.value(), params.value(), progress_reporter("analyze " + path));
+    if (!result)
+        return fail(result.error().code == ErrorCode::invalid_argument ? 2 : 1,
+                    result.error().message);
+
+    const io::TextonRecord record = io::make_record(image.value(), params.value(), result.value());
+    if (a.options.count("--output")) {
+        auto w = io::write_texton_file(a.get("--output"), record);
+        if (!w) return fail(1, w.error().message);
+    }
+    if (a.options.count("--export-v1")) {
+        const std::string name = std::filesystem::path(path).filename().string();
+        auto w = io::write_file_atomic(a.get("--export-v1"), io::texton_v1_text(record, name));
+        if (!w) return fail(1, w.error().message);
+    }
+    nlohmann::json summary = record.meta;
+    summary["exemplar"]["path"] = path;
+    if (a.options.count("--output")) summary["output"] = a.get("--output");
+    std::printf("%s\n", summary.dump(2).c_str());
+    return 0;
+}
+
+} // namespace textond::cli

@@ -1,0 +1,134 @@
+#include "core/canonical_texton.h"
+#include "core/gaussian_model.h"
+#include "core/periodic_component.h"
+#include "core/rme.h"
+#include "core/texton_analysis.h"
+#include "server/cli/analysis_options.h"
+#include "server/cli/commands.h"
+#include "server/io/image_io.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <vector>
+
+namespace textond::cli {
+
+namespace {
+const char* kHelp = R"(usage: textond bench analyze [--exemplars DIR] [--repeat N] [--threads N]
+
+Times the texton analysis (r = 64, order 1, 50 iterations) on exemplars of growing size and prints
+a table; then the RME of the analysed texton against the cropped canonical texton for every
+exemplar in DIR. Sizes above an exemplar's own are made by tiling it (timing only).
+  --exemplars DIR   texture photos                              [../shared/data/exemplars]
+  --repeat N        runs per row; the table shows the median     [3]
+  --threads N       threads for the multi-threaded column        [0 = all cores]
+)";
+
+core::Image tile(const core::Image& src, int w, int h) {
+    core::Image out(w, h, src.channels);
+    for (int c = 0; c < src.channels; ++c)
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x % src.width, y % src.height);
+    return out;
+}
+
+double median_ms(const core::Image& u, const core::AnalysisParams& p, int repeat) {
+    std::vector<double> ms;
+    for (int i = 0; i < repeat; ++i) {
+        const auto t0 = std::chrono::steady_clock::now();
+        auto r = core::analyze_texton(u, p);
+        ms.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count());
+        if (!r) throw std::runtime_error(r.error().message);
+    }
+    std::sort(ms.begin(), ms.end());
+    return ms[ms.size() / 2];
+}
+} // namespace
+
+int bench_command(const Argv& argv) {
+    auto args = parse_args(argv, {"--exemplars", "--repeat", "--threads"}, {"--help"});
+    if (!args) return fail(2, args.error().message);
+    const Args& a = args.value();
+    if (a.flags.count("--help") || a.positional.empty()) {
+        std::printf("%s", kHelp);
+        return a.flags.count("--help") ? 0 : 2;
+    }
+    if (a.positional[0] != "analyze") return fail(2, "unknown benchmark '" + a.positional[0] + "'");
+    auto repeat = a.get_int("--repeat", 3, 1, 100);
+    auto threads = a.get_int("--threads", 0, 0, 256);
+    if (!repeat || !threads) return fail(2, "bad --repeat or --threads");
+    const std::filesystem::path dir = a.get("--exemplars", "../shared/data/exemplars");
+
+    auto sand = io::decode_image_file((dir / "etr_sand01.png").string());
+    auto gravel = io::decode_image_file((dir / "skimage_gravel.png").string());
+    if (!sand || !gravel) return fail(1, "exemplars not found in " + dir.string());
+
+    const int nthreads = core::resolve_threads(static_cast<int>(threads.value()));
+    std::printf("Texton analysis time (median of %lld runs; r = 64, order 1, 50 iterations)\n",
+                repeat.value());
+    std::printf("| exemplar size | channels | r  | iterations | ms (1 thread) | ms (%d threads) | "
+                "speed-up |\n",
+                nthreads);
+    std::printf("|---------------|----------|----|------------|---------------|----------------|---"
+                "-------|\n");
+    struct Row {
+        const core::Image* src;
+        int w, h;
+    };
+    const Row rows[] = {{&sand.value(), 128, 128},   {&sand.value(), 256, 256},
+                        {&sand.value(), 512, 512},   {&sand.value(), 768, 512},
+                        {&gravel.value(), 512, 512}, {&gravel.value(), 768, 512}};
+    for (const Row& row : rows) {
+        const core::Image u = tile(*row.src, row.w, row.h);
+        core::AnalysisParams p;
+        p.threads = 1;
+        const double t1 = median_ms(u, p, static_cast<int>(repeat.value()));
+        p.threads = nthreads;
+        const double tn = median_ms(u, p, static_cast<int>(repeat.value()));
+        std::printf("| %4dx%-8d | %8d | %2d | %10d | %13.1f | %14.1f | %7.2fx |\n", row.w, row.h,
+                    u.channels, p.size, p.iterations, t1, tn, t1 / tn);
+        std::fflush(stdout);
+    }
+
+    std::printf("\nRME of the analysed texton (SOT) and of the cropped canonical texton, r = 64, "
+                "order 1, 50 iterations, seeds 0-3\n");
+    std::printf("| exemplar | SOT RME (corrected) | SOT RME (uncorrected) | canonical crop RME | "
+                "canonical crop RME (corrected) |\n");
+    std::printf("|---|---|---|---|---|\n");
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        if (e.path().extension() == ".png") files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) {
+        auto u = io::decode_image_file(f.string());
+        if (!u) continue;
+        double rc = 0, ru = 0;
+        const int seeds = 4;
+        for (int s = 0; s < seeds; ++s) {
+            core::AnalysisParams p;
+            p.seed = static_cast<std::uint64_t>(s);
+            auto r = core::analyze_texton(u.value(), p);
+            if (!r) return fail(1, r.error().message);
+            rc += r.value().rme / seeds;
+            ru += r.value().rme_uncorrected / seeds;
+        }
+        const core::GaussianModel model =
+            core::estimate_gaussian_model(core::periodic_component(u.value(), nthreads), nthreads);
+        core::Texton crop = core::cropped_canonical_texton(model, 64, 1, nthreads);
+        const double crop_rme = core::relative_model_error(model, crop.alpha, 1, 0, 0, nthreads);
+        core::apply_colour_matrix(
+            crop.alpha, core::colour_correction_matrix(
+                            model.covariance, core::texton_noise_covariance(crop.alpha, 1)));
+        const double crop_rme_c = core::relative_model_error(model, crop.alpha, 1, 0, 0, nthreads);
+        std::printf("| %s | %.3f | %.3f | %.3f | %.3f |\n", f.filename().string().c_str(), rc, ru,
+                    crop_rme, crop_rme_c);
+        std::fflush(stdout);
+    }
+    return 0;
+}
+
+} // namespace textond::cli

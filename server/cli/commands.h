@@ -1,0 +1,18 @@
+#pragma once
+// Subcommands of the `textond` executable. Each returns the process exit code:
+// 0 success, 1 the work failed (bad input file, I/O), 2 the command line is wrong.
+#include <string>
+#include <vector>
+
+namespace textond::cli {
+
+using Argv = std::vector<std::string>;
+
+int analyze_command(const Argv& args);
+int synth_command(const Argv& args);
+int bench_command(const Argv& args);
+
+// Prints "textond: <message>" to stderr and returns `code`.
+int fail(int code, const std::string& message);
+
+} // namespace textond::cli

@@ -1,0 +1,59 @@
+#include "server/cli/commands.h"
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <exception>
+#include <iostream>
+
+namespace {
+const char* kUsage = R"(textond: exemplar photo -> texton -> infinite seamless texture
+
+usage: textond <command> [options]
+
+commands:
+  analyze   estimate the Gaussian model of an exemplar and compute its texton (+ RME)
+  synth     reference synthesis (ADSN, RPN, discrete spot noise) from an exemplar or texton
+  bench     benchmarks (textond bench analyze)
+
+  textond <command> --help   options of one command
+  textond --version
+)";
+} // namespace
+
+namespace textond::cli {
+int fail(int code, const std::string& message) {
+    std::fprintf(stderr, "textond: %s\n", message.c_str());
+    return code;
+}
+} // namespace textond::cli
+
+int main(int argc, char** argv) {
+    // Logs and progress go to stderr; stdout carries only the command's result (JSON, tables).
+    spdlog::set_default_logger(spdlog::stderr_color_mt("textond"));
+    spdlog::set_pattern("[%H:%M:%S.%e] %^%l%$ %v");
+    if (argc < 2) {
+        std::fputs(kUsage, stderr);
+        return 2;
+    }
+    const std::string cmd = argv[1];
+    const textond::cli::Argv rest(argv + 2, argv + argc);
+    try {
+        if (cmd == "--help" || cmd == "-h" || cmd == "help") {
+            std::fputs(kUsage, stdout);
+            return 0;
+        }
+        if (cmd == "--version") {
+            std::puts("textond 0.1.0");
+            return 0;
+        }
+        if (cmd == "analyze") return textond::cli::analyze_command(rest);
+        if (cmd == "synth") return textond::cli::synth_command(rest);
+        if (cmd == "bench") return textond::cli::bench_command(rest);
+        std::fputs(kUsage, stderr);
+        return textond::cli::fail(2, "unknown command '" + cmd + "'");
+    } catch (const std::exception& e) {
+        return textond::cli::fail(1, std::string("internal error: ") + e.what());
+    }
+}

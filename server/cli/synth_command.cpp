@@ -1,0 +1,114 @@
+#include "core/spectral_synthesis.h"
+#include "core/spot_noise.h"
+#include "server/cli/analysis_options.h"
+#include "server/cli/commands.h"
+#include "server/io/image_io.h"
+#include "server/io/texton_file.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+namespace textond::cli {
+
+namespace {
+const char* kHelp = R"(usage: textond synth INPUT --method adsn|rpn|dsn [options] -o OUT.png|OUT.exr
+
+Reference syntheses. INPUT is an exemplar image or a texton file written by `textond analyze`.
+  --method M        adsn: asymptotic discrete spot noise (Gaussian), rpn: random phase noise
+                    (TIP 2011; from an exemplar through the spot extension, so any size, and the
+                    output wraps around), dsn: discrete spot noise of the texton (SOT paper,
+                    Algorithm 1; an exemplar is analysed first with the analysis options)
+  --width W         output width in pixels, 1..16384                            [512]
+  --height H        output height in pixels, 1..16384                           [512]
+  --seed N          synthesis seed                                              [0]
+  --mni N           dsn: mean number of impacts per pixel, 1..200               [30]
+  --x0 X, --y0 Y    dsn: window origin on the plane                             [0]
+  --png16           write a 16-bit PNG instead of 8-bit
+  -o, --output FILE .png (clamped to [0,1]) or .exr (float)
+)";
+constexpr long long kMaxSide = 16384;
+constexpr long long kMaxOutputPixels = 64LL * 1024 * 1024;
+} // namespace
+
+int synth_command(const Argv& argv) {
+    std::set<std::string> options = kAnalysisOptions;
+    options.insert({"--output", "--method", "--width", "--height", "--mni", "--x0", "--y0"});
+    // --seed is shared with the analysis options: one seed drives both.
+    std::set<std::string> flags = kAnalysisFlags;
+    flags.insert({"--help", "--png16"});
+    auto args = parse_args(argv, options, flags);
+    if (!args) return fail(2, args.error().message + " (see textond synth --help)");
+    const Args& a = args.value();
+    if (a.flags.count("--help")) {
+        std::printf("%s\n%s", kHelp, kAnalysisHelp);
+        return 0;
+    }
+    if (a.positional.size() != 1) return fail(2, "synth needs exactly one INPUT");
+    if (!a.options.count("--output")) return fail(2, "synth needs -o OUT.png or OUT.exr");
+    const std::string method = a.get("--method", "");
+    if (method != "adsn" && method != "rpn" && method != "dsn")
+        return fail(2, "--method must be adsn, rpn or dsn");
+    auto width = a.get_int("--width", 512, 1, kMaxSide);
+    auto height = a.get_int("--height", 512, 1, kMaxSide);
+    auto seed = a.get_u64("--seed", 0);
+    auto mni = a.get_double("--mni", 30.0, 1.0, 200.0);
+    auto x0 = a.get_int("--x0", 0, -(1LL << 62), 1LL << 62);
+    auto y0 = a.get_int("--y0", 0, -(1LL << 62), 1LL << 62);
+    for (const Error* e : {width ? nullptr : &width.error(), height ? nullptr : &height.error(),
+                           seed ? nullptr : &seed.error(), mni ? nullptr : &mni.error(),
+                           x0 ? nullptr : &x0.error(), y0 ? nullptr : &y0.error()})
+        if (e) return fail(2, e->message);
+    if (width.value() * height.value() > kMaxOutputPixels)
+        return fail(2, "output over " + std::to_string(kMaxOutputPixels) + " pixels");
+    auto params = analysis_params_from(a);
+    if (!params) return fail(2, params.error().message);
+    auto limits = decode_limits_from(a);
+    if (!limits) return fail(2, limits.error().message);
+    auto encoding = io::encoding_for_path(a.get("--output"));
+    if (!encoding) return fail(2, encoding.error().message);
+    io::Encoding enc = encoding.value();
+    if (a.flags.count("--png16")) {
+        if (enc != io::Encoding::png8) return fail(2, "--png16 needs a .png output");
+        enc = io::Encoding::png16;
+    }
+
+    // A texton file is an EXR with our metadata; anything else is an exemplar.
+    const std::string& input = a.positional[0];
+    std::optional<core::Texton> texton;
+    std::optional<core::Image> exemplar;
+    auto record = io::read_texton_file(input);
+    if (record) {
+        texton = record.value().texton;
+    } else {
+        auto image = io::decode_image_file(input, limits.value());
+        if (!image) return fail(1, input + ": " + image.error().message);
+        exemplar = std::move(image.value());
+    }
+
+    const int w = static_cast<int>(width.value()), h = static_cast<int>(height.value());
+    const int threads = params.value().threads;
+    core::Image out;
+    if (method == "dsn") {
+        if (!texton) {
+            auto result = core::analyze_texton(*exemplar, params.value(),
+                                               progress_reporter("analyze " + input));
+            if (!result) return fail(2, result.error().message);
+            spdlog::info("analysed {}: RME {:.4f}", input, result.value().rme);
+            texton = result.value().texton;
+        }
+        out = core::discrete_spot_noise(*texton, mni.value(), seed.value(),
+                                        {x0.value(), y0.value(), w, h});
+    } else {
+        const auto m = method == "adsn" ? core::SpectralMethod::adsn : core::SpectralMethod::rpn;
+        out = texton ? core::synthesize_from_texton(*texton, m, w, h, seed.value(), threads)
+                     : core::synthesize_from_exemplar(*exemplar, m, w, h, seed.value(), threads);
+    }
+    auto written = io::encode_image_file(out, a.get("--output"), enc);
+    if (!written) return fail(1, written.error().message);
+    return 0;
+}
+
+} // namespace textond::cli

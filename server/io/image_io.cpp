@@ -1,0 +1,211 @@
+#include "server/io/image_io.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fcntl.h>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <vector>
+
+namespace textond::io {
+
+namespace fs = std::filesystem;
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+namespace {
+
+Error unprocessable(const std::string& what) {
+    return make_error(ErrorCode::unprocessable, what);
+}
+
+std::string oiio_message(const std::string& raw) {
+    std::string m = raw;
+    while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
+    std::replace(m.begin(), m.end(), '\n', ' ');
+    return m.empty() ? "unknown decoder error" : m;
+}
+
+Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits) {
+    const ImageSpec& spec = in.spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1)
+        return unprocessable("image has no pixels or is a volume (" + std::to_string(spec.width) +
+                             "x" + std::to_string(spec.height) + ")");
+    const std::uint64_t pixels = static_cast<std::uint64_t>(spec.width) * spec.height;
+    if (pixels > limits.max_pixels)
+        return make_error(ErrorCode::too_large,
+                          "image is " + std::to_string(spec.width) + "x" +
+                              std::to_string(spec.height) + " = " + std::to_string(pixels) +
+                              " pixels, over the budget of " + std::to_string(limits.max_pixels));
+    if (spec.nchannels > 16) return unprocessable("image has too many channels");
+
+    int alpha = spec.alpha_channel;
+    if (alpha < 0 && (spec.nchannels == 2 || spec.nchannels == 4)) alpha = spec.nchannels - 1;
+    const int colour_channels = spec.nchannels - (alpha >= 0 ? 1 : 0);
+    const int out_channels = colour_channels >= 3 ? 3 : 1;
+
+    std::vector<float> buf(pixels * static_cast<std::size_t>(spec.nchannels));
+    if (!in.read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf.data()))
+        return unprocessable("cannot decode image: " + oiio_message(in.geterror()));
+    if (in.has_error()) return unprocessable("cannot decode image: " + oiio_message(in.geterror()));
+
+    core::Image img(spec.width, spec.height, out_channels);
+    // Indices of the colour channels we keep (skip the alpha channel wherever it sits).
+    std::vector<int> src;
+    for (int c = 0; c < spec.nchannels && static_cast<int>(src.size()) < out_channels; ++c)
+        if (c != alpha) src.push_back(c);
+    for (std::size_t k = 0; k < pixels; ++k)
+        for (int c = 0; c < out_channels; ++c) {
+            const float v = buf[k * spec.nchannels + src[static_cast<std::size_t>(c)]];
+            if (!std::isfinite(v)) return unprocessable("image contains NaN or infinite values");
+            img.plane(c)[k] = v;
+        }
+    return img;
+}
+
+} // namespace
+
+Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits) {
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec))
+        return make_error(ErrorCode::not_found, "no such file: " + path);
+    if (fs::file_size(path, ec) == 0) return unprocessable("file is empty: " + path);
+    auto in = ImageInput::open(path);
+    if (!in) {
+        const std::string err = oiio_message(OIIO::geterror());
+        if (err.find("not a file format") != std::string::npos ||
+            err.find("format") != std::string::npos)
+            return make_error(ErrorCode::unsupported, "not an image format we read: " + err);
+        return unprocessable("cannot open image: " + err);
+    }
+    return read_opened(*in, limits);
+}
+
+Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits) {
+    if (bytes.empty()) return unprocessable("image is empty");
+    // Not every OpenImageIO 2.4 reader takes an in-memory proxy, so decode from a private
+    // temporary file; the format is detected from the content, not from a name.
+    char tmpl[] = "/tmp/textond-decode-XXXXXX";
+    const int fd = mkstemp(tmpl);
+    if (fd < 0) return make_error(ErrorCode::io, std::string("mkstemp: ") + std::strerror(errno));
+    const std::string path = tmpl;
+    std::size_t off = 0;
+    while (off < bytes.size()) {
+        const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
+        if (n <= 0) {
+            ::close(fd);
+            ::unlink(path.c_str());
+            return make_error(ErrorCode::io, "cannot buffer upload");
+        }
+        off += static_cast<std::size_t>(n);
+    }
+    ::close(fd);
+    auto result = decode_image_file(path, limits);
+    ::unlink(path.c_str());
+    return result;
+}
+
+Result<Encoding> encoding_for_path(const std::string& path) {
+    std::string ext = fs::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".png") return Encoding::png8;
+    if (ext == ".exr") return Encoding::exr;
+    return make_error(ErrorCode::invalid_argument,
+                      "output must end in .png or .exr, not '" + ext + "'");
+}
+
+const char* extension_of(Encoding e) {
+    switch (e) {
+    case Encoding::png8:
+    case Encoding::png16:
+        return ".png";
+    case Encoding::exr:
+        return ".exr";
+    }
+    return "";
+}
+
+Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) {
+    const fs::path target(path);
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    std::string tmp = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+    const int fd = mkstemp(tmp.data());
+    if (fd < 0)
+        return make_error(ErrorCode::io, "cannot create " + tmp + ": " + std::strerror(errno));
+    std::size_t off = 0;
+    bool ok = true;
+    while (ok && off < bytes.size()) {
+        const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
+        if (n <= 0)
+            ok = false;
+        else
+            off += static_cast<std::size_t>(n);
+    }
+    ok = ok && ::fchmod(fd, 0644) == 0 && ::fsync(fd) == 0;
+    const int saved = errno;
+    ok = (::close(fd) == 0) && ok;
+    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+        const int e = ok ? errno : saved;
+        ::unlink(tmp.c_str());
+        return make_error(ErrorCode::io, "cannot write " + path + ": " + std::strerror(e));
+    }
+    return true;
+}
+
+Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
+                               const Attributes& attributes) {
+    if (image.empty()) return make_error(ErrorCode::invalid_argument, "nothing to encode");
+    const TypeDesc type = e == Encoding::png8    ? TypeDesc::UINT8
+                          : e == Encoding::png16 ? TypeDesc::UINT16
+                                                 : TypeDesc::FLOAT;
+    ImageSpec spec(image.width, image.height, image.channels, type);
+    if (e == Encoding::exr) spec.attribute("compression", "zip");
+    if (image.channels == 1) spec.channelnames = {"Y"};
+    for (const auto& [key, value] : attributes) spec.attribute(key, value);
+    const std::size_t n = image.plane_size();
+    std::vector<float> interleaved(n * static_cast<std::size_t>(image.channels));
+    for (std::size_t k = 0; k < n; ++k)
+        for (int c = 0; c < image.channels; ++c) {
+            float v = image.plane(c)[k];
+            if (e != Encoding::exr) v = std::clamp(v, 0.0f, 1.0f);
+            interleaved[k * image.channels + c] = v;
+        }
+    // Encode next to the target under a temporary name, then rename: never a half-written file.
+    const fs::path target(path);
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    std::mt19937_64 salt(std::random_device{}());
+    const std::string tmp = (dir / ("." + target.filename().string() + ".tmp" +
+                                    std::to_string(salt() % 1000000) + extension_of(e)))
+                                .string();
+    auto out = ImageOutput::create(tmp);
+    if (!out) return make_error(ErrorCode::io, "no encoder: " + oiio_message(OIIO::geterror()));
+    bool ok = out->open(tmp, spec) && out->write_image(TypeDesc::FLOAT, interleaved.data()) &&
+              out->close();
+    if (ok) {
+        const int fd = ::open(tmp.c_str(), O_RDONLY);
+        ok = fd >= 0 && ::fsync(fd) == 0;
+        if (fd >= 0) ::close(fd);
+    }
+    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::string err = out->geterror();
+        ::unlink(tmp.c_str());
+        return make_error(ErrorCode::io,
+                          "cannot write " + path + ": " +
+                              (err.empty() ? std::strerror(errno) : oiio_message(err)));
+    }
+    return true;
+}
+
+} // namespace textond::io

@@ -1,0 +1,42 @@
+#pragma once
+// Image decoding and encoding through OpenImageIO (the only place that touches image formats).
+//
+// Decoding contract: any format OpenImageIO reads; first subimage; alpha dropped; grey (and
+// grey+alpha) stays ONE channel, everything else becomes RGB (palette PNGs arrive as RGB);
+// integer formats normalised to [0, 1], float formats kept as they are. The declared size is
+// checked against the pixel budget before a single pixel is decoded; NaN/Inf are refused.
+#include "core/image.h"
+#include "core/result.h"
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace textond::io {
+
+struct DecodeLimits {
+    std::uint64_t max_pixels = 16'777'216; // 16.8 MP (4096 x 4096)
+};
+
+Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits = {});
+Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits = {});
+
+enum class Encoding { png8, png16, exr };
+
+// Chooses the encoding from the extension: .png (8-bit), .exr (float); anything else is an error.
+Result<Encoding> encoding_for_path(const std::string& path);
+const char* extension_of(Encoding e);
+
+// Writes atomically (temporary file in the same directory, fsync, rename). PNG values are
+// clamped to [0, 1]; EXR keeps floats (bit-exact). One-channel images are written as one channel
+// ("Y"). `attributes` become string metadata of the file.
+using Attributes = std::vector<std::pair<std::string, std::string>>;
+Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
+                               const Attributes& attributes = {});
+
+// Atomic write of raw bytes (temp, fsync, rename): no reader ever sees half a file.
+Result<bool> write_file_atomic(const std::string& path, std::string_view bytes);
+
+} // namespace textond::io

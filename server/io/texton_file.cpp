@@ -1,0 +1,140 @@
+#include "server/io/texton_file.h"
+
+#include "server/io/image_io.h"
+#include "server/io/sha256.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <vector>
+
+namespace textond::io {
+
+namespace {
+void hash_u32(Sha256& h, std::uint32_t v) {
+    const unsigned char b[4] = {static_cast<unsigned char>(v), static_cast<unsigned char>(v >> 8),
+                                static_cast<unsigned char>(v >> 16),
+                                static_cast<unsigned char>(v >> 24)};
+    h.update(b, 4);
+}
+void hash_floats(Sha256& h, const std::vector<float>& v) {
+    // Little-endian float32 bytes; every supported platform (x86-64, arm64) is little-endian.
+    h.update(v.data(), v.size() * sizeof(float));
+}
+Error bad_file(const std::string& path, const std::string& why) {
+    return make_error(ErrorCode::unprocessable, "not a valid texton file " + path + ": " + why);
+}
+} // namespace
+
+std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& params) {
+    Sha256 h;
+    h.update(std::string_view(core::kAnalysisVersion));
+    h.update("\n", 1);
+    hash_u32(h, static_cast<std::uint32_t>(exemplar.width));
+    hash_u32(h, static_cast<std::uint32_t>(exemplar.height));
+    hash_u32(h, static_cast<std::uint32_t>(exemplar.channels));
+    hash_floats(h, exemplar.data);
+    h.update(api::canonical_params(params).dump());
+    return h.hex();
+}
+
+std::string coefficients_sha256(const core::Texton& t) {
+    Sha256 h;
+    hash_floats(h, t.alpha.data);
+    return h.hex();
+}
+
+TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams& params,
+                         const core::AnalysisResult& result) {
+    TextonRecord r;
+    r.texton = result.texton;
+    api::TextonMeta& m = r.meta;
+    m.id = texton_id(exemplar, params);
+    m.version = core::kAnalysisVersion;
+    m.exemplar_width = exemplar.width;
+    m.exemplar_height = exemplar.height;
+    m.channels = exemplar.channels;
+    m.mean = result.texton.mean;
+    m.size = params.size;
+    m.order = params.order;
+    m.iterations = params.iterations;
+    m.seed = params.seed;
+    m.periodic = params.periodic;
+    m.rme = result.rme;
+    m.rme_uncorrected = result.rme_uncorrected;
+    m.timings = result.timings;
+    m.coefficients_sha256 = coefficients_sha256(result.texton);
+    return r;
+}
+
+Result<bool> write_texton_file(const std::string& path, const TextonRecord& record) {
+    const nlohmann::json meta = record.meta;
+    return encode_image_file(record.texton.alpha, path, Encoding::exr,
+                             {{kMetaAttribute, meta.dump()}});
+}
+
+Result<TextonRecord> read_texton_file(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec))
+        return make_error(ErrorCode::not_found, "no such texton file: " + path);
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return bad_file(path, OIIO::geterror());
+    const OIIO::ImageSpec& spec = in->spec();
+    const std::string meta_text = spec.get_string_attribute(kMetaAttribute);
+    if (meta_text.empty()) return bad_file(path, "no textond:meta attribute");
+    TextonRecord r;
+    try {
+        r.meta = nlohmann::json::parse(meta_text).get<api::TextonMeta>();
+    } catch (const std::exception& e) {
+        return bad_file(path, std::string("metadata: ") + e.what());
+    }
+    const api::TextonMeta& m = r.meta;
+    if (spec.width != m.size || spec.height != m.size || spec.nchannels != m.channels ||
+        (m.channels != 1 && m.channels != 3) || m.size <= 0)
+        return bad_file(path, "pixel size or channels disagree with the metadata");
+    std::vector<float> buf(static_cast<std::size_t>(m.size) * m.size * m.channels);
+    if (!in->read_image(0, 0, 0, m.channels, OIIO::TypeDesc::FLOAT, buf.data()))
+        return bad_file(path, in->geterror());
+    r.texton.size = m.size;
+    r.texton.channels = m.channels;
+    r.texton.order = m.order;
+    r.texton.mean = m.mean;
+    r.texton.alpha = core::Image(m.size, m.size, m.channels);
+    const std::size_t n = r.texton.alpha.plane_size();
+    for (std::size_t k = 0; k < n; ++k)
+        for (int c = 0; c < m.channels; ++c) r.texton.alpha.plane(c)[k] = buf[k * m.channels + c];
+    if (coefficients_sha256(r.texton) != m.coefficients_sha256)
+        return bad_file(path, "coefficient checksum mismatch (damaged file)");
+    return r;
+}
+
+std::string texton_v1_text(const TextonRecord& record, const std::string& name) {
+    const core::Texton& t = record.texton;
+    const int framed = t.size + 2; // the authors' viewer needs a zero frame around the texton
+    std::string out;
+    char line[128];
+    auto channel = [&](int c) { return t.channels == 1 ? 0 : c; };
+    std::snprintf(line, sizeof line, "TEXTON\n1\n%d\n%e %e %e\n%d %d", t.order,
+                  t.mean[static_cast<std::size_t>(channel(0))],
+                  t.mean[static_cast<std::size_t>(channel(1))],
+                  t.mean[static_cast<std::size_t>(channel(2))], framed, framed);
+    out += line;
+    for (int fy = framed - 1; fy >= 0; --fy) // bottom row first (OpenGL texture order)
+        for (int fx = 0; fx < framed; ++fx) {
+            const int x = fx - 1, y = fy - 1;
+            const bool inside = x >= 0 && y >= 0 && x < t.size && y < t.size;
+            float v[3];
+            for (int c = 0; c < 3; ++c) v[c] = inside ? t.alpha.at(channel(c), x, y) : 0.0f;
+            std::snprintf(line, sizeof line, "\n%e %e %e", v[0], v[1], v[2]);
+            out += line;
+        }
+    std::snprintf(line, sizeof line, " (%d x %d)", record.meta.exemplar_width,
+                  record.meta.exemplar_height);
+    out += "\nOriginal image: " + name + line;
+    return out;
+}
+
+} // namespace textond::io
