@@ -81,7 +81,10 @@ Result<core::Image> decode_image_file(const std::string& path, const DecodeLimit
     if (!fs::is_regular_file(path, ec))
         return make_error(ErrorCode::not_found, "no such file: " + path);
     if (fs::file_size(path, ec) == 0) return unprocessable("file is empty: " + path);
-    auto in = ImageInput::open(path);
+    // Keep colour as stored: OpenImageIO would otherwise premultiply by the alpha we then drop.
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = ImageInput::open(path, &config);
     if (!in) {
         const std::string err = oiio_message(OIIO::geterror());
         if (err.find("not a file format") != std::string::npos ||

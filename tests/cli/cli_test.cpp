@@ -1,0 +1,108 @@
+// End-to-end: run the real `textond` executable as a user would.
+#include "server/io/image_io.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <sys/wait.h>
+
+using namespace textond;
+namespace fs = std::filesystem;
+
+namespace {
+struct RunResult {
+    int code = -1;
+    std::string out, err;
+};
+
+RunResult run(const std::string& args) {
+    const fs::path errfile = fs::temp_directory_path() / ("textond-cli-err-" + std::to_string(::getpid()));
+    const std::string cmd = std::string(TEXTOND_BINARY) + " " + args + " 2>" + errfile.string();
+    RunResult r;
+    FILE* p = ::popen(cmd.c_str(), "r");
+    std::array<char, 4096> buf{};
+    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+    const int status = ::pclose(p);
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::FILE* e = std::fopen(errfile.c_str(), "r");
+    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), e)) r.err.append(buf.data(), n);
+    std::fclose(e);
+    return r;
+}
+
+std::string tmp(const std::string& name) {
+    return (fs::temp_directory_path() / ("textond-cli-" + std::to_string(::getpid()) + "-" + name)).string();
+}
+} // namespace
+
+TEST(Cli, HelpForEveryCommand) {
+    for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help"}) {
+        const RunResult r = run(c);
+        EXPECT_EQ(r.code, 0) << c;
+        EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
+    }
+}
+
+TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
+    const std::string texton = tmp("sand.exr"), v1 = tmp("sand.texton"), png = tmp("dsn.png");
+    const RunResult r = run("analyze " + test::exemplar_path("etr_sand01.png") +
+                      " --size 32 --iterations 20 --seed 3 -o " + texton + " --export-v1 " + v1);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j.at("id").get<std::string>().size(), 64u);
+    EXPECT_GT(j.at("rme").get<double>(), 0.3);
+    EXPECT_EQ(j.at("mean").size(), 3u);
+    EXPECT_TRUE(j.at("timings_ms").contains("total"));
+    EXPECT_TRUE(fs::exists(v1));
+
+    const RunResult s = run("synth " + texton + " --method dsn --width 96 --height 64 --seed 1 -o " + png);
+    ASSERT_EQ(s.code, 0) << s.err;
+    auto img = io::decode_image_file(png);
+    ASSERT_TRUE(img.ok());
+    EXPECT_EQ(img.value().width, 96);
+    EXPECT_EQ(img.value().height, 64);
+}
+
+TEST(Cli, SynthFromAnExemplarAtAnySizeAndFormat) {
+    for (const char* method : {"adsn", "rpn"}) {
+        const std::string out = tmp(std::string(method) + ".exr");
+        const RunResult r = run("synth " + test::exemplar_path("skimage_gravel.png") + " --method " +
+                          method + " --width 700 --height 300 -o " + out);
+        ASSERT_EQ(r.code, 0) << r.err;
+        auto img = io::decode_image_file(out);
+        ASSERT_TRUE(img.ok());
+        EXPECT_EQ(img.value().width, 700);
+        EXPECT_EQ(img.value().channels, 1);
+    }
+}
+
+TEST(Cli, ErrorsGoToStderrWithNonZeroExit) {
+    struct Case {
+        std::string args;
+        int code;
+        std::string says;
+    };
+    const std::string ex = test::exemplar_path("etr_sand01.png");
+    const Case cases[] = {
+        {"frobnicate", 2, "unknown command"},
+        {"analyze", 2, "exactly one EXEMPLAR"},
+        {"analyze " + ex + " --size 200", 2, "half the exemplar"},
+        {"analyze " + ex + " --size abc", 2, "expects an integer"},
+        {"analyze " + ex + " --bogus 1", 2, "unknown option"},
+        {"analyze /nonexistent/file.png", 1, "no such file"},
+        {"analyze " + ex + " --max-pixels 1000", 1, "over the budget"},
+        {"synth " + ex + " --method nope -o x.png", 2, "--method"},
+        {"synth " + ex + " --method rpn -o x.gif", 2, ".png or .exr"},
+        {"synth " + ex + " --method rpn --width 0 -o x.png", 2, "--width"},
+    };
+    for (const Case& c : cases) {
+        const RunResult r = run(c.args);
+        EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.err;
+        EXPECT_TRUE(r.out.empty()) << c.args;
+        EXPECT_NE(r.err.find(c.says), std::string::npos) << c.args << "\n" << r.err;
+    }
+}

@@ -1,0 +1,201 @@
+#include "server/io/image_io.h"
+#include "tests/support/test_support.h"
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+using namespace textond;
+namespace fs = std::filesystem;
+
+namespace {
+fs::path temp_dir() {
+    static const fs::path d = [] {
+        fs::path p = fs::temp_directory_path() / ("textond-io-test-" + std::to_string(::getpid()));
+        fs::create_directories(p);
+        return p;
+    }();
+    return d;
+}
+
+// A smooth test pattern with `nch` interleaved channels, values in [0, 1].
+std::vector<float> pattern(int w, int h, int nch) {
+    std::vector<float> v(static_cast<std::size_t>(w) * h * nch);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < nch; ++c)
+                v[(static_cast<std::size_t>(y) * w + x) * nch + c] =
+                    0.5f + 0.4f * std::sin(0.11f * x + 0.07f * y + 1.3f * c);
+    return v;
+}
+
+std::string write_with_oiio(const std::string& name, int w, int h, int nch, OIIO::TypeDesc type,
+                            const std::vector<float>& pixels, bool alpha_last = false) {
+    const std::string path = (temp_dir() / name).string();
+    OIIO::ImageSpec spec(w, h, nch, type);
+    if (alpha_last) {
+        spec.alpha_channel = nch - 1;
+        spec.attribute("oiio:UnassociatedAlpha", 1); // store colour unpremultiplied
+    }
+    auto out = OIIO::ImageOutput::create(path);
+    EXPECT_TRUE(out) << OIIO::geterror();
+    EXPECT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()) &&
+                out->close())
+        << out->geterror();
+    return path;
+}
+
+std::string write_bytes(const std::string& name, const std::string& bytes) {
+    const std::string path = (temp_dir() / name).string();
+    std::ofstream(path, std::ios::binary) << bytes;
+    return path;
+}
+
+std::string read_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+struct FormatCase {
+    const char* name;
+    OIIO::TypeDesc type;
+    int file_channels;
+    bool alpha;
+    int expect_channels;
+    double tolerance;
+};
+} // namespace
+
+class DecodeFormats : public ::testing::TestWithParam<FormatCase> {};
+
+TEST_P(DecodeFormats, RoundTripsWithTheDocumentedChannelsAndRange) {
+    const FormatCase& fc = GetParam();
+    const int w = 37, h = 23;
+    const auto src = pattern(w, h, fc.file_channels);
+    const std::string path = write_with_oiio(fc.name, w, h, fc.file_channels, fc.type, src, fc.alpha);
+    auto r = io::decode_image_file(path);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const core::Image& img = r.value();
+    ASSERT_EQ(img.width, w);
+    ASSERT_EQ(img.height, h);
+    ASSERT_EQ(img.channels, fc.expect_channels);
+    double worst = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < img.channels; ++c) {
+                const float want = src[(static_cast<std::size_t>(y) * w + x) * fc.file_channels + c];
+                worst = std::max(worst, std::abs(double(img.at(c, x, y)) - want));
+            }
+    EXPECT_LT(worst, fc.tolerance);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Formats, DecodeFormats,
+    ::testing::Values(FormatCase{"rgb8.png", OIIO::TypeDesc::UINT8, 3, false, 3, 0.6 / 255},
+                      FormatCase{"rgb16.png", OIIO::TypeDesc::UINT16, 3, false, 3, 0.6 / 65535},
+                      FormatCase{"grey8.png", OIIO::TypeDesc::UINT8, 1, false, 1, 0.6 / 255},
+                      FormatCase{"greyalpha8.png", OIIO::TypeDesc::UINT8, 2, true, 1, 0.6 / 255},
+                      FormatCase{"rgba16.png", OIIO::TypeDesc::UINT16, 4, true, 3, 0.6 / 65535},
+                      FormatCase{"rgb.jpg", OIIO::TypeDesc::UINT8, 3, false, 3, 0.08},
+                      FormatCase{"rgb8.tif", OIIO::TypeDesc::UINT8, 3, false, 3, 0.6 / 255},
+                      FormatCase{"rgbf.tif", OIIO::TypeDesc::FLOAT, 3, false, 3, 1e-7},
+                      FormatCase{"half.exr", OIIO::TypeDesc::HALF, 3, false, 3, 1e-3},
+                      FormatCase{"float.exr", OIIO::TypeDesc::FLOAT, 3, false, 3, 1e-7},
+                      FormatCase{"rgba.exr", OIIO::TypeDesc::HALF, 4, true, 3, 1e-3},
+                      FormatCase{"rgb.bmp", OIIO::TypeDesc::UINT8, 3, false, 3, 0.6 / 255}),
+    [](const auto& info) {
+        std::string n = info.param.name;
+        for (auto& ch : n)
+            if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+        return n;
+    });
+
+TEST(Decode, PalettePngBecomesRgbAndGreyPngStaysOneChannel) {
+    auto cork = io::decode_image_file(test::exemplar_path("mypaint_HR_Cork.png"));
+    ASSERT_TRUE(cork.ok());
+    EXPECT_EQ(cork.value().channels, 3);
+    auto gravel = io::decode_image_file(test::exemplar_path("skimage_gravel.png"));
+    ASSERT_TRUE(gravel.ok());
+    EXPECT_EQ(gravel.value().channels, 1);
+    for (float v : gravel.value().data) ASSERT_TRUE(v >= 0.0f && v <= 1.0f);
+}
+
+TEST(Decode, FromMemoryEqualsFromFile) {
+    const std::string path = test::exemplar_path("etr_sand01.png");
+    auto a = io::decode_image_file(path);
+    auto b = io::decode_image_memory(read_bytes(path));
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_EQ(a.value().data, b.value().data);
+}
+
+TEST(Decode, RefusesOverBudgetFromTheHeaderBeforeDecoding) {
+    io::DecodeLimits limits;
+    limits.max_pixels = 256 * 256 - 1;
+    auto r = io::decode_image_file(test::exemplar_path("etr_sand01.png"), limits);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::too_large);
+    EXPECT_NE(r.error().message.find("65536"), std::string::npos);
+}
+
+TEST(Decode, RefusesNanAndInfinity) {
+    auto px = pattern(8, 8, 3);
+    px[17] = std::nanf("");
+    auto r = io::decode_image_file(write_with_oiio("nan.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, px));
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::unprocessable);
+    EXPECT_NE(r.error().message.find("NaN"), std::string::npos);
+    px[17] = INFINITY;
+    EXPECT_FALSE(io::decode_image_file(write_with_oiio("inf.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, px)).ok());
+}
+
+TEST(Decode, BadFilesGiveClearErrorsNotCrashes) {
+    const std::string png = read_bytes(test::exemplar_path("etr_sand01.png"));
+    struct Bad {
+        std::string name, bytes;
+    };
+    std::string corrupt = png;
+    for (std::size_t k = 200; k < corrupt.size(); k += 97) corrupt[k] = static_cast<char>(corrupt[k] ^ 0x5a);
+    const Bad cases[] = {
+        {"empty.png", ""},
+        {"text.png", "this is not an image, just some text\n"},
+        {"truncated.png", png.substr(0, png.size() / 2)},
+        {"header_only.png", png.substr(0, 60)},
+        {"corrupt.png", corrupt},
+        {"random.bin", std::string(4096, '\x37')},
+    };
+    for (const Bad& b : cases) {
+        auto r = io::decode_image_file(write_bytes(b.name, b.bytes));
+        EXPECT_FALSE(r.ok()) << b.name;
+        if (!r.ok()) {
+            EXPECT_FALSE(r.error().message.empty()) << b.name;
+            EXPECT_TRUE(r.error().code == ErrorCode::unprocessable ||
+                        r.error().code == ErrorCode::unsupported)
+                << b.name << ": " << r.error().message;
+        }
+        EXPECT_FALSE(io::decode_image_memory(b.bytes).ok()) << b.name;
+    }
+    auto missing = io::decode_image_file((temp_dir() / "does-not-exist.png").string());
+    ASSERT_FALSE(missing.ok());
+    EXPECT_EQ(missing.error().code, ErrorCode::not_found);
+}
+
+TEST(Encode, WritesPng8Png16AndExrAtomically) {
+    core::Image img = test::white_noise(20, 10, 3, 1);
+    for (auto& v : img.data) v = 0.5f + 0.1f * v;
+    for (auto [name, enc] : {std::pair{"o8.png", io::Encoding::png8}, {"o16.png", io::Encoding::png16},
+                             {"of.exr", io::Encoding::exr}}) {
+        const std::string path = (temp_dir() / name).string();
+        ASSERT_TRUE(io::encode_image_file(img, path, enc).ok());
+        auto back = io::decode_image_file(path);
+        ASSERT_TRUE(back.ok());
+        const double tol = enc == io::Encoding::exr ? 0.0 : enc == io::Encoding::png16 ? 1e-4 : 3e-3;
+        EXPECT_LE(test::max_abs_diff(back.value(), img), tol) << name;
+    }
+    for (const auto& e : fs::directory_iterator(temp_dir()))
+        EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+    EXPECT_FALSE(io::encode_image_file(img, "/nonexistent-dir/x.png", io::Encoding::png8).ok());
+}

@@ -1,0 +1,93 @@
+#include "server/io/texton_file.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+using namespace textond;
+namespace fs = std::filesystem;
+
+namespace {
+struct Analysed {
+    core::Image exemplar;
+    core::AnalysisParams params;
+    io::TextonRecord record;
+};
+
+Analysed analyse(int threads, std::uint64_t seed = 1) {
+    Analysed a;
+    a.exemplar = test::crop(test::load_exemplar("etr_pebbles04.png"), 128, 96);
+    a.params.size = 32;
+    a.params.seed = seed;
+    a.params.threads = threads;
+    auto r = core::analyze_texton(a.exemplar, a.params);
+    EXPECT_TRUE(r.ok());
+    a.record = io::make_record(a.exemplar, a.params, r.value());
+    return a;
+}
+
+std::string tmp(const std::string& name) {
+    return (fs::temp_directory_path() / ("textond-tf-" + std::to_string(::getpid()) + "-" + name)).string();
+}
+} // namespace
+
+TEST(TextonFile, RoundTripsBitExactly) {
+    const Analysed a = analyse(1);
+    const std::string path = tmp("a.exr");
+    ASSERT_TRUE(io::write_texton_file(path, a.record).ok());
+    auto back = io::read_texton_file(path);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_EQ(back.value().texton.alpha.data, a.record.texton.alpha.data);
+    EXPECT_EQ(back.value().meta.id, a.record.meta.id);
+    EXPECT_EQ(back.value().meta.rme, a.record.meta.rme);
+    EXPECT_EQ(back.value().texton.mean, a.record.texton.mean);
+    EXPECT_EQ(back.value().texton.order, 1);
+}
+
+TEST(TextonFile, IdIsContentAddressedAndThreadIndependent) {
+    const Analysed a = analyse(1), b = analyse(2), c = analyse(1, 2);
+    EXPECT_EQ(a.record.meta.id.size(), 64u);
+    EXPECT_EQ(a.record.meta.id, b.record.meta.id);
+    EXPECT_EQ(a.record.meta.coefficients_sha256, b.record.meta.coefficients_sha256);
+    EXPECT_NE(a.record.meta.id, c.record.meta.id); // seed is a parameter
+    core::Image changed = a.exemplar;
+    changed.data[5] += 1.0f / 255.0f;
+    EXPECT_NE(io::texton_id(changed, a.params), a.record.meta.id);
+}
+
+TEST(TextonFile, DamagedFileIsRefused) {
+    Analysed a = analyse(1);
+    a.record.meta.coefficients_sha256 = std::string(64, '0');
+    const std::string path = tmp("damaged.exr");
+    ASSERT_TRUE(io::write_texton_file(path, a.record).ok());
+    auto r = io::read_texton_file(path);
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("checksum"), std::string::npos);
+    // An ordinary image is not a texton file.
+    EXPECT_FALSE(io::read_texton_file(test::exemplar_path("etr_sand01.png")).ok());
+}
+
+TEST(TextonFile, ExportsTheAuthorsV1Format) {
+    const Analysed a = analyse(1);
+    const std::string text = io::texton_v1_text(a.record, "pebbles.png");
+    std::istringstream in(text);
+    std::string line;
+    std::vector<std::string> lines;
+    while (std::getline(in, line)) lines.push_back(line);
+    const int framed = 32 + 2;
+    ASSERT_EQ(lines.size(), 5u + framed * framed + 1u);
+    EXPECT_EQ(lines[0], "TEXTON");
+    EXPECT_EQ(lines[1], "1");
+    EXPECT_EQ(lines[2], "1");
+    EXPECT_EQ(lines[4], "34 34");
+    EXPECT_EQ(lines[5], "0.000000e+00 0.000000e+00 0.000000e+00"); // the zero frame
+    // First inner texel listed is the bottom-left one: alpha(x = 0, y = r - 1).
+    float r = 0, g = 0, b = 0;
+    std::istringstream(lines[5 + framed + 1]) >> r >> g >> b;
+    EXPECT_FLOAT_EQ(r, a.record.texton.alpha.at(0, 0, 31));
+    EXPECT_FLOAT_EQ(b, a.record.texton.alpha.at(2, 0, 31));
+    EXPECT_EQ(lines.back(), "Original image: pebbles.png (128 x 96)");
+}

@@ -1,0 +1,64 @@
+#include "tests/support/test_support.h"
+
+#include "server/io/image_io.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace textond::test {
+
+std::string exemplar_path(const std::string& name) {
+    return std::string(TEXTOND_EXEMPLARS) + "/" + name;
+}
+
+core::Image load_exemplar(const std::string& name) {
+    auto r = io::decode_image_file(exemplar_path(name));
+    if (!r) throw std::runtime_error("cannot load exemplar " + name + ": " + r.error().message);
+    return std::move(r.value());
+}
+
+core::Image crop(const core::Image& u, int w, int h) {
+    core::Image out(w, h, u.channels);
+    for (int c = 0; c < u.channels; ++c)
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) out.at(c, x, y) = u.at(c, x, y);
+    return out;
+}
+
+core::Image white_noise(int w, int h, int c, std::uint64_t seed) {
+    core::Image out(w, h, c);
+    core::Rng rng(seed);
+    for (auto& v : out.data) v = static_cast<float>(rng.normal());
+    return out;
+}
+
+double max_abs_diff(const core::Image& a, const core::Image& b) {
+    if (a.data.size() != b.data.size()) return INFINITY;
+    double d = 0;
+    for (std::size_t k = 0; k < a.data.size(); ++k)
+        d = std::max(d, std::abs(static_cast<double>(a.data[k]) - b.data[k]));
+    return d;
+}
+
+Moments moments(const float* p, std::size_t n) {
+    Moments m;
+    double s = 0;
+    for (std::size_t k = 0; k < n; ++k) s += p[k];
+    m.mean = s / static_cast<double>(n);
+    double m2 = 0, m4 = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+        const double d = p[k] - m.mean;
+        m2 += d * d;
+        m4 += d * d * d * d;
+    }
+    m2 /= static_cast<double>(n);
+    m4 /= static_cast<double>(n);
+    m.variance = m2;
+    m.excess_kurtosis = m2 > 0 ? m4 / (m2 * m2) - 3.0 : 0.0;
+    return m;
+}
+
+} // namespace textond::test

@@ -1,0 +1,21 @@
+#pragma once
+#include "core/image.h"
+#include "core/random.h"
+
+#include <string>
+
+namespace textond::test {
+
+std::string exemplar_path(const std::string& name);
+core::Image load_exemplar(const std::string& name); // fails the test if missing
+core::Image crop(const core::Image& u, int w, int h);
+core::Image white_noise(int w, int h, int c, std::uint64_t seed);
+double max_abs_diff(const core::Image& a, const core::Image& b);
+
+// Sample moments of one plane (double accumulation).
+struct Moments {
+    double mean = 0, variance = 0, excess_kurtosis = 0;
+};
+Moments moments(const float* p, std::size_t n);
+
+} // namespace textond::test
