@@ -66,36 +66,43 @@ Image alternating_projections(const GaussianModel& model, int size, int order, i
     }
 
     std::vector<Spectrum> coeff(static_cast<std::size_t>(nc), Spectrum(w, h));
-    Spectrum work(w, h);
     Image alpha(size, size, nc);
     const float inv_n = 1.0f / (static_cast<float>(w) * static_cast<float>(h));
     const std::size_t rs = static_cast<std::size_t>(size);
 
     for (int it = 1; it <= iterations; ++it) {
         // 1. Impose the spectrum: alpha^ <- (t^* alpha^ / |t^* alpha^|) t^ (one phase for all
-        //    channels; where t^* alpha^ = 0, alpha^ = 0).
-        for (int i = 0; i < h; ++i)
+        //    channels; where t^* alpha^ = 0, alpha^ = 0). Rows are independent: any thread split
+        //    gives the same bits.
+#pragma omp parallel for num_threads(threads) schedule(static)
+        for (int i = 0; i < h; ++i) {
+            const cfloat* tr[3] = {};
+            cfloat* cr[3] = {};
+            for (int c = 0; c < nc; ++c) {
+                tr[c] = target[static_cast<std::size_t>(c)].row(i);
+                cr[c] = coeff[static_cast<std::size_t>(c)].row(i);
+            }
+            const cfloat* ph = phase.row(i);
             for (int j = 0; j < cw; ++j) {
                 cfloat s;
                 if (it == 1) {
-                    s = phase.row(i)[j];
+                    s = ph[j];
                 } else {
                     s = cfloat();
-                    for (int c = 0; c < nc; ++c)
-                        s += std::conj(target[static_cast<std::size_t>(c)].row(i)[j]) *
-                             coeff[static_cast<std::size_t>(c)].row(i)[j];
+                    for (int c = 0; c < nc; ++c) s += std::conj(tr[c][j]) * cr[c][j];
                 }
-                const float mag = std::abs(s);
-                const cfloat u = mag > 0.0f ? s / mag : cfloat();
-                for (int c = 0; c < nc; ++c)
-                    coeff[static_cast<std::size_t>(c)].row(i)[j] =
-                        u * target[static_cast<std::size_t>(c)].row(i)[j];
+                // sqrt(norm) rather than std::abs: no hypot() on the hot path; the values are
+                // far from overflow.
+                const float mag = std::sqrt(std::norm(s));
+                const cfloat u = mag > 0.0f ? s * (1.0f / mag) : cfloat();
+                for (int c = 0; c < nc; ++c) cr[c][j] = u * tr[c][j];
             }
-        // 2. Impose the support: only the r x r corner of the inverse is kept.
+        }
+        // 2. Impose the support: only the r x r corner of the inverse is kept. The inverse may
+        //    destroy coeff: the next forward transform rewrites it.
         for (int c = 0; c < nc; ++c) {
-            work = coeff[static_cast<std::size_t>(c)];
             float* a = alpha.plane(c);
-            fft->inverse(work, a, rs, size, size, threads);
+            fft->inverse(coeff[static_cast<std::size_t>(c)], a, rs, size, size, threads);
             for (std::size_t k = 0; k < alpha.plane_size(); ++k) a[k] *= inv_n;
             if (it < iterations)
                 fft->forward(a, rs, size, size, coeff[static_cast<std::size_t>(c)], threads);

@@ -20,7 +20,8 @@ struct RunResult {
 };
 
 RunResult run(const std::string& args) {
-    const fs::path errfile = fs::temp_directory_path() / ("textond-cli-err-" + std::to_string(::getpid()));
+    const fs::path errfile =
+        fs::temp_directory_path() / ("textond-cli-err-" + std::to_string(::getpid()));
     const std::string cmd = std::string(TEXTOND_BINARY) + " " + args + " 2>" + errfile.string();
     RunResult r;
     FILE* p = ::popen(cmd.c_str(), "r");
@@ -35,7 +36,8 @@ RunResult run(const std::string& args) {
 }
 
 std::string tmp(const std::string& name) {
-    return (fs::temp_directory_path() / ("textond-cli-" + std::to_string(::getpid()) + "-" + name)).string();
+    return (fs::temp_directory_path() / ("textond-cli-" + std::to_string(::getpid()) + "-" + name))
+        .string();
 }
 } // namespace
 
@@ -49,8 +51,9 @@ TEST(Cli, HelpForEveryCommand) {
 
 TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
     const std::string texton = tmp("sand.exr"), v1 = tmp("sand.texton"), png = tmp("dsn.png");
-    const RunResult r = run("analyze " + test::exemplar_path("etr_sand01.png") +
-                      " --size 32 --iterations 20 --seed 3 -o " + texton + " --export-v1 " + v1);
+    const RunResult r =
+        run("analyze " + test::exemplar_path("etr_sand01.png") +
+            " --size 32 --iterations 20 --seed 3 -o " + texton + " --export-v1 " + v1);
     ASSERT_EQ(r.code, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j.at("id").get<std::string>().size(), 64u);
@@ -59,7 +62,8 @@ TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
     EXPECT_TRUE(j.at("timings_ms").contains("total"));
     EXPECT_TRUE(fs::exists(v1));
 
-    const RunResult s = run("synth " + texton + " --method dsn --width 96 --height 64 --seed 1 -o " + png);
+    const RunResult s =
+        run("synth " + texton + " --method dsn --width 96 --height 64 --seed 1 -o " + png);
     ASSERT_EQ(s.code, 0) << s.err;
     auto img = io::decode_image_file(png);
     ASSERT_TRUE(img.ok());
@@ -70,8 +74,8 @@ TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
 TEST(Cli, SynthFromAnExemplarAtAnySizeAndFormat) {
     for (const char* method : {"adsn", "rpn"}) {
         const std::string out = tmp(std::string(method) + ".exr");
-        const RunResult r = run("synth " + test::exemplar_path("skimage_gravel.png") + " --method " +
-                          method + " --width 700 --height 300 -o " + out);
+        const RunResult r = run("synth " + test::exemplar_path("skimage_gravel.png") +
+                                " --method " + method + " --width 700 --height 300 -o " + out);
         ASSERT_EQ(r.code, 0) << r.err;
         auto img = io::decode_image_file(out);
         ASSERT_TRUE(img.ok());

@@ -18,7 +18,8 @@ TEST(CanonicalTexton, GreyIsSymmetricPeakedAtTheOriginWithTheModelsModulus) {
     EXPECT_FLOAT_EQ(std::abs(t.at(0, 0, 0)), peak); // ICASSP 2012, section 2.2
     for (int y = 0; y < t.height; ++y)
         for (int x = 0; x < t.width; ++x)
-            EXPECT_NEAR(t.at(0, x, y), t.at(0, (t.width - x) % t.width, (t.height - y) % t.height), 1e-6);
+            EXPECT_NEAR(t.at(0, x, y), t.at(0, (t.width - x) % t.width, (t.height - y) % t.height),
+                        1e-6);
     const GaussianModel mt = estimate_gaussian_model(t);
     for (int i = 0; i < t.height; ++i)
         for (int j = 0; j < t.width / 2 + 1; ++j)

@@ -21,7 +21,8 @@ TEST(RealFft2d, MatchesDirectDftOnASmallOddImage) {
             for (int y = 0; y < h; ++y)
                 for (int x = 0; x < w; ++x)
                     acc += static_cast<double>(u.at(0, x, y)) *
-                           std::exp(std::complex<double>(0, -two_pi * (double(j) * x / w + double(i) * y / h)));
+                           std::exp(std::complex<double>(
+                               0, -two_pi * (double(j) * x / w + double(i) * y / h)));
             EXPECT_NEAR(s.row(i)[j].real(), acc.real(), 1e-4);
             EXPECT_NEAR(s.row(i)[j].imag(), acc.imag(), 1e-4);
         }

@@ -48,7 +48,9 @@ TEST(PeriodicComponent, PeriodicInputIsReturnedUnchanged) {
     EXPECT_LT(test::max_abs_diff(periodic_component(u), u), 1e-5);
     // Idempotent on its own output's defining property: Lap p is what p's equation says.
     const Image p = periodic_component(test::white_noise(w, h, 1, 2));
-    EXPECT_LT(test::max_abs_diff(periodic_laplacian(p), interior_laplacian(test::white_noise(w, h, 1, 2))), 1e-3);
+    EXPECT_LT(test::max_abs_diff(periodic_laplacian(p),
+                                 interior_laplacian(test::white_noise(w, h, 1, 2))),
+              1e-3);
 }
 
 TEST(PeriodicComponent, KeepsTheMeanAndSolvesThePoissonEquation) {

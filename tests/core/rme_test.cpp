@@ -11,7 +11,8 @@ using namespace textond::core;
 
 namespace {
 GaussianModel sand_model(int w = 128, int h = 128) {
-    return estimate_gaussian_model(periodic_component(test::crop(test::load_exemplar("etr_sand01.png"), w, h)));
+    return estimate_gaussian_model(
+        periodic_component(test::crop(test::load_exemplar("etr_sand01.png"), w, h)));
 }
 } // namespace
 

@@ -13,7 +13,9 @@ using namespace textond::core;
 
 namespace {
 const int kN = 64;
-Image sand64() { return test::crop(test::load_exemplar("etr_sand01.png"), kN, kN); }
+Image sand64() {
+    return test::crop(test::load_exemplar("etr_sand01.png"), kN, kN);
+}
 } // namespace
 
 TEST(Adsn, AveragedPeriodogramMatchesTheModelSpectrum) {
@@ -32,7 +34,8 @@ TEST(Adsn, AveragedPeriodogramMatchesTheModelSpectrum) {
         fft->forward(centred.data(), zs, 1);
         for (int i = 0; i < kN; ++i)
             for (int j = 0; j < cw; ++j)
-                avg[static_cast<std::size_t>(i) * cw + j] += std::norm(zs.row(i)[j]) / (kN * kN) / seeds;
+                avg[static_cast<std::size_t>(i) * cw + j] +=
+                    std::norm(zs.row(i)[j]) / (kN * kN) / seeds;
     }
     // Each periodogram value over the model is Exp(1); the mean of `seeds` of them has variance
     // 1/seeds. Over the independent frequencies (interior columns), the normalised squared error
@@ -70,7 +73,8 @@ TEST(Rpn, ModulusEqualsTheModelExactlyAndTheMeanIsKept) {
 TEST(Adsn, KeepsTheMeanExactly) {
     const Image u = sand64();
     const GaussianModel m = estimate_gaussian_model(periodic_component(u));
-    const GaussianModel mz = estimate_gaussian_model(synthesize_from_exemplar(u, SpectralMethod::adsn, kN, kN, 8));
+    const GaussianModel mz =
+        estimate_gaussian_model(synthesize_from_exemplar(u, SpectralMethod::adsn, kN, kN, 8));
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(mz.mean[c], m.mean[c], 1e-5);
 }
 

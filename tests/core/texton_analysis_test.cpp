@@ -1,6 +1,6 @@
+#include "core/periodic_component.h"
 #include "core/rme.h"
 #include "core/texton_analysis.h"
-#include "core/periodic_component.h"
 #include "tests/support/test_support.h"
 
 #include <gtest/gtest.h>
@@ -75,17 +75,20 @@ TEST(Analysis, MeanRmeOverMicroTexturesFallsAsTheSupportGrows) {
 }
 
 TEST(Analysis, ColourCorrectionRestoresTheExemplarCovariance) {
-    expect_model_covariance_restored(test::crop(test::load_exemplar("etr_pebbles04.png"), 128, 128), 32);
+    expect_model_covariance_restored(test::crop(test::load_exemplar("etr_pebbles04.png"), 128, 128),
+                                     32);
 }
 
 TEST(Analysis, ScalarCorrectionRestoresTheVarianceOfAGreyExemplar) {
-    expect_model_covariance_restored(test::crop(test::load_exemplar("skimage_gravel.png"), 128, 128), 32);
+    expect_model_covariance_restored(
+        test::crop(test::load_exemplar("skimage_gravel.png"), 128, 128), 32);
 }
 
 TEST(Analysis, GreyStoredAsRgbHasSingularCovarianceAndStillWorks) {
     const Image g = test::crop(test::load_exemplar("skimage_gravel.png"), 128, 128);
     Image rgb(g.width, g.height, 3);
-    for (int c = 0; c < 3; ++c) std::memcpy(rgb.plane(c), g.plane(0), sizeof(float) * g.plane_size());
+    for (int c = 0; c < 3; ++c)
+        std::memcpy(rgb.plane(c), g.plane(0), sizeof(float) * g.plane_size());
     expect_model_covariance_restored(rgb, 32);
 }
 

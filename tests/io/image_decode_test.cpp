@@ -76,7 +76,8 @@ TEST_P(DecodeFormats, RoundTripsWithTheDocumentedChannelsAndRange) {
     const FormatCase& fc = GetParam();
     const int w = 37, h = 23;
     const auto src = pattern(w, h, fc.file_channels);
-    const std::string path = write_with_oiio(fc.name, w, h, fc.file_channels, fc.type, src, fc.alpha);
+    const std::string path =
+        write_with_oiio(fc.name, w, h, fc.file_channels, fc.type, src, fc.alpha);
     auto r = io::decode_image_file(path);
     ASSERT_TRUE(r.ok()) << r.error().message;
     const core::Image& img = r.value();
@@ -87,7 +88,8 @@ TEST_P(DecodeFormats, RoundTripsWithTheDocumentedChannelsAndRange) {
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < img.channels; ++c) {
-                const float want = src[(static_cast<std::size_t>(y) * w + x) * fc.file_channels + c];
+                const float want =
+                    src[(static_cast<std::size_t>(y) * w + x) * fc.file_channels + c];
                 worst = std::max(worst, std::abs(double(img.at(c, x, y)) - want));
             }
     EXPECT_LT(worst, fc.tolerance);
@@ -149,7 +151,8 @@ TEST(Decode, RefusesNanAndInfinity) {
     EXPECT_EQ(r.error().code, ErrorCode::unprocessable);
     EXPECT_NE(r.error().message.find("NaN"), std::string::npos);
     px[17] = INFINITY;
-    EXPECT_FALSE(io::decode_image_file(write_with_oiio("inf.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, px)).ok());
+    EXPECT_FALSE(
+        io::decode_image_file(write_with_oiio("inf.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, px)).ok());
 }
 
 TEST(Decode, BadFilesGiveClearErrorsNotCrashes) {
@@ -158,7 +161,8 @@ TEST(Decode, BadFilesGiveClearErrorsNotCrashes) {
         std::string name, bytes;
     };
     std::string corrupt = png;
-    for (std::size_t k = 200; k < corrupt.size(); k += 97) corrupt[k] = static_cast<char>(corrupt[k] ^ 0x5a);
+    for (std::size_t k = 200; k < corrupt.size(); k += 97)
+        corrupt[k] = static_cast<char>(corrupt[k] ^ 0x5a);
     const Bad cases[] = {
         {"empty.png", ""},
         {"text.png", "this is not an image, just some text\n"},
@@ -186,13 +190,16 @@ TEST(Decode, BadFilesGiveClearErrorsNotCrashes) {
 TEST(Encode, WritesPng8Png16AndExrAtomically) {
     core::Image img = test::white_noise(20, 10, 3, 1);
     for (auto& v : img.data) v = 0.5f + 0.1f * v;
-    for (auto [name, enc] : {std::pair{"o8.png", io::Encoding::png8}, {"o16.png", io::Encoding::png16},
+    for (auto [name, enc] : {std::pair{"o8.png", io::Encoding::png8},
+                             {"o16.png", io::Encoding::png16},
                              {"of.exr", io::Encoding::exr}}) {
         const std::string path = (temp_dir() / name).string();
         ASSERT_TRUE(io::encode_image_file(img, path, enc).ok());
         auto back = io::decode_image_file(path);
         ASSERT_TRUE(back.ok());
-        const double tol = enc == io::Encoding::exr ? 0.0 : enc == io::Encoding::png16 ? 1e-4 : 3e-3;
+        const double tol = enc == io::Encoding::exr     ? 0.0
+                           : enc == io::Encoding::png16 ? 1e-4
+                                                        : 3e-3;
         EXPECT_LE(test::max_abs_diff(back.value(), img), tol) << name;
     }
     for (const auto& e : fs::directory_iterator(temp_dir()))

@@ -30,7 +30,8 @@ Analysed analyse(int threads, std::uint64_t seed = 1) {
 }
 
 std::string tmp(const std::string& name) {
-    return (fs::temp_directory_path() / ("textond-tf-" + std::to_string(::getpid()) + "-" + name)).string();
+    return (fs::temp_directory_path() / ("textond-tf-" + std::to_string(::getpid()) + "-" + name))
+        .string();
 }
 } // namespace
 
