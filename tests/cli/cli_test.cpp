@@ -35,10 +35,6 @@ RunResult run(const std::string& args) {
     return r;
 }
 
-std::string tmp(const std::string& name) {
-    return (fs::temp_directory_path() / ("textond-cli-" + std::to_string(::getpid()) + "-" + name))
-        .string();
-}
 } // namespace
 
 TEST(Cli, HelpForEveryCommand) {
@@ -50,7 +46,8 @@ TEST(Cli, HelpForEveryCommand) {
 }
 
 TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
-    const std::string texton = tmp("sand.exr"), v1 = tmp("sand.texton"), png = tmp("dsn.png");
+    const std::string texton = test::temp_path("sand.exr"), v1 = test::temp_path("sand.texton"),
+                      png = test::temp_path("dsn.png");
     const RunResult r =
         run("analyze " + test::exemplar_path("etr_sand01.png") +
             " --size 32 --iterations 20 --seed 3 -o " + texton + " --export-v1 " + v1);
@@ -73,7 +70,7 @@ TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
 
 TEST(Cli, SynthFromAnExemplarAtAnySizeAndFormat) {
     for (const char* method : {"adsn", "rpn"}) {
-        const std::string out = tmp(std::string(method) + ".exr");
+        const std::string out = test::temp_path(std::string(method) + ".exr");
         const RunResult r = run("synth " + test::exemplar_path("skimage_gravel.png") +
                                 " --method " + method + " --width 700 --height 300 -o " + out);
         ASSERT_EQ(r.code, 0) << r.err;

@@ -29,15 +29,11 @@ Analysed analyse(int threads, std::uint64_t seed = 1) {
     return a;
 }
 
-std::string tmp(const std::string& name) {
-    return (fs::temp_directory_path() / ("textond-tf-" + std::to_string(::getpid()) + "-" + name))
-        .string();
-}
 } // namespace
 
 TEST(TextonFile, RoundTripsBitExactly) {
     const Analysed a = analyse(1);
-    const std::string path = tmp("a.exr");
+    const std::string path = test::temp_path("a.exr");
     ASSERT_TRUE(io::write_texton_file(path, a.record).ok());
     auto back = io::read_texton_file(path);
     ASSERT_TRUE(back.ok()) << back.error().message;
@@ -62,7 +58,7 @@ TEST(TextonFile, IdIsContentAddressedAndThreadIndependent) {
 TEST(TextonFile, DamagedFileIsRefused) {
     Analysed a = analyse(1);
     a.record.meta.coefficients_sha256 = std::string(64, '0');
-    const std::string path = tmp("damaged.exr");
+    const std::string path = test::temp_path("damaged.exr");
     ASSERT_TRUE(io::write_texton_file(path, a.record).ok());
     auto r = io::read_texton_file(path);
     ASSERT_FALSE(r.ok());

@@ -6,7 +6,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
+#include <unistd.h>
 
 namespace textond::test {
 
@@ -41,6 +43,12 @@ double max_abs_diff(const core::Image& a, const core::Image& b) {
     for (std::size_t k = 0; k < a.data.size(); ++k)
         d = std::max(d, std::abs(static_cast<double>(a.data[k]) - b.data[k]));
     return d;
+}
+
+std::string temp_path(const std::string& name) {
+    return (std::filesystem::temp_directory_path() /
+            ("textond-test-" + std::to_string(::getpid()) + "-" + name))
+        .string();
 }
 
 Moments moments(const float* p, std::size_t n) {

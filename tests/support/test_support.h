@@ -12,6 +12,9 @@ core::Image crop(const core::Image& u, int w, int h);
 core::Image white_noise(int w, int h, int c, std::uint64_t seed);
 double max_abs_diff(const core::Image& a, const core::Image& b);
 
+// A path in the system temp directory, unique to this test process.
+std::string temp_path(const std::string& name);
+
 // Sample moments of one plane (double accumulation).
 struct Moments {
     double mean = 0, variance = 0, excess_kurtosis = 0;
