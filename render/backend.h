@@ -1,0 +1,25 @@
+#pragma once
+// One interface for every way of evaluating texton noise (style.md: Filament's OpenGLPlatform).
+// A backend evaluates a window of NOISE_SPEC.md into a planar float image with the texton's
+// channels; it is deterministic (same request, same bytes) and safe to call from many threads.
+#include "core/image.h"
+#include "core/result.h"
+#include "render/noise_request.h"
+#include "render/prepared_texton.h"
+
+#include <string>
+
+namespace textond::render {
+
+class Backend {
+public:
+    virtual ~Backend() = default;
+    // "cpu", "osmesa" or "egl".
+    virtual std::string name() const = 0;
+    // What actually runs: thread count and instruction set, or GL_RENDERER.
+    virtual std::string renderer() const = 0;
+    virtual Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
+                                       RenderStats* stats = nullptr) = 0;
+};
+
+} // namespace textond::render

@@ -1,0 +1,291 @@
+#include "render/cpu_backend.h"
+
+#include "core/fft2d.h"
+#include "core/grid_poisson.h"
+#include "core/noise_levels.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <vector>
+
+namespace textond::render {
+
+using core::noise::CellPoint;
+using core::noise::floor_div;
+using core::noise::GridPoisson;
+
+namespace {
+
+// One axis of one point's footprint inside a block: for output index i (from `first`), the
+// table index t[i] and the weights of G[t + 1] and G[t] (NOISE_SPEC.md section 7).
+struct AxisTaps {
+    std::int64_t first = 0; // first output coordinate covered
+    int count = 0;
+    std::vector<int> t;
+    std::vector<float> w0, w1;
+};
+
+struct LevelGeometry {
+    int level = 0;
+    std::int64_t st = 1;  // texels per pixel (k >= 0)
+    std::int64_t sub = 1; // pixels per texel (k < 0)
+    int length = 0;       // L
+    int order = 1;
+};
+
+inline void weights(int order, std::uint32_t f, float& w0, float& w1) {
+    if (order == 0)
+        w1 = f > 0 ? 1.0f : 0.0f;
+    else
+        w1 = static_cast<float>(f) * (1.0f / 16777216.0f);
+    w0 = 1.0f - w1;
+}
+
+// Output coordinates [p0, p1) of the block, base b and fraction f of the point on this axis.
+void axis_taps(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::int64_t b,
+               std::uint32_t f, AxisTaps& out) {
+    out.count = 0;
+    out.t.clear();
+    out.w0.clear();
+    out.w1.clear();
+    std::int64_t lo, hi; // candidate output range, inclusive
+    if (g.level >= 0) {
+        // t = st P - b + st - 1 in [0, L]  <=>  st P in [b - st + 1, b + r]
+        lo = -floor_div(-(b - g.st + 1), g.st); // ceil
+        hi = floor_div(b + g.length - g.st + 1, g.st);
+    } else {
+        lo = g.sub * (b - 1);
+        hi = g.sub * (b + g.length + 1);
+    }
+    lo = std::max(lo, p0);
+    hi = std::min(hi, p1 - 1);
+    out.first = lo;
+    for (std::int64_t p = lo; p <= hi; ++p) {
+        std::int64_t t;
+        std::uint32_t fp;
+        if (g.level >= 0) {
+            t = g.st * p - b + g.st - 1;
+            fp = f;
+        } else {
+            const std::int64_t e = p - g.sub * b;
+            const std::int64_t eq = floor_div(e, g.sub), er = e - g.sub * eq;
+            const std::int64_t m = er * (std::int64_t{1} << (24 + g.level)) - f;
+            if (m > 0) {
+                t = eq + 1;
+                fp = static_cast<std::uint32_t>((std::int64_t{1} << 24) - m);
+            } else {
+                t = eq;
+                fp = static_cast<std::uint32_t>(-m);
+            }
+        }
+        if (t < 0 || t > g.length) {
+            if (out.count == 0) {
+                out.first = p + 1;
+                continue;
+            }
+            break; // t is monotone in p: nothing further on this side
+        }
+        float w0, w1;
+        weights(g.order, fp, w0, w1);
+        out.t.push_back(static_cast<int>(t));
+        out.w0.push_back(w0);
+        out.w1.push_back(w1);
+        ++out.count;
+    }
+}
+
+// acc[j] += v(j) for a run of contiguous table columns (level 0: weights constant along the row).
+// Cloned per instruction set; the result is the same bits on each (no FMA contraction).
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+splat_row_contiguous(float* __restrict acc, const float* __restrict g1, const float* __restrict g0,
+                     int n, float c00, float c01, float c10, float c11) {
+    for (int j = 0; j < n; ++j)
+        acc[j] += ((c00 * g1[j + 1] + c01 * g1[j]) + c10 * g0[j + 1]) + c11 * g0[j];
+}
+
+void splat_row_general(float* __restrict acc, const float* __restrict g1,
+                       const float* __restrict g0, const AxisTaps& x, float cy0, float cy1) {
+    for (int j = 0; j < x.count; ++j) {
+        const int t = x.t[static_cast<std::size_t>(j)];
+        const float wx0 = x.w0[static_cast<std::size_t>(j)],
+                    wx1 = x.w1[static_cast<std::size_t>(j)];
+        const float c00 = cy0 * wx0, c01 = cy0 * wx1, c10 = cy1 * wx0, c11 = cy1 * wx1;
+        acc[j] += ((c00 * g1[t + 1] + c01 * g1[t]) + c10 * g0[t + 1]) + c11 * g0[t];
+    }
+}
+
+struct Block {
+    std::int64_t x0, y0; // global output coordinates
+    int w, h;
+};
+
+// Cells whose points may reach output coordinates [p0, p1) on one axis.
+void cell_range(const LevelGeometry& g, int a, std::int64_t p0, std::int64_t p1, std::int64_t& c0,
+                std::int64_t& c1) {
+    const int r = g.level > 0 ? g.length - static_cast<int>(g.st) + 1 : g.length;
+    std::int64_t b_lo, b_hi; // bases b that can reach the range
+    if (g.level >= 0) {
+        b_lo = g.st * p0 - r;
+        b_hi = g.st * (p1 - 1) + g.st - 1;
+    } else {
+        b_lo = floor_div(p0, g.sub) - r - 1;
+        b_hi = floor_div(p1 - 1, g.sub) + 1;
+    }
+    c0 = floor_div(b_lo, a);
+    c1 = floor_div(b_hi, a);
+}
+
+void render_block(const PreparedTexton& tex, const LevelTable& table, const GridPoisson& grid,
+                  const LevelGeometry& geo, const NoiseRequest& q, const Block& blk,
+                  core::Image& out, std::uint64_t& points, std::uint64_t& evaluations) {
+    const int nc = tex.channels();
+    const std::size_t plane = static_cast<std::size_t>(blk.w) * blk.h;
+    std::vector<float> acc(plane * nc, 0.0f);
+    std::int64_t cx0, cx1, cy0, cy1;
+    cell_range(geo, grid.a, blk.x0, blk.x0 + blk.w, cx0, cx1);
+    cell_range(geo, grid.a, blk.y0, blk.y0 + blk.h, cy0, cy1);
+    std::vector<CellPoint> pts;
+    AxisTaps tx, ty;
+    for (std::int64_t cy = cy0; cy <= cy1; ++cy)
+        for (std::int64_t cx = cx0; cx <= cx1; ++cx) {
+            pts.clear();
+            grid.cell_points(q.seed, cx, cy, pts);
+            points += pts.size();
+            for (const CellPoint& p : pts) {
+                axis_taps(geo, blk.x0, blk.x0 + blk.w, p.bx, p.fx, tx);
+                if (tx.count == 0) continue;
+                axis_taps(geo, blk.y0, blk.y0 + blk.h, p.by, p.fy, ty);
+                if (ty.count == 0) continue;
+                evaluations += static_cast<std::uint64_t>(tx.count) * ty.count;
+                const int col = static_cast<int>(tx.first - blk.x0);
+                const int row0 = static_cast<int>(ty.first - blk.y0);
+                const bool contiguous = geo.level == 0;
+                for (int c = 0; c < nc; ++c)
+                    for (int i = 0; i < ty.count; ++i) {
+                        const int t = ty.t[static_cast<std::size_t>(i)];
+                        const float cyw0 = p.eps * ty.w0[static_cast<std::size_t>(i)];
+                        const float cyw1 = p.eps * ty.w1[static_cast<std::size_t>(i)];
+                        const float* g1 = table.row(c, t + 1);
+                        const float* g0 = table.row(c, t);
+                        float* a = acc.data() + plane * c +
+                                   static_cast<std::size_t>(row0 + i) * blk.w + col;
+                        if (contiguous) {
+                            const float wx0 = tx.w0[0], wx1 = tx.w1[0];
+                            const int t0 = tx.t[0];
+                            splat_row_contiguous(a, g1 + t0, g0 + t0, tx.count, cyw0 * wx0,
+                                                 cyw0 * wx1, cyw1 * wx0, cyw1 * wx1);
+                        } else {
+                            splat_row_general(a, g1, g0, tx, cyw0, cyw1);
+                        }
+                    }
+            }
+        }
+    const float scale = static_cast<float>(1.0 / std::sqrt(grid.lambda));
+    const std::int64_t ox = blk.x0 - q.x0, oy = blk.y0 - q.y0;
+    for (int c = 0; c < nc; ++c) {
+        const float m = static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
+        for (int y = 0; y < blk.h; ++y) {
+            const float* a = acc.data() + plane * c + static_cast<std::size_t>(y) * blk.w;
+            float* o = &out.at(c, static_cast<int>(ox), static_cast<int>(oy) + y);
+            for (int x = 0; x < blk.w; ++x) o[x] = m + scale * a[x];
+        }
+    }
+}
+
+void render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads, core::Image& out) {
+    const int nc = tex.channels();
+    const core::noise::LimitModel& lm = tex.limit(q.level);
+    const int zw = q.width + 4, zh = q.height + 4;
+    std::vector<float> z(static_cast<std::size_t>(zw) * zh * 3);
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int y = 0; y < zh; ++y)
+        for (int x = 0; x < zw; ++x)
+            core::noise::pixel_normals(q.seed, q.level, q.x0 - 2 + x, q.y0 - 2 + y, nc,
+                                       &z[(static_cast<std::size_t>(y) * zw + x) * 3]);
+    float kappa[25];
+    for (int i = 0; i < 25; ++i)
+        kappa[i] = static_cast<float>(lm.kappa[static_cast<std::size_t>(i)]);
+    float a[3][3], mean[3];
+    for (int c = 0; c < nc; ++c) {
+        mean[c] = static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
+        for (int d = 0; d < nc; ++d) a[c][d] = static_cast<float>(lm.a(c, d));
+    }
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int y = 0; y < q.height; ++y)
+        for (int x = 0; x < q.width; ++x) {
+            float s[3] = {0.0f, 0.0f, 0.0f};
+            // Pixel P = (x, y) reads z(P - D), D in [-2, 2]^2, row-major from D = (-2, -2).
+            for (int dy = -2; dy <= 2; ++dy)
+                for (int dx = -2; dx <= 2; ++dx) {
+                    const float k = kappa[(dy + 2) * 5 + dx + 2];
+                    const float* zp =
+                        &z[(static_cast<std::size_t>(y + 2 - dy) * zw + (x + 2 - dx)) * 3];
+                    for (int c = 0; c < nc; ++c) s[c] = s[c] + k * zp[c];
+                }
+            for (int c = 0; c < nc; ++c) {
+                float v = 0.0f;
+                for (int d = 0; d < nc; ++d) v = v + a[c][d] * s[d];
+                out.at(c, x, y) = mean[c] + v;
+            }
+        }
+}
+
+} // namespace
+
+CpuBackend::CpuBackend(int threads, int block)
+    : m_threads(core::resolve_threads(threads)), m_block(std::max(16, block)) {}
+
+std::string CpuBackend::renderer() const {
+    const char* isa = __builtin_cpu_supports("avx512f") ? "avx512f"
+                      : __builtin_cpu_supports("avx2")  ? "avx2"
+                                                        : "sse2";
+    return "cpu (" + std::to_string(m_threads) + " threads, " + isa + ")";
+}
+
+Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
+                                       RenderStats* stats) {
+    if (auto err = tex.check(q)) return *err;
+    core::Image out(q.width, q.height, tex.channels());
+    if (q.level >= tex.limit_level()) {
+        render_limit(tex, q, m_threads, out);
+        if (stats) {
+            stats->limit_model = true;
+            stats->points = 0;
+            stats->evaluations = static_cast<std::uint64_t>(q.width) * q.height * 25 +
+                                 static_cast<std::uint64_t>(q.width + 4) * (q.height + 4);
+        }
+        return out;
+    }
+    const auto table = tex.table(q.level);
+    const GridPoisson grid(tex.size(), q.mni, q.period);
+    LevelGeometry geo;
+    geo.level = q.level;
+    geo.st = q.level > 0 ? std::int64_t{1} << q.level : 1;
+    geo.sub = q.level < 0 ? std::int64_t{1} << -q.level : 1;
+    geo.length = table->length;
+    geo.order = tex.order();
+
+    const int bs = m_block;
+    const int nbx = (q.width + bs - 1) / bs, nby = (q.height + bs - 1) / bs;
+    std::atomic<std::uint64_t> points{0}, evaluations{0};
+#pragma omp parallel for schedule(dynamic) num_threads(m_threads)
+    for (int b = 0; b < nbx * nby; ++b) {
+        const int bx = b % nbx, by = b / nbx;
+        Block blk{q.x0 + static_cast<std::int64_t>(bx) * bs,
+                  q.y0 + static_cast<std::int64_t>(by) * bs, std::min(bs, q.width - bx * bs),
+                  std::min(bs, q.height - by * bs)};
+        std::uint64_t p = 0, e = 0;
+        render_block(tex, *table, grid, geo, q, blk, out, p, e);
+        points += p;
+        evaluations += e;
+    }
+    if (stats) {
+        stats->limit_model = false;
+        stats->points = points;
+        stats->evaluations = evaluations;
+    }
+    return out;
+}
+
+} // namespace textond::render

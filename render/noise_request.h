@@ -1,0 +1,33 @@
+#pragma once
+// What a backend evaluates: one window of the texton noise of render/NOISE_SPEC.md.
+#include <array>
+#include <cstdint>
+
+namespace textond::render {
+
+// Part of every tile's identity (ETag): bump it whenever NOISE_SPEC.md changes a pixel.
+inline constexpr const char* kNoiseVersion = "textond-noise/1";
+
+inline constexpr double kDefaultMni = 30.0;
+inline constexpr int kMaxWindowSide = 16384;
+inline constexpr std::int64_t kMaxWindowPixels = std::int64_t{1} << 26;
+// The plane is [-2^62, 2^62] texels: at level k >= 0 that is 2^62 / 2^k output pixels.
+inline constexpr std::int64_t kPlaneHalfWidth = std::int64_t{1} << 62;
+
+struct NoiseRequest {
+    std::uint64_t seed = 0;
+    double mni = kDefaultMni;
+    int level = 0; // -4..24: 2^level texels per output pixel
+    std::int64_t x0 = 0, y0 = 0;
+    int width = 256, height = 256;
+    std::array<std::int64_t, 2> period{0, 0}; // tileable mode, in cells; 0 = unbounded plane
+};
+
+// What an evaluation cost, in units that do not depend on the machine (tests compare them).
+struct RenderStats {
+    std::uint64_t points = 0;      // Poisson points generated
+    std::uint64_t evaluations = 0; // (pixel, point) kernel evaluations, or limit-model taps
+    bool limit_model = false;
+};
+
+} // namespace textond::render

@@ -1,0 +1,100 @@
+#include "render/prepared_texton.h"
+
+#include "core/grid_poisson.h"
+
+#include <cmath>
+#include <string>
+
+namespace textond::render {
+
+using core::noise::kMaxLevel;
+using core::noise::kMinLevel;
+
+Result<std::shared_ptr<const PreparedTexton>> PreparedTexton::make(core::Texton t) {
+    if (t.size < 8 || t.size > 256)
+        return make_error(ErrorCode::invalid_argument,
+                          "texton size " + std::to_string(t.size) + " outside [8, 256]");
+    if (t.channels != 1 && t.channels != 3)
+        return make_error(ErrorCode::invalid_argument, "texton must have 1 or 3 channels");
+    if (t.order != 0 && t.order != 1)
+        return make_error(ErrorCode::unsupported, "interpolation order " + std::to_string(t.order) +
+                                                      " is not evaluated yet (orders 0 and 1 are)");
+    if (t.alpha.width != t.size || t.alpha.height != t.size || t.alpha.channels != t.channels)
+        return make_error(ErrorCode::invalid_argument, "texton coefficients have the wrong shape");
+    for (float v : t.alpha.data)
+        if (!std::isfinite(v))
+            return make_error(ErrorCode::unprocessable, "texton coefficients are not finite");
+    return std::shared_ptr<const PreparedTexton>(new PreparedTexton(std::move(t)));
+}
+
+PreparedTexton::PreparedTexton(core::Texton t)
+    : m_texton(std::move(t)), m_cell_size(core::noise::cell_size(m_texton.size)),
+      m_limit_level(core::noise::limit_level(m_texton.size)) {}
+
+std::optional<Error> PreparedTexton::check(const NoiseRequest& q) const {
+    auto bad = [](std::string m) { return make_error(ErrorCode::invalid_argument, std::move(m)); };
+    if (!(q.mni >= core::noise::kMinMni && q.mni <= core::noise::kMaxMni))
+        return bad("mni must be in [1, 200]");
+    if (q.level < kMinLevel || q.level > kMaxLevel)
+        return bad("level must be in [" + std::to_string(kMinLevel) + ", " +
+                   std::to_string(kMaxLevel) + "]");
+    if (q.width < 1 || q.height < 1 || q.width > kMaxWindowSide || q.height > kMaxWindowSide)
+        return bad("window sides must be in [1, " + std::to_string(kMaxWindowSide) + "]");
+    if (static_cast<std::int64_t>(q.width) * q.height > kMaxWindowPixels)
+        return bad("window has more than " + std::to_string(kMaxWindowPixels) + " pixels");
+    const std::int64_t bound = kPlaneHalfWidth >> std::max(0, q.level);
+    auto inside = [&](std::int64_t v, int n) { return v >= -bound && v <= bound - n; };
+    if (!inside(q.x0, q.width) || !inside(q.y0, q.height))
+        return bad("window outside the plane: |x|, |y| must stay within 2^62 texels (" +
+                   std::to_string(bound) + " pixels at level " + std::to_string(q.level) + ")");
+    const bool tileable = q.period[0] != 0 || q.period[1] != 0;
+    if (tileable) {
+        if (q.period[0] < 1 || q.period[1] < 1 || q.period[0] > (1 << 20) ||
+            q.period[1] > (1 << 20))
+            return bad("tileable period must be 1 to 2^20 cells on both axes");
+        if (q.level >= m_limit_level)
+            return bad("tileable mode is defined up to level " + std::to_string(m_limit_level - 1) +
+                       " for this texton");
+    }
+    return std::nullopt;
+}
+
+std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    const int key = std::max(0, level); // every magnification level uses alpha itself
+    auto it = m_tables.find(key);
+    if (it != m_tables.end()) return it->second;
+    const int st = 1 << key;
+    const core::Image g =
+        key == 0 ? m_texton.alpha : core::noise::box_filtered_coefficients(m_texton.alpha, st);
+    auto t = std::make_shared<LevelTable>();
+    t->level = key;
+    t->length = g.width;
+    t->channels = g.channels;
+    t->stride = (static_cast<std::size_t>(g.width) + 2 + 15) / 16 * 16;
+    t->data.assign(static_cast<std::size_t>(g.channels) * (g.width + 2) * t->stride, 0.0f);
+    for (int c = 0; c < g.channels; ++c)
+        for (int y = 0; y < g.height; ++y) {
+            float* dst = const_cast<float*>(t->row(c, y + 1)) + 1;
+            for (int x = 0; x < g.width; ++x) dst[x] = g.at(c, x, y);
+        }
+    m_tables.emplace(key, t);
+    return t;
+}
+
+const core::LagCovariance& PreparedTexton::covariance() const {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    if (!m_cov) m_cov = std::make_unique<core::LagCovariance>(core::sampled_covariance(m_texton));
+    return *m_cov;
+}
+
+const core::noise::LimitModel& PreparedTexton::limit(int level) const {
+    const core::LagCovariance& cov = covariance();
+    std::lock_guard<std::mutex> lock(m_mutex);
+    auto it = m_limits.find(level);
+    if (it == m_limits.end())
+        it = m_limits.emplace(level, core::noise::limit_model(cov, std::int64_t{1} << level)).first;
+    return it->second;
+}
+
+} // namespace textond::render

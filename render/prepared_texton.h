@@ -1,0 +1,61 @@
+#pragma once
+// A texton made ready for evaluation: validated once, with the per-level coefficient tables and
+// limit models of NOISE_SPEC.md section 6 built on first use and shared by every backend and
+// thread afterwards.
+#include "core/noise_levels.h"
+#include "core/result.h"
+#include "core/texton.h"
+#include "core/texton_covariance.h"
+#include "render/noise_request.h"
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+
+namespace textond::render {
+
+// Coefficients of one level (alpha for k <= 0, g_k for k > 0), length L per side, stored with one
+// zero on every side: row(c, i)[j] = G[i][j] = g(i - 1, j - 1), i, j in [0, L + 2).
+struct LevelTable {
+    int level = 0;
+    int length = 0;         // L
+    std::size_t stride = 0; // floats per row (>= L + 2, rounded up for aligned rows)
+    int channels = 0;
+    std::vector<float> data;
+
+    const float* row(int c, int i) const {
+        return data.data() + (static_cast<std::size_t>(c) * (length + 2) + i) * stride;
+    }
+};
+
+class PreparedTexton {
+public:
+    static Result<std::shared_ptr<const PreparedTexton>> make(core::Texton texton);
+
+    const core::Texton& texton() const { return m_texton; }
+    int size() const { return m_texton.size; }
+    int channels() const { return m_texton.channels; }
+    int order() const { return m_texton.order; }
+    int cell_size() const { return m_cell_size; }
+    int limit_level() const { return m_limit_level; }
+
+    // Why `req` cannot be evaluated (a clear message), or nothing when it can.
+    std::optional<Error> check(const NoiseRequest& req) const;
+
+    std::shared_ptr<const LevelTable> table(int level) const;
+    const core::noise::LimitModel& limit(int level) const;
+    const core::LagCovariance& covariance() const;
+
+private:
+    explicit PreparedTexton(core::Texton t);
+    core::Texton m_texton;
+    int m_cell_size = 0;
+    int m_limit_level = 0;
+    mutable std::mutex m_mutex;
+    mutable std::map<int, std::shared_ptr<const LevelTable>> m_tables;
+    mutable std::map<int, core::noise::LimitModel> m_limits;
+    mutable std::unique_ptr<core::LagCovariance> m_cov;
+};
+
+} // namespace textond::render
