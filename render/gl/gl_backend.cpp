@@ -1,0 +1,338 @@
+#include "render/gl/gl_backend.h"
+
+#include "core/grid_poisson.h"
+#include "render/gl/gl_api.h"
+#include "render/gl/glsl_sources.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace textond::render {
+
+using core::noise::floor_div;
+using core::noise::floor_mod;
+
+namespace {
+
+constexpr int kChunk = 2048; // framebuffer side: big windows are drawn in chunks
+constexpr std::size_t kMaxCachedTables = 32;
+
+bool is_software(const std::string& renderer) {
+    for (const char* s : {"llvmpipe", "softpipe", "swrast", "Software", "SwiftShader"})
+        if (renderer.find(s) != std::string::npos) return true;
+    return false;
+}
+
+// Releases the context on every path out of a render.
+struct CurrentScope {
+    GlContext& ctx;
+    bool ok;
+    explicit CurrentScope(GlContext& c) : ctx(c), ok(c.make_current()) {}
+    ~CurrentScope() {
+        if (ok) ctx.release();
+    }
+};
+
+std::string compile(const gl::GlApi& gl, GLenum type, const std::string& src, GLuint& out) {
+    out = gl.CreateShader(type);
+    const char* p = src.c_str();
+    gl.ShaderSource(out, 1, &p, nullptr);
+    gl.CompileShader(out);
+    GLint ok = 0;
+    gl.GetShaderiv(out, GL_COMPILE_STATUS, &ok);
+    if (ok) return "";
+    char log[4096] = {0};
+    gl.GetShaderInfoLog(out, sizeof log, nullptr, log);
+    return log;
+}
+
+Result<GLuint> link(const gl::GlApi& gl, std::initializer_list<std::pair<GLenum, std::string>> s) {
+    const GLuint prog = gl.CreateProgram();
+    std::vector<GLuint> shaders;
+    for (const auto& [type, src] : s) {
+        GLuint sh = 0;
+        const std::string err = compile(gl, type, src, sh);
+        shaders.push_back(sh);
+        if (!err.empty()) {
+            for (GLuint x : shaders) gl.DeleteShader(x);
+            gl.DeleteProgram(prog);
+            return make_error(ErrorCode::internal, "GLSL compile error: " + err);
+        }
+        gl.AttachShader(prog, sh);
+    }
+    gl.LinkProgram(prog);
+    for (GLuint x : shaders) gl.DeleteShader(x);
+    GLint ok = 0;
+    gl.GetProgramiv(prog, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[4096] = {0};
+        gl.GetProgramInfoLog(prog, sizeof log, nullptr, log);
+        gl.DeleteProgram(prog);
+        return make_error(ErrorCode::internal, std::string("GLSL link error: ") + log);
+    }
+    return prog;
+}
+
+void* load_proc(const char* name, void* user) {
+    return static_cast<GlContext*>(user)->proc_address(name);
+}
+
+} // namespace
+
+GlBackend::GlBackend(std::string name, std::unique_ptr<GlContext> context)
+    : m_name(std::move(name)), m_context(std::move(context)), m_gl(std::make_unique<gl::GlApi>()) {}
+
+GlBackend::~GlBackend() {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    CurrentScope scope(*m_context);
+    if (!scope.ok || !m_gl->DeleteProgram) return;
+    for (auto& [key, t] : m_tables) m_gl->DeleteTextures(1, &t.texture);
+    if (m_program) m_gl->DeleteProgram(m_program);
+    if (m_probe_program) m_gl->DeleteProgram(m_probe_program);
+    if (m_vao) m_gl->DeleteVertexArrays(1, &m_vao);
+}
+
+Result<std::shared_ptr<GlBackend>>
+GlBackend::create(std::string name, std::unique_ptr<GlContext> context, bool allow_software) {
+    std::shared_ptr<GlBackend> b(new GlBackend(std::move(name), std::move(context)));
+    auto ok = b->init(allow_software);
+    if (!ok) return ok.error();
+    return b;
+}
+
+Result<bool> GlBackend::init(bool allow_software) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    CurrentScope scope(*m_context);
+    if (!scope.ok)
+        return make_error(ErrorCode::unsupported, m_name + ": cannot make the context current");
+    const std::string missing = m_gl->load(load_proc, m_context.get());
+    if (!missing.empty())
+        return make_error(ErrorCode::unsupported, m_name + ": GL function " + missing + " missing");
+    const auto* r = reinterpret_cast<const char*>(m_gl->GetString(GL_RENDERER));
+    const auto* v = reinterpret_cast<const char*>(m_gl->GetString(GL_VERSION));
+    m_renderer = r ? r : "?";
+    m_version = v ? v : "?";
+    m_software = is_software(m_renderer);
+    if (m_software && !allow_software)
+        return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
+                                                      m_renderer + "), not a GPU");
+    const std::string head = "#version 450 core\n";
+    auto prog =
+        link(*m_gl, {{GL_VERTEX_SHADER, head + glsl::kFullscreenVert},
+                     {GL_FRAGMENT_SHADER, head + glsl::kNoiseLib + glsl::kTextonNoiseFrag}});
+    if (!prog)
+        return make_error(ErrorCode::unsupported,
+                          m_name + " (" + m_renderer + "): " + prog.error().message);
+    m_program = prog.value();
+    m_gl->GenVertexArrays(1, &m_vao);
+    return true;
+}
+
+std::string GlBackend::renderer() const {
+    return m_name + " (" + m_renderer + ", OpenGL " + m_version + ", " + m_context->platform() +
+           ")";
+}
+
+int GlBackend::uniform(const char* name) {
+    auto it = m_uniforms.find(name);
+    if (it != m_uniforms.end()) return it->second;
+    const int loc = m_gl->GetUniformLocation(m_program, name);
+    m_uniforms.emplace(name, loc);
+    return loc;
+}
+
+unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
+    auto it = m_tables.find(t.get());
+    if (it != m_tables.end()) return it->second.texture;
+    if (m_tables.size() >= kMaxCachedTables) {
+        m_gl->DeleteTextures(1, &m_tables.begin()->second.texture);
+        m_tables.erase(m_tables.begin());
+    }
+    const int n = t->length + 2;
+    std::vector<float> texels(static_cast<std::size_t>(n) * n * 3, 0.0f);
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x)
+            for (int c = 0; c < t->channels; ++c)
+                texels[(static_cast<std::size_t>(y) * n + x) * 3 + c] = t->row(c, y)[x];
+    GLuint tex = 0;
+    m_gl->GenTextures(1, &tex);
+    m_gl->BindTexture(GL_TEXTURE_2D, tex);
+    m_gl->PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    m_gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, n, n, 0, GL_RGB, GL_FLOAT, texels.data());
+    m_gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    m_gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    m_gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    m_tables.emplace(t.get(), CachedTable{t, tex});
+    return tex;
+}
+
+Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
+                                      RenderStats* stats) {
+    if (auto err = tex.check(q)) return *err;
+    std::lock_guard<std::mutex> lock(m_mutex);
+    CurrentScope scope(*m_context);
+    if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
+    const gl::GlApi& g = *m_gl;
+    g.UseProgram(m_program);
+    g.BindVertexArray(m_vao);
+    g.Disable(GL_BLEND);
+
+    const bool limit = q.level >= tex.limit_level();
+    const int nc = tex.channels();
+    const auto& mean = tex.texton().mean;
+    g.Uniform1i(uniform("u_mode"), limit ? 1 : 0);
+    g.Uniform1i(uniform("u_level"), q.level);
+    g.Uniform1i(uniform("u_channels"), nc);
+    g.Uniform2ui(uniform("u_seed"), static_cast<GLuint>(q.seed), static_cast<GLuint>(q.seed >> 32));
+    g.Uniform3f(uniform("u_mean"), static_cast<float>(mean[0]),
+                static_cast<float>(nc == 3 ? mean[1] : mean[0]),
+                static_cast<float>(nc == 3 ? mean[2] : mean[0]));
+    auto u64 = [&](const char* name, std::int64_t v) {
+        const auto u = static_cast<std::uint64_t>(v);
+        g.Uniform2ui(uniform(name), static_cast<GLuint>(u), static_cast<GLuint>(u >> 32));
+    };
+    if (limit) {
+        const auto& lm = tex.limit(q.level);
+        float kappa[25], a[9] = {0};
+        for (int i = 0; i < 25; ++i)
+            kappa[i] = static_cast<float>(lm.kappa[static_cast<std::size_t>(i)]);
+        for (int c = 0; c < nc; ++c)
+            for (int d = 0; d < nc; ++d) a[c * 3 + d] = static_cast<float>(lm.a(c, d));
+        g.Uniform1fv(uniform("u_kappa[0]"), 25, kappa);
+        g.UniformMatrix3fv(uniform("u_A"), 1, GL_TRUE, a); // row-major rows of A
+        u64("u_q0x", q.x0 - 2);
+        u64("u_q0y", q.y0 - 2);
+        if (stats) {
+            stats->limit_model = true;
+            stats->points = 0;
+            stats->evaluations = static_cast<std::uint64_t>(q.width) * q.height * 25;
+        }
+    } else {
+        const auto table = tex.table(q.level);
+        const core::noise::GridPoisson grid(tex.size(), q.mni, q.period);
+        const int r = tex.size(), a = grid.a;
+        const std::int64_t st = q.level > 0 ? std::int64_t{1} << q.level : 1;
+        const int sub_log2 = q.level < 0 ? -q.level : 0;
+        // The base cell makes every relative cell and position in the shader non-negative.
+        auto base = [&](std::int64_t p0, std::int64_t& cell, int& origin) {
+            if (q.level >= 0) {
+                cell = floor_div(st * p0 - r, a);
+                origin = static_cast<int>(st * p0 - cell * a);
+            } else {
+                cell = floor_div(floor_div(p0, std::int64_t{1} << sub_log2) - r - 1, a);
+                origin = static_cast<int>(p0 - (cell * a << sub_log2));
+            }
+        };
+        std::int64_t bcx, bcy;
+        int ox, oy;
+        base(q.x0, bcx, ox);
+        base(q.y0, bcy, oy);
+        g.ActiveTexture(GL_TEXTURE0);
+        g.BindTexture(GL_TEXTURE_2D, table_texture(table));
+        g.Uniform1i(uniform("u_table"), 0);
+        g.Uniform1i(uniform("u_st"), static_cast<int>(st));
+        g.Uniform1i(uniform("u_sub_log2"), sub_log2);
+        g.Uniform1i(uniform("u_L"), table->length);
+        g.Uniform1i(uniform("u_r"), r);
+        g.Uniform1i(uniform("u_order"), tex.order());
+        g.Uniform1i(uniform("u_a"), a);
+        u64("u_base_cx", bcx);
+        u64("u_base_cy", bcy);
+        const bool tileable = q.period[0] > 0;
+        g.Uniform2i(uniform("u_period"), tileable ? static_cast<int>(q.period[0]) : 0,
+                    tileable ? static_cast<int>(q.period[1]) : 0);
+        g.Uniform2i(uniform("u_base_mod"),
+                    tileable ? static_cast<int>(floor_mod(bcx, q.period[0])) : 0,
+                    tileable ? static_cast<int>(floor_mod(bcy, q.period[1])) : 0);
+        g.Uniform2i(uniform("u_origin"), ox, oy);
+        g.Uniform1f(uniform("u_scale"), static_cast<float>(1.0 / std::sqrt(grid.lambda)));
+        g.Uniform1uiv(uniform("u_thresholds[0]"), static_cast<GLsizei>(grid.thresholds.size()),
+                      grid.thresholds.data());
+        g.Uniform1i(uniform("u_nthresholds"), static_cast<int>(grid.thresholds.size()));
+        if (stats) {
+            stats->limit_model = false;
+            stats->points = 0; // not counted on the GPU
+            stats->evaluations = 0;
+        }
+    }
+
+    const int cw = std::min(q.width, kChunk), ch = std::min(q.height, kChunk);
+    GLuint target = 0, fbo = 0;
+    g.ActiveTexture(GL_TEXTURE1); // unit 0 holds the table
+    g.GenTextures(1, &target);
+    g.BindTexture(GL_TEXTURE_2D, target);
+    g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, cw, ch, 0, GL_RGBA, GL_FLOAT, nullptr);
+    g.GenFramebuffers(1, &fbo);
+    g.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+    g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target, 0);
+    core::Image out;
+    if (g.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+        g.DeleteFramebuffers(1, &fbo);
+        g.DeleteTextures(1, &target);
+        return make_error(ErrorCode::internal, m_name + ": float framebuffer incomplete");
+    }
+    out = core::Image(q.width, q.height, nc);
+    std::vector<float> rgba(static_cast<std::size_t>(cw) * ch * 4);
+    g.PixelStorei(GL_PACK_ALIGNMENT, 4);
+    for (int y0 = 0; y0 < q.height; y0 += ch)
+        for (int x0 = 0; x0 < q.width; x0 += cw) {
+            const int w = std::min(cw, q.width - x0), h = std::min(ch, q.height - y0);
+            g.Viewport(0, 0, w, h);
+            g.Uniform2i(uniform("u_offset"), x0, y0);
+            g.DrawArrays(GL_TRIANGLES, 0, 3);
+            g.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
+            for (int c = 0; c < nc; ++c)
+                for (int y = 0; y < h; ++y)
+                    for (int x = 0; x < w; ++x)
+                        out.at(c, x0 + x, y0 + y) =
+                            rgba[(static_cast<std::size_t>(y) * w + x) * 4 + c];
+        }
+    const GLenum err = g.GetError();
+    g.DeleteFramebuffers(1, &fbo);
+    g.DeleteTextures(1, &target);
+    if (err != GL_NO_ERROR)
+        return make_error(ErrorCode::internal,
+                          m_name + ": GL error " + std::to_string(static_cast<int>(err)));
+    return out;
+}
+
+Result<std::vector<std::uint32_t>> GlBackend::probe(const std::vector<std::uint32_t>& queries,
+                                                    const std::vector<std::uint32_t>& thresholds) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    CurrentScope scope(*m_context);
+    if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
+    const gl::GlApi& g = *m_gl;
+    if (!m_probe_program) {
+        auto prog = link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") +
+                                                     glsl::kNoiseLib + glsl::kSpecProbeComp}});
+        if (!prog) return prog.error();
+        m_probe_program = prog.value();
+    }
+    const std::size_t n = queries.size() / 8;
+    g.UseProgram(m_probe_program);
+    const GLint lt = g.GetUniformLocation(m_probe_program, "u_thresholds[0]");
+    g.Uniform1uiv(lt, static_cast<GLsizei>(thresholds.size()), thresholds.data());
+    g.Uniform1i(g.GetUniformLocation(m_probe_program, "u_nthresholds"),
+                static_cast<int>(thresholds.size()));
+    GLuint bufs[2];
+    g.GenBuffers(2, bufs);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[0]);
+    g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(queries.size() * 4),
+                 queries.data(), GL_STATIC_DRAW);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[1]);
+    std::vector<std::uint32_t> out(n * 64, 0);
+    g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(out.size() * 4), out.data(),
+                 GL_DYNAMIC_READ);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, bufs[0]);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, bufs[1]);
+    g.DispatchCompute(static_cast<GLuint>(n), 1, 1);
+    g.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[1]);
+    g.GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(out.size() * 4),
+                       out.data());
+    g.DeleteBuffers(2, bufs);
+    if (g.GetError() != GL_NO_ERROR) return make_error(ErrorCode::internal, "probe: GL error");
+    return out;
+}
+
+} // namespace textond::render

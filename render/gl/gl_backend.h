@@ -1,0 +1,71 @@
+#pragma once
+// The OpenGL evaluator shared by the OSMesa and EGL backends: the same GLSL (render/glsl/) on
+// whatever context the platform code made. Owns its context; one render at a time (a mutex), made
+// current on the calling thread for the call and released after, so any thread may call it.
+#include "render/backend.h"
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace textond::render {
+
+namespace gl {
+struct GlApi;
+}
+
+// A platform's GL context (OSMesa, EGL).
+class GlContext {
+public:
+    virtual ~GlContext() = default;
+    virtual bool make_current() = 0;
+    virtual void release() = 0;
+    virtual void* proc_address(const char* name) = 0;
+    virtual std::string platform() const = 0; // e.g. "EGL device 0 (EGL_EXT_platform_device)"
+};
+
+class GlBackend final : public Backend {
+public:
+    // Loads GL 4.5 functions, checks GL_RENDERER and compiles the noise program. A software
+    // renderer (llvmpipe, softpipe, swrast) is refused unless `allow_software`.
+    static Result<std::shared_ptr<GlBackend>>
+    create(std::string name, std::unique_ptr<GlContext> context, bool allow_software);
+    ~GlBackend() override;
+
+    std::string name() const override { return m_name; }
+    std::string renderer() const override;
+    bool software() const { return m_software; }
+    Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
+                               RenderStats* stats = nullptr) override;
+
+    // Test hook: runs render/glsl/spec_probe.comp on `queries` (8 words each) with the given
+    // Poisson thresholds; returns 64 words per query.
+    Result<std::vector<std::uint32_t>> probe(const std::vector<std::uint32_t>& queries,
+                                             const std::vector<std::uint32_t>& thresholds);
+
+private:
+    GlBackend(std::string name, std::unique_ptr<GlContext> context);
+    Result<bool> init(bool allow_software);
+    unsigned table_texture(const std::shared_ptr<const LevelTable>& table);
+    int uniform(const char* name);
+
+    std::string m_name;
+    std::unique_ptr<GlContext> m_context;
+    std::unique_ptr<gl::GlApi> m_gl;
+    std::string m_renderer;
+    std::string m_version;
+    bool m_software = false;
+    std::mutex m_mutex;
+    unsigned m_program = 0, m_probe_program = 0, m_vao = 0;
+    std::map<std::string, int> m_uniforms;
+    struct CachedTable {
+        std::shared_ptr<const LevelTable> table; // keeps the key alive while cached
+        unsigned texture = 0;
+    };
+    std::map<const LevelTable*, CachedTable> m_tables;
+};
+
+} // namespace textond::render

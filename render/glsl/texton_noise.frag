@@ -1,0 +1,136 @@
+// Per-pixel gather of texton noise (texton-noise paper, section 8; NOISE_SPEC.md section 7):
+// every cell that can reach the pixel, its points regenerated from the cell key, summed in the
+// global order (cells by y then x, points in draw order) with the exact bilinear weights.
+// Mode 1 is the limit model of NOISE_SPEC.md section 6.
+
+layout(location = 0) out vec4 o_color;
+
+uniform sampler2D u_table; // G, (L + 2)^2 texels, read with texelFetch only
+uniform int u_mode;        // 0 exact levels, 1 limit model
+uniform int u_level;
+uniform int u_st;          // texels per pixel (level >= 0)
+uniform int u_sub_log2;    // -level (level < 0)
+uniform int u_L;
+uniform int u_r;
+uniform int u_order;
+uniform int u_a;
+uniform uvec2 u_seed;
+uniform uvec2 u_base_cx;
+uniform uvec2 u_base_cy;
+uniform ivec2 u_period;   // cells; 0 = unbounded
+uniform ivec2 u_base_mod; // base cell mod period
+uniform ivec2 u_origin;   // window origin relative to the base cell (texels, or pixels if level < 0)
+uniform ivec2 u_offset;   // this draw's offset inside the window
+uniform float u_scale;
+uniform vec3 u_mean;
+// limit model
+uniform uvec2 u_q0x; // x0 - 2, 64-bit
+uniform uvec2 u_q0y;
+uniform float u_kappa[25];
+uniform mat3 u_A;
+uniform int u_channels;
+
+// Table index t and weights (w0 for G[t + 1], w1 for G[t]) of one axis; false if out of reach.
+bool axis(int x, int b, uint f, out int t, out float w0, out float w1) {
+    uint fp;
+    if (u_level >= 0) {
+        t = x - b + u_st - 1;
+        fp = f;
+    } else {
+        int e = x - (b << u_sub_log2);
+        int eq = e >> u_sub_log2;
+        int er = e - (eq << u_sub_log2);
+        int m = (er << (24 - u_sub_log2)) - int(f);
+        if (m > 0) {
+            t = eq + 1;
+            fp = uint((1 << 24) - m);
+        } else {
+            t = eq;
+            fp = uint(-m);
+        }
+    }
+    if (t < 0 || t > u_L) return false;
+    if (u_order == 0)
+        w1 = fp > 0u ? 1.0 : 0.0;
+    else
+        w1 = float(fp) * (1.0 / 16777216.0);
+    w0 = 1.0 - w1;
+    return true;
+}
+
+vec3 exact_pixel(ivec2 pix) {
+    // Position relative to the base cell's origin: texels (level >= 0) or pixels (level < 0).
+    ivec2 x = u_level >= 0 ? u_origin + pix * u_st : u_origin + pix;
+    ivec2 xt = u_level >= 0 ? x : (x >> u_sub_log2);
+    ivec2 blo = u_level >= 0 ? x - u_r : xt - u_r - 1;
+    ivec2 bhi = u_level >= 0 ? x + u_st - 1 : xt + 1;
+    ivec2 clo = blo / u_a, chi = bhi / u_a; // non-negative by the choice of the base cell
+    precise vec3 acc = vec3(0.0);
+    for (int cy = clo.y; cy <= chi.y; ++cy) {
+        for (int cx = clo.x; cx <= chi.x; ++cx) {
+            uint key;
+            if (u_period.x > 0) {
+                uvec2 kx = uvec2(uint((u_base_mod.x + cx) % u_period.x), 0u);
+                uvec2 ky = uvec2(uint((u_base_mod.y + cy) % u_period.y), 0u);
+                key = cell_key(u_seed, kx, ky);
+            } else {
+                key = cell_key(u_seed, add64(u_base_cx, cx), add64(u_base_cy, cy));
+            }
+            uint state = key;
+            int n = poisson_count(next_draw(state));
+            for (int i = 0; i < n; ++i) {
+                int qx, qy;
+                uint fx, fy;
+                point_offset(next_draw(state), uint(u_a), qx, fx);
+                point_offset(next_draw(state), uint(u_a), qy, fy);
+                float eps = (next_draw(state) >> 31u) == 0u ? 1.0 : -1.0;
+                int tx, ty;
+                float wx0, wx1, wy0, wy1;
+                if (!axis(x.x, cx * u_a + qx, fx, tx, wx0, wx1)) continue;
+                if (!axis(x.y, cy * u_a + qy, fy, ty, wy0, wy1)) continue;
+                precise float cy0 = eps * wy0;
+                precise float cy1 = eps * wy1;
+                precise float c00 = cy0 * wx0;
+                precise float c01 = cy0 * wx1;
+                precise float c10 = cy1 * wx0;
+                precise float c11 = cy1 * wx1;
+                vec3 g11 = texelFetch(u_table, ivec2(tx + 1, ty + 1), 0).rgb;
+                vec3 g10 = texelFetch(u_table, ivec2(tx, ty + 1), 0).rgb;
+                vec3 g01 = texelFetch(u_table, ivec2(tx + 1, ty), 0).rgb;
+                vec3 g00 = texelFetch(u_table, ivec2(tx, ty), 0).rgb;
+                precise vec3 v = ((c00 * g11 + c01 * g10) + c10 * g01) + c11 * g00;
+                acc = acc + v;
+            }
+        }
+    }
+    precise vec3 o = u_mean + u_scale * acc;
+    return o;
+}
+
+vec3 normals(uvec2 qx, uvec2 qy) {
+    uint state = pixel_key(u_seed, u_level, qx, qy);
+    vec3 z = vec3(0.0);
+    for (int c = 0; c < u_channels; c += 2) {
+        float u1 = float((next_draw(state) >> 8u) + 1u) * (1.0 / 16777216.0);
+        float u2 = float(next_draw(state) >> 8u) * (1.0 / 16777216.0);
+        float rr = sqrt(-2.0 * log(u1));
+        z[c] = rr * cos(6.283185307179586 * u2);
+        if (c + 1 < 3) z[c + 1] = rr * sin(6.283185307179586 * u2);
+    }
+    return z;
+}
+
+vec3 limit_pixel(ivec2 pix) {
+    vec3 s = vec3(0.0);
+    for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx)
+            s += u_kappa[(dy + 2) * 5 + dx + 2] *
+                 normals(add64(u_q0x, pix.x + 2 - dx), add64(u_q0y, pix.y + 2 - dy));
+    return u_mean + u_A * s;
+}
+
+void main() {
+    ivec2 pix = ivec2(gl_FragCoord.xy) + u_offset;
+    vec3 v = u_mode == 0 ? exact_pixel(pix) : limit_pixel(pix);
+    o_color = vec4(v, 1.0);
+}
