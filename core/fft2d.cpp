@@ -189,4 +189,13 @@ void RealFft2d::inverse(Spectrum& spec, float* out, std::size_t out_stride, int 
     }
 }
 
+int fft_friendly_size(int n) {
+    for (int m = std::max(1, n);; ++m) {
+        int r = m;
+        for (int p : {2, 3, 5, 7})
+            while (r % p == 0) r /= p;
+        if (r == 1) return m;
+    }
+}
+
 } // namespace textond::core

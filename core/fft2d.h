@@ -85,6 +85,9 @@ private:
     std::unique_ptr<Plans> m_plans;
 };
 
+// Smallest size >= n whose only prime factors are 2, 3, 5 and 7 (FFTW's fast codelets).
+int fft_friendly_size(int n);
+
 // Threads to use for `requested` (0 = all hardware threads).
 int resolve_threads(int requested);
 

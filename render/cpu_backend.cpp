@@ -95,13 +95,34 @@ void axis_taps(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::in
     }
 }
 
-// acc[j] += v(j) for a run of contiguous table columns (level 0: weights constant along the row).
-// Cloned per instruction set; the result is the same bits on each (no FMA contraction).
+// Level 0: one point's whole footprint in one channel. Along a row the weights are constant and
+// the table columns contiguous, so the inner loop vectorises; cloned per instruction set, with
+// the same bits on each (no FMA contraction, the same operation order per element).
+constexpr int kRunQuantum = 16; // floats per AVX-512 vector; LevelTable and blocks pad for it
+
+struct ContiguousSplat {
+    float* acc;             // first accumulator of the footprint
+    std::size_t acc_stride; // floats per block row
+    const float* g;         // G[ty0][tx0]
+    std::size_t g_stride;   // floats per table row
+    int rows, cols;
+    float c00, c01, c10, c11;
+};
+
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
-splat_row_contiguous(float* __restrict acc, const float* __restrict g1, const float* __restrict g0,
-                     int n, float c00, float c01, float c10, float c11) {
-    for (int j = 0; j < n; ++j)
-        acc[j] += ((c00 * g1[j + 1] + c01 * g1[j]) + c10 * g0[j + 1]) + c11 * g0[j];
+splat_contiguous(const ContiguousSplat& s) {
+    const float c00 = s.c00, c01 = s.c01, c10 = s.c10, c11 = s.c11;
+    // Runs are padded to whole vectors: past the footprint the table holds zeros (each pixel then
+    // gets + 0, which changes no bit) and past the block the accumulators have slack columns.
+    const int n = (s.cols + kRunQuantum - 1) / kRunQuantum * kRunQuantum;
+    for (int i = 0; i < s.rows; ++i) {
+        float* __restrict acc = s.acc + s.acc_stride * i;
+        const float* __restrict g0 = s.g + s.g_stride * i; // G[ty]
+        const float* __restrict g1 = g0 + s.g_stride;      // G[ty + 1]
+#pragma GCC ivdep
+        for (int j = 0; j < n; ++j)
+            acc[j] += ((c00 * g1[j + 1] + c01 * g1[j]) + c10 * g0[j + 1]) + c11 * g0[j];
+    }
 }
 
 void splat_row_general(float* __restrict acc, const float* __restrict g1,
@@ -113,6 +134,17 @@ void splat_row_general(float* __restrict acc, const float* __restrict g1,
         const float c00 = cy0 * wx0, c01 = cy0 * wx1, c10 = cy1 * wx0, c11 = cy1 * wx1;
         acc[j] += ((c00 * g1[t + 1] + c01 * g1[t]) + c10 * g0[t + 1]) + c11 * g0[t];
     }
+}
+
+// Per-thread scratch reused across blocks and calls (a fresh 200 kB vector per block costs page
+// faults).
+std::vector<float>& thread_accumulators() {
+    static thread_local std::vector<float> v;
+    return v;
+}
+std::vector<CellPoint>& thread_points() {
+    static thread_local std::vector<CellPoint> v;
+    return v;
 }
 
 struct Block {
@@ -140,45 +172,66 @@ void render_block(const PreparedTexton& tex, const LevelTable& table, const Grid
                   const LevelGeometry& geo, const NoiseRequest& q, const Block& blk,
                   core::Image& out, std::uint64_t& points, std::uint64_t& evaluations) {
     const int nc = tex.channels();
-    const std::size_t plane = static_cast<std::size_t>(blk.w) * blk.h;
-    std::vector<float> acc(plane * nc, 0.0f);
+    const std::size_t stride = static_cast<std::size_t>(blk.w) + kRunQuantum;
+    const std::size_t plane = stride * blk.h;
+    std::vector<float>& acc = thread_accumulators();
+    acc.assign(plane * nc, 0.0f);
     std::int64_t cx0, cx1, cy0, cy1;
     cell_range(geo, grid.a, blk.x0, blk.x0 + blk.w, cx0, cx1);
     cell_range(geo, grid.a, blk.y0, blk.y0 + blk.h, cy0, cy1);
-    std::vector<CellPoint> pts;
-    AxisTaps tx, ty;
+    // All points that may reach the block, in the global order (cells by y then x, points in
+    // draw order); then one channel at a time, so the accumulators and the table of that
+    // channel stay in L1/L2 while every point is added.
+    std::vector<CellPoint>& pts = thread_points();
+    pts.clear();
     for (std::int64_t cy = cy0; cy <= cy1; ++cy)
-        for (std::int64_t cx = cx0; cx <= cx1; ++cx) {
-            pts.clear();
-            grid.cell_points(q.seed, cx, cy, pts);
-            points += pts.size();
-            for (const CellPoint& p : pts) {
-                axis_taps(geo, blk.x0, blk.x0 + blk.w, p.bx, p.fx, tx);
-                if (tx.count == 0) continue;
-                axis_taps(geo, blk.y0, blk.y0 + blk.h, p.by, p.fy, ty);
-                if (ty.count == 0) continue;
-                evaluations += static_cast<std::uint64_t>(tx.count) * ty.count;
-                const int col = static_cast<int>(tx.first - blk.x0);
-                const int row0 = static_cast<int>(ty.first - blk.y0);
-                const bool contiguous = geo.level == 0;
-                for (int c = 0; c < nc; ++c)
-                    for (int i = 0; i < ty.count; ++i) {
-                        const int t = ty.t[static_cast<std::size_t>(i)];
-                        const float cyw0 = p.eps * ty.w0[static_cast<std::size_t>(i)];
-                        const float cyw1 = p.eps * ty.w1[static_cast<std::size_t>(i)];
-                        const float* g1 = table.row(c, t + 1);
-                        const float* g0 = table.row(c, t);
-                        float* a = acc.data() + plane * c +
-                                   static_cast<std::size_t>(row0 + i) * blk.w + col;
-                        if (contiguous) {
-                            const float wx0 = tx.w0[0], wx1 = tx.w1[0];
-                            const int t0 = tx.t[0];
-                            splat_row_contiguous(a, g1 + t0, g0 + t0, tx.count, cyw0 * wx0,
-                                                 cyw0 * wx1, cyw1 * wx0, cyw1 * wx1);
-                        } else {
-                            splat_row_general(a, g1, g0, tx, cyw0, cyw1);
-                        }
-                    }
+        for (std::int64_t cx = cx0; cx <= cx1; ++cx) grid.cell_points(q.seed, cx, cy, pts);
+    points += pts.size();
+    AxisTaps tx, ty;
+    for (int c = 0; c < nc; ++c)
+        for (const CellPoint& p : pts) {
+            if (geo.level == 0) {
+                // t = P - b in [0, L]: a contiguous run of pixels, constant weights.
+                const std::int64_t xa = std::max(blk.x0, p.bx),
+                                   xb = std::min(blk.x0 + blk.w - 1, p.bx + geo.length);
+                const std::int64_t ya = std::max(blk.y0, p.by),
+                                   yb = std::min(blk.y0 + blk.h - 1, p.by + geo.length);
+                if (xa > xb || ya > yb) continue;
+                float wx0, wx1, wy0, wy1;
+                weights(geo.order, p.fx, wx0, wx1);
+                weights(geo.order, p.fy, wy0, wy1);
+                const float cy0w = p.eps * wy0, cy1w = p.eps * wy1;
+                ContiguousSplat sp;
+                sp.acc_stride = stride;
+                sp.acc = acc.data() + plane * c +
+                         static_cast<std::size_t>(ya - blk.y0) * sp.acc_stride +
+                         static_cast<std::size_t>(xa - blk.x0);
+                sp.g_stride = table.stride;
+                sp.g = table.row(c, static_cast<int>(ya - p.by)) + (xa - p.bx);
+                sp.rows = static_cast<int>(yb - ya + 1);
+                sp.cols = static_cast<int>(xb - xa + 1);
+                sp.c00 = cy0w * wx0;
+                sp.c01 = cy0w * wx1;
+                sp.c10 = cy1w * wx0;
+                sp.c11 = cy1w * wx1;
+                splat_contiguous(sp);
+                if (c == 0) evaluations += static_cast<std::uint64_t>(sp.rows) * sp.cols;
+                continue;
+            }
+            axis_taps(geo, blk.x0, blk.x0 + blk.w, p.bx, p.fx, tx);
+            if (tx.count == 0) continue;
+            axis_taps(geo, blk.y0, blk.y0 + blk.h, p.by, p.fy, ty);
+            if (ty.count == 0) continue;
+            if (c == 0) evaluations += static_cast<std::uint64_t>(tx.count) * ty.count;
+            const int col = static_cast<int>(tx.first - blk.x0);
+            const int row0 = static_cast<int>(ty.first - blk.y0);
+            for (int i = 0; i < ty.count; ++i) {
+                const int t = ty.t[static_cast<std::size_t>(i)];
+                const float cyw0 = p.eps * ty.w0[static_cast<std::size_t>(i)];
+                const float cyw1 = p.eps * ty.w1[static_cast<std::size_t>(i)];
+                float* a =
+                    acc.data() + plane * c + static_cast<std::size_t>(row0 + i) * stride + col;
+                splat_row_general(a, table.row(c, t + 1), table.row(c, t), tx, cyw0, cyw1);
             }
         }
     const float scale = static_cast<float>(1.0 / std::sqrt(grid.lambda));
@@ -186,7 +239,7 @@ void render_block(const PreparedTexton& tex, const LevelTable& table, const Grid
     for (int c = 0; c < nc; ++c) {
         const float m = static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
         for (int y = 0; y < blk.h; ++y) {
-            const float* a = acc.data() + plane * c + static_cast<std::size_t>(y) * blk.w;
+            const float* a = acc.data() + plane * c + static_cast<std::size_t>(y) * stride;
             float* o = &out.at(c, static_cast<int>(ox), static_cast<int>(oy) + y);
             for (int x = 0; x < blk.w; ++x) o[x] = m + scale * a[x];
         }

@@ -71,7 +71,8 @@ std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
     t->level = key;
     t->length = g.width;
     t->channels = g.channels;
-    t->stride = (static_cast<std::size_t>(g.width) + 2 + 15) / 16 * 16;
+    // 16 zero floats of slack after every row: the CPU backend runs whole vectors past the end.
+    t->stride = (static_cast<std::size_t>(g.width) + 2 + 16 + 15) / 16 * 16;
     t->data.assign(static_cast<std::size_t>(g.channels) * (g.width + 2) * t->stride, 0.0f);
     for (int c = 0; c < g.channels; ++c)
         for (int y = 0; y < g.height; ++y) {

@@ -20,7 +20,7 @@ namespace textond::render {
 struct LevelTable {
     int level = 0;
     int length = 0;         // L
-    std::size_t stride = 0; // floats per row (>= L + 2, rounded up for aligned rows)
+    std::size_t stride = 0; // floats per row (>= L + 2 + 16 zeros, a multiple of 16)
     int channels = 0;
     std::vector<float> data;
 

@@ -17,6 +17,7 @@ namespace textond::cli {
 
 namespace {
 const char* kHelp = R"(usage: textond bench analyze [--exemplars DIR] [--repeat N] [--threads N]
+       textond bench render --help   (texton noise per backend against FFTW ADSN)
 
 Times the texton analysis (r = 64, order 1, 50 iterations) on exemplars of growing size and prints
 a table; then the RME of the analysed texton against the cropped canonical texton for every
@@ -50,6 +51,8 @@ double median_ms(const core::Image& u, const core::AnalysisParams& p, int repeat
 } // namespace
 
 int bench_command(const Argv& argv) {
+    if (!argv.empty() && argv[0] == "render")
+        return bench_render_command(Argv(argv.begin() + 1, argv.end()));
     auto args = parse_args(argv, {"--exemplars", "--repeat", "--threads"}, {"--help"});
     if (!args) return fail(2, args.error().message);
     const Args& a = args.value();

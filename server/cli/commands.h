@@ -11,6 +11,8 @@ using Argv = std::vector<std::string>;
 int analyze_command(const Argv& args);
 int synth_command(const Argv& args);
 int bench_command(const Argv& args);
+int bench_render_command(const Argv& args);
+int render_command(const Argv& args);
 
 // Prints "textond: <message>" to stderr and returns `code`.
 int fail(int code, const std::string& message);

@@ -15,7 +15,8 @@ usage: textond <command> [options]
 commands:
   analyze   estimate the Gaussian model of an exemplar and compute its texton (+ RME)
   synth     reference synthesis (ADSN, RPN, discrete spot noise) from an exemplar or texton
-  bench     benchmarks (textond bench analyze)
+  render    evaluate a window of texton noise (any position, level, seed) on a backend
+  bench     benchmarks (textond bench analyze | render)
 
   textond <command> --help   options of one command
   textond --version
@@ -50,6 +51,7 @@ int main(int argc, char** argv) {
         }
         if (cmd == "analyze") return textond::cli::analyze_command(rest);
         if (cmd == "synth") return textond::cli::synth_command(rest);
+        if (cmd == "render") return textond::cli::render_command(rest);
         if (cmd == "bench") return textond::cli::bench_command(rest);
         std::fputs(kUsage, stderr);
         return textond::cli::fail(2, "unknown command '" + cmd + "'");

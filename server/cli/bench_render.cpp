@@ -1,0 +1,152 @@
+#include "core/spectral_synthesis.h"
+#include "core/texton_analysis.h"
+#include "render/backend_factory.h"
+#include "render/cpu_backend.h"
+#include "server/cli/args.h"
+#include "server/cli/commands.h"
+#include "server/io/image_io.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+namespace textond::cli {
+
+namespace {
+const char* kHelp =
+    R"(usage: textond bench render [--exemplars DIR] [--repeat N] [--backends LIST] [--threads N]
+
+Milliseconds per frame of texton noise (MNI 30, level 0) for each backend at 256x256, 1024x1024,
+1920x1080 and 3840x2160, with textons of r = 64 and r = 256 (the paper's Table 1), next to an
+FFTW ADSN of the same size measured in the same run (ratio = ADSN ms / backend ms). Also one
+256x256 tile at levels 0, 3 and 24. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
+  --exemplars DIR   texture photos                              [../shared/data/exemplars]
+  --repeat N        frames per row; the table shows the median    [5]
+  --backends LIST   comma-separated: cpu, osmesa, egl (skipped when absent)   [cpu,egl]
+  --threads N       CPU backend and FFTW threads, 0 = all cores   [0]
+  --max-side N      skip frame sizes wider than N (OSMesa is slow) [3840]
+)";
+
+template <class F> double median_ms(int repeat, F&& f) {
+    std::vector<double> ms;
+    for (int i = 0; i < repeat; ++i) {
+        const auto t0 = std::chrono::steady_clock::now();
+        f();
+        ms.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count());
+    }
+    std::sort(ms.begin(), ms.end());
+    return ms[ms.size() / 2];
+}
+} // namespace
+
+int bench_render_command(const Argv& argv) {
+    auto args = parse_args(
+        argv, {"--exemplars", "--repeat", "--backends", "--threads", "--max-side"}, {"--help"});
+    if (!args) return fail(2, args.error().message);
+    const Args& a = args.value();
+    if (a.flags.count("--help")) {
+        std::printf("%s", kHelp);
+        return 0;
+    }
+    auto repeat = a.get_int("--repeat", 5, 1, 1000);
+    auto threads = a.get_int("--threads", 0, 0, 256);
+    auto max_side = a.get_int("--max-side", 3840, 1, 16384);
+    if (!repeat || !threads || !max_side) return fail(2, "bad --repeat, --threads or --max-side");
+    const std::filesystem::path dir = a.get("--exemplars", "../shared/data/exemplars");
+    auto sand = io::decode_image_file((dir / "mypaint_HR_Cork.png").string());
+    if (!sand) return fail(1, "exemplars not found in " + dir.string());
+    const int nthreads = core::resolve_threads(static_cast<int>(threads.value()));
+
+    std::vector<std::shared_ptr<render::Backend>> backends;
+    std::stringstream list(a.get("--backends", "cpu,egl"));
+    for (std::string name; std::getline(list, name, ',');) {
+        auto kind = render::parse_backend_kind(name);
+        if (!kind) return fail(2, kind.error().message);
+        render::BackendOptions bo;
+        bo.threads = nthreads;
+        auto b = render::make_backend(kind.value(), bo);
+        if (!b) {
+            std::printf("(%s skipped: %s)\n", name.c_str(), b.error().message.c_str());
+            continue;
+        }
+        std::printf("%s: %s\n", name.c_str(), b.value().backend->renderer().c_str());
+        backends.push_back(b.value().backend);
+    }
+
+    struct Size {
+        int w, h;
+        const char* label;
+    };
+    const Size sizes[] = {{256, 256, "256x256"},
+                          {1024, 1024, "1024x1024"},
+                          {1920, 1080, "HD 1920x1080"},
+                          {3840, 2160, "4K 3840x2160"}};
+    std::printf("\nTexton noise, MNI 30, level 0, median of %lld frames; ADSN = FFTW spectral "
+                "synthesis of the same texton and size (%d threads)\n",
+                repeat.value(), nthreads);
+    std::printf("| backend | r | frame | ms/frame | ADSN ms | ADSN / backend |\n");
+    std::printf("|---|---|---|---|---|---|\n");
+    for (int r : {64, 256}) {
+        core::AnalysisParams p;
+        p.size = r;
+        auto analysed = core::analyze_texton(sand.value(), p);
+        if (!analysed) return fail(1, analysed.error().message);
+        auto prepared = render::PreparedTexton::make(analysed.value().texton);
+        if (!prepared) return fail(1, prepared.error().message);
+        const auto& tex = *prepared.value();
+        for (const Size& s : sizes) {
+            if (s.w > max_side.value()) continue;
+            const double adsn =
+                median_ms(std::max<int>(1, static_cast<int>(repeat.value()) / 2), [&] {
+                    core::synthesize_from_texton(tex.texton(), core::SpectralMethod::adsn, s.w, s.h,
+                                                 1, nthreads);
+                });
+            for (const auto& b : backends) {
+                render::NoiseRequest q;
+                q.width = s.w;
+                q.height = s.h;
+                q.seed = 1;
+                auto warm = b->render(tex, q); // first use builds tables and uploads textures
+                if (!warm) return fail(1, warm.error().message);
+                const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
+                    ++q.seed;
+                    auto img = b->render(tex, q);
+                });
+                std::printf("| %s | %d | %s | %.2f | %.2f | %.2fx |\n", b->name().c_str(), r,
+                            s.label, ms, adsn, adsn / ms);
+                std::fflush(stdout);
+            }
+        }
+        std::printf("| | | | | | |\n");
+    }
+
+    std::printf("\nOne 256x256 tile by level (r = 64, MNI 30; levels >= 6 use the limit model)\n");
+    std::printf("| backend | level | ms/tile | ratio to level 0 |\n|---|---|---|---|\n");
+    core::AnalysisParams p;
+    auto analysed = core::analyze_texton(sand.value(), p);
+    auto prepared = render::PreparedTexton::make(analysed.value().texton);
+    for (const auto& b : backends) {
+        double base = 0.0;
+        for (int level : {0, 3, 5, 6, 24}) {
+            render::NoiseRequest q;
+            q.level = level;
+            q.x0 = 12345;
+            q.y0 = -777;
+            auto warm = b->render(*prepared.value(), q);
+            if (!warm) return fail(1, warm.error().message);
+            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
+                ++q.seed;
+                auto img = b->render(*prepared.value(), q);
+            });
+            if (level == 0) base = ms;
+            std::printf("| %s | %d | %.2f | %.2fx |\n", b->name().c_str(), level, ms, ms / base);
+        }
+    }
+    return 0;
+}
+
+} // namespace textond::cli

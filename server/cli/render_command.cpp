@@ -1,0 +1,118 @@
+#include "render/backend_factory.h"
+#include "server/cli/analysis_options.h"
+#include "server/cli/commands.h"
+#include "server/cli/texton_input.h"
+#include "server/io/image_io.h"
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+
+namespace textond::cli {
+
+namespace {
+const char* kHelp = R"(usage: textond render INPUT [options] -o OUT.png|OUT.exr
+
+Evaluates a window of the texton noise of INPUT (render/NOISE_SPEC.md): a texton file written by
+`textond analyze`, or an exemplar that is analysed first (analysis options below). Prints a JSON
+summary (backend, timing) on stdout.
+  --x X, --y Y      window origin in output pixels of the level, signed 64-bit   [0]
+  --w W, --h H      window size in pixels, 1..16384                             [512]
+  --lod K           level -4..24: 2^K texels per output pixel (K < 0 magnifies)  [0]
+  --seed N          noise seed (unsigned 64-bit)                                [0]
+  --mni M           mean number of impacts per pixel, 1..200                    [30]
+  --period P        tileable mode: the noise repeats every P cells (P x cell side texels)
+  --backend B       auto | cpu | osmesa | egl                                   [auto]
+  --render-threads N  CPU backend threads, 0 = all cores                        [0]
+  --png16           16-bit PNG instead of 8-bit
+  -o, --output FILE .png (clamped to [0, 1]) or .exr (float32)
+)";
+} // namespace
+
+int render_command(const Argv& argv) {
+    std::set<std::string> options = kAnalysisOptions;
+    options.insert({"--output", "--x", "--y", "--w", "--h", "--lod", "--mni", "--period",
+                    "--backend", "--render-threads"});
+    std::set<std::string> flags = kAnalysisFlags;
+    flags.insert({"--help", "--png16"});
+    auto args = parse_args(argv, options, flags);
+    if (!args) return fail(2, args.error().message + " (see textond render --help)");
+    const Args& a = args.value();
+    if (a.flags.count("--help")) {
+        std::printf("%s\n%s", kHelp, kAnalysisHelp);
+        return 0;
+    }
+    if (a.positional.size() != 1) return fail(2, "render needs exactly one INPUT");
+    if (!a.options.count("--output")) return fail(2, "render needs -o OUT.png or OUT.exr");
+    render::NoiseRequest q;
+    {
+        auto x = a.get_int("--x", 0, INT64_MIN, INT64_MAX);
+        auto y = a.get_int("--y", 0, INT64_MIN, INT64_MAX);
+        auto w = a.get_int("--w", 512, 1, render::kMaxWindowSide);
+        auto h = a.get_int("--h", 512, 1, render::kMaxWindowSide);
+        auto lod = a.get_int("--lod", 0, -4, 24);
+        auto seed = a.get_u64("--seed", 0);
+        auto mni = a.get_double("--mni", render::kDefaultMni, 1.0, 200.0);
+        auto period = a.get_int("--period", 0, 0, 1 << 20);
+        for (const Error* e : {x ? nullptr : &x.error(), y ? nullptr : &y.error(),
+                               w ? nullptr : &w.error(), h ? nullptr : &h.error(),
+                               lod ? nullptr : &lod.error(), seed ? nullptr : &seed.error(),
+                               mni ? nullptr : &mni.error(), period ? nullptr : &period.error()})
+            if (e) return fail(2, e->message);
+        q.x0 = x.value();
+        q.y0 = y.value();
+        q.width = static_cast<int>(w.value());
+        q.height = static_cast<int>(h.value());
+        q.level = static_cast<int>(lod.value());
+        q.seed = seed.value();
+        q.mni = mni.value();
+        q.period = {period.value(), period.value()};
+    }
+    auto kind = render::parse_backend_kind(a.get("--backend", "auto"));
+    if (!kind) return fail(2, kind.error().message);
+    auto threads = a.get_int("--render-threads", 0, 0, 256);
+    if (!threads) return fail(2, threads.error().message);
+    auto encoding = io::encoding_for_path(a.get("--output"));
+    if (!encoding) return fail(2, encoding.error().message);
+    io::Encoding enc = encoding.value();
+    if (a.flags.count("--png16")) {
+        if (enc != io::Encoding::png8) return fail(2, "--png16 needs a .png output");
+        enc = io::Encoding::png16;
+    }
+
+    auto texton = load_or_analyze(a.positional[0], a);
+    if (!texton) return fail(1, texton.error().message);
+    auto prepared = render::PreparedTexton::make(std::move(texton.value()));
+    if (!prepared) return fail(1, prepared.error().message);
+    if (auto err = prepared.value()->check(q)) return fail(2, err->message);
+    render::BackendOptions bo;
+    bo.threads = static_cast<int>(threads.value());
+    auto choice = render::make_backend(kind.value(), bo);
+    if (!choice) return fail(1, choice.error().message);
+    spdlog::info("backend: {}", choice.value().reason);
+
+    const auto t0 = std::chrono::steady_clock::now();
+    auto image = choice.value().backend->render(*prepared.value(), q);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (!image) return fail(1, image.error().message);
+    auto written = io::encode_image_file(image.value(), a.get("--output"), enc,
+                                         {{"textond:noise", render::kNoiseVersion}});
+    if (!written) return fail(1, written.error().message);
+    nlohmann::json j = {{"backend", choice.value().backend->name()},
+                        {"renderer", choice.value().backend->renderer()},
+                        {"noise", render::kNoiseVersion},
+                        {"width", q.width},
+                        {"height", q.height},
+                        {"level", q.level},
+                        {"limit_model", q.level >= prepared.value()->limit_level()},
+                        {"render_ms", ms},
+                        {"output", a.get("--output")}};
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+}
+
+} // namespace textond::cli
