@@ -1,1 +1,17 @@
 #pragma once
+// Textons analysed from the shared exemplars, once per test process, ready for the backends.
+#include "render/prepared_texton.h"
+
+#include <memory>
+#include <string>
+
+namespace textond::test {
+
+// `name` from shared/data/exemplars, analysed with r = size (order 1, 50 iterations, seed 0).
+std::shared_ptr<const render::PreparedTexton> analysed_texton(const std::string& name, int size,
+                                                              int order = 1);
+
+// Standard deviation of channel c of the level-0 field: sqrt(C(0)_cc).
+double field_std(const render::PreparedTexton& t, int c);
+
+} // namespace textond::test

@@ -1,0 +1,36 @@
+#include "tests/render/render_fixtures.h"
+
+#include "core/texton_analysis.h"
+#include "tests/support/test_support.h"
+
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+
+namespace textond::test {
+
+std::shared_ptr<const render::PreparedTexton> analysed_texton(const std::string& name, int size,
+                                                              int order) {
+    static std::mutex mutex;
+    static std::map<std::string, std::shared_ptr<const render::PreparedTexton>> cache;
+    std::lock_guard<std::mutex> lock(mutex);
+    const std::string key = name + "/" + std::to_string(size) + "/" + std::to_string(order);
+    auto it = cache.find(key);
+    if (it != cache.end()) return it->second;
+    core::AnalysisParams p;
+    p.size = size;
+    p.order = order;
+    auto r = core::analyze_texton(load_exemplar(name), p);
+    if (!r) throw std::runtime_error(r.error().message);
+    auto t = render::PreparedTexton::make(r.value().texton);
+    if (!t) throw std::runtime_error(t.error().message);
+    cache.emplace(key, t.value());
+    return t.value();
+}
+
+double field_std(const render::PreparedTexton& t, int c) {
+    return std::sqrt(t.covariance().at(c, c, 0, 0));
+}
+
+} // namespace textond::test
