@@ -3,6 +3,7 @@
 #include "core/grid_poisson.h"
 #include "core/noise_hash.h"
 
+#include "render/backend_factory.h"
 #include "render/cpu_backend.h"
 #include "render/egl_backend.h"
 #include "render/osmesa_backend.h"
@@ -12,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace textond::test {
@@ -125,6 +127,94 @@ void check_field_vectors(render::Backend& b) {
         for (int c = 0; c < tex->channels(); ++c)
             EXPECT_NEAR(img.value().at(c, 0, 0), v["value"][c].get<double>(), 2e-5) << v.dump();
     }
+}
+
+// CPU and GL evaluate the same points in the same order with the same float operations
+// (`precise` in the GLSL); what may differ is the rounding of a few operations (llvmpipe and
+// GPUs may still fuse or reorder vector arithmetic, texel fetch paths), each about 1 ulp of the
+// accumulator, over ~MNI x 4 terms: far below 1e-5 of the field's std. The limit model draws its
+// normals through log, cos and sin, whose GLSL precision is not IEEE: 1e-3 of the std.
+void check_against_cpu(render::Backend& gl) {
+    const auto tex = analysed_texton("etr_sand01.png", 64);
+    render::CpuBackend cpu;
+    struct Case {
+        int level;
+        std::int64_t x0, y0;
+        double mni;
+    };
+    const std::int64_t far = std::int64_t{1} << 40;
+    for (const Case& c :
+         {Case{0, 0, 0, 30}, Case{0, far, -far, 30}, Case{2, -50, 17, 30}, Case{-1, 9, -4, 5},
+          Case{-3, far, far, 30}, Case{0, 3, 3, 1}, Case{3, 100, 100, 200},
+          Case{tex->limit_level(), 5, 5, 30}, Case{24, -(far >> 4), far >> 4, 30}}) {
+        render::NoiseRequest q;
+        q.seed = 77;
+        q.level = c.level;
+        q.x0 = c.x0;
+        q.y0 = c.y0;
+        q.mni = c.mni;
+        q.width = 61;
+        q.height = 47;
+        auto a = cpu.render(*tex, q);
+        auto b = gl.render(*tex, q);
+        ASSERT_TRUE(a.ok() && b.ok()) << (b.ok() ? "" : b.error().message);
+        const bool limit = c.level >= tex->limit_level();
+        for (int ch = 0; ch < 3; ++ch) {
+            double worst = 0;
+            for (int y = 0; y < q.height; ++y)
+                for (int x = 0; x < q.width; ++x)
+                    worst = std::max(
+                        worst, std::fabs(double(a.value().at(ch, x, y)) - b.value().at(ch, x, y)));
+            // Box-averaged levels have a smaller std than level 0; the bound uses level 0's.
+            const double tol = (limit ? 1e-3 : 1e-5) * field_std(*tex, ch);
+            EXPECT_LE(worst, tol) << gl.name() << " level " << c.level << " x0 " << c.x0
+                                  << " channel " << ch;
+        }
+    }
+    // Tileable mode too.
+    render::NoiseRequest q;
+    q.period = {3, 2};
+    q.width = 3 * tex->cell_size();
+    q.height = 2 * tex->cell_size();
+    auto a = cpu.render(*tex, q);
+    auto b = gl.render(*tex, q);
+    ASSERT_TRUE(a.ok() && b.ok());
+    double worst = 0;
+    for (std::size_t i = 0; i < a.value().data.size(); ++i)
+        worst = std::max(worst, std::fabs(double(a.value().data[i]) - b.value().data[i]));
+    EXPECT_LE(worst, 1e-5 * field_std(*tex, 0));
+}
+
+TEST(OsmesaBackend, AgreesWithCpu) {
+    auto gl = osmesa();
+    if (!gl) GTEST_SKIP() << "no OSMesa";
+    check_against_cpu(*gl);
+}
+
+TEST(EglBackend, CodePathAgreesWithCpuOnAnyRenderer) {
+    auto gl = egl_any();
+    if (!gl) GTEST_SKIP() << "no EGL at all: " << render::make_egl_backend(true).error().message;
+    check_against_cpu(*gl);
+}
+
+TEST(EglBackend, GpuAgreesWithCpu) {
+    auto gl = egl_gpu();
+    if (!gl) GTEST_SKIP() << "no GPU";
+    check_against_cpu(*gl);
+}
+
+TEST(BackendFactory, ReportsWhatItPickedAndWhy) {
+    auto cpu = render::make_backend(render::BackendKind::cpu);
+    ASSERT_TRUE(cpu.ok());
+    EXPECT_EQ(cpu.value().backend->name(), "cpu");
+    auto automatic = render::make_backend(render::BackendKind::automatic);
+    ASSERT_TRUE(automatic.ok());
+    EXPECT_NE(automatic.value().reason.find("auto:"), std::string::npos);
+    if (egl_gpu())
+        EXPECT_EQ(automatic.value().backend->name(), "egl");
+    else
+        EXPECT_EQ(automatic.value().backend->name(), "cpu") << automatic.value().reason;
+    EXPECT_FALSE(render::parse_backend_kind("vulkan").ok());
 }
 
 TEST(OsmesaBackend, SpecVectors) {
