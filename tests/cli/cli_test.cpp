@@ -38,7 +38,8 @@ RunResult run(const std::string& args) {
 } // namespace
 
 TEST(Cli, HelpForEveryCommand) {
-    for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help"}) {
+    for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help",
+                          "render --help", "bench render --help"}) {
         const RunResult r = run(c);
         EXPECT_EQ(r.code, 0) << c;
         EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
@@ -105,5 +106,51 @@ TEST(Cli, ErrorsGoToStderrWithNonZeroExit) {
         EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.err;
         EXPECT_TRUE(r.out.empty()) << c.args;
         EXPECT_NE(r.err.find(c.says), std::string::npos) << c.args << "\n" << r.err;
+    }
+}
+
+TEST(Cli, RenderWritesTheAskedWindowOnEverySoftwareBackend) {
+    const std::string texton = test::temp_path("render-sand.exr");
+    ASSERT_EQ(
+        run("analyze " + test::exemplar_path("etr_sand01.png") + " --size 32 -o " + texton).code,
+        0);
+    for (const char* backend : {"cpu", "osmesa", "auto"}) {
+        const std::string out = test::temp_path(std::string("render-") + backend + ".png");
+        const RunResult r = run("render " + texton + " --x -1099511627776 --y 77 --w 80 --h 48" +
+                                " --lod -1 --seed 9 --backend " + backend + " --png16 -o " + out);
+        ASSERT_EQ(r.code, 0) << backend << "\n" << r.err;
+        const auto j = nlohmann::json::parse(r.out);
+        EXPECT_EQ(j.at("noise").get<std::string>(), "textond-noise/1");
+        EXPECT_FALSE(j.at("renderer").get<std::string>().empty());
+        auto img = io::decode_image_file(out);
+        ASSERT_TRUE(img.ok());
+        EXPECT_EQ(img.value().width, 80);
+        EXPECT_EQ(img.value().height, 48);
+        EXPECT_EQ(img.value().channels, 3);
+    }
+    // An exemplar as INPUT is analysed first; a level above the switch uses the limit model.
+    const std::string out = test::temp_path("render-far.exr");
+    const RunResult r = run("render " + test::exemplar_path("skimage_gravel.png") +
+                            " --size 16 --lod 24 --w 32 --h 32 -o " + out);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(nlohmann::json::parse(r.out).at("limit_model").get<bool>());
+
+    struct Case {
+        std::string args;
+        int code;
+        std::string says;
+    };
+    const Case cases[] = {
+        {"render " + texton + " --lod 25 -o x.png", 2, "--lod"},
+        {"render " + texton + " --mni 0 -o x.png", 2, "--mni"},
+        {"render " + texton + " --backend vulkan -o x.png", 2, "unknown backend"},
+        {"render " + texton + " --lod 20 --x 4611686018427387903 -o x.png", 2, "plane"},
+        {"render " + texton + " --period 4 --lod 20 -o x.png", 2, "tileable"},
+        {"render " + texton, 2, "-o"},
+    };
+    for (const Case& c : cases) {
+        const RunResult e = run(c.args);
+        EXPECT_EQ(e.code, c.code) << c.args << "\n" << e.err;
+        EXPECT_NE(e.err.find(c.says), std::string::npos) << c.args << "\n" << e.err;
     }
 }
