@@ -90,11 +90,13 @@ void pixel_normals(std::uint64_t seed, int level, std::int64_t px, std::int64_t 
                    float* out) {
     Stream32 s(pixel_key(seed, level, px, py));
     for (int c = 0; c < channels; c += 2) {
-        const double u1 = ((s.next() >> 8) + 1) * (1.0 / 16777216.0);
-        const double u2 = (s.next() >> 8) * (1.0 / 16777216.0);
-        const double rr = std::sqrt(-2.0 * std::log(u1));
-        out[c] = static_cast<float>(rr * std::cos(2.0 * M_PI * u2));
-        if (c + 1 < channels) out[c + 1] = static_cast<float>(rr * std::sin(2.0 * M_PI * u2));
+        // Float, as in the GLSL: the u are exact 24-bit values, the functions within a few ulp.
+        const float u1 = static_cast<float>((s.next() >> 8) + 1) * (1.0f / 16777216.0f);
+        const float u2 = static_cast<float>(s.next() >> 8) * (1.0f / 16777216.0f);
+        const float rr = std::sqrt(-2.0f * std::log(u1));
+        const float angle = 6.28318530717958647f * u2;
+        out[c] = rr * std::cos(angle);
+        if (c + 1 < channels) out[c + 1] = rr * std::sin(angle);
     }
 }
 

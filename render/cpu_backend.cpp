@@ -250,12 +250,16 @@ void render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads,
     const int nc = tex.channels();
     const core::noise::LimitModel& lm = tex.limit(q.level);
     const int zw = q.width + 4, zh = q.height + 4;
-    std::vector<float> z(static_cast<std::size_t>(zw) * zh * 3);
+    const std::size_t zplane = static_cast<std::size_t>(zw) * zh;
+    std::vector<float> z(zplane * nc); // planar, so the 5x5 filter below vectorises
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < zh; ++y)
-        for (int x = 0; x < zw; ++x)
-            core::noise::pixel_normals(q.seed, q.level, q.x0 - 2 + x, q.y0 - 2 + y, nc,
-                                       &z[(static_cast<std::size_t>(y) * zw + x) * 3]);
+        for (int x = 0; x < zw; ++x) {
+            float n[3];
+            core::noise::pixel_normals(q.seed, q.level, q.x0 - 2 + x, q.y0 - 2 + y, nc, n);
+            for (int c = 0; c < nc; ++c)
+                z[zplane * c + static_cast<std::size_t>(y) * zw + x] = n[c];
+        }
     float kappa[25];
     for (int i = 0; i < 25; ++i)
         kappa[i] = static_cast<float>(lm.kappa[static_cast<std::size_t>(i)]);
@@ -264,24 +268,31 @@ void render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads,
         mean[c] = static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
         for (int d = 0; d < nc; ++d) a[c][d] = static_cast<float>(lm.a(c, d));
     }
+    const int w = q.width;
 #pragma omp parallel for schedule(static) num_threads(threads)
-    for (int y = 0; y < q.height; ++y)
-        for (int x = 0; x < q.width; ++x) {
-            float s[3] = {0.0f, 0.0f, 0.0f};
-            // Pixel P = (x, y) reads z(P - D), D in [-2, 2]^2, row-major from D = (-2, -2).
+    for (int y = 0; y < q.height; ++y) {
+        std::vector<float> s(static_cast<std::size_t>(w) * nc, 0.0f);
+        for (int c = 0; c < nc; ++c) {
+            float* sc = s.data() + static_cast<std::size_t>(w) * c;
+            // Pixel P reads z(P - D), D in [-2, 2]^2, in row-major order from D = (-2, -2).
             for (int dy = -2; dy <= 2; ++dy)
                 for (int dx = -2; dx <= 2; ++dx) {
                     const float k = kappa[(dy + 2) * 5 + dx + 2];
-                    const float* zp =
-                        &z[(static_cast<std::size_t>(y + 2 - dy) * zw + (x + 2 - dx)) * 3];
-                    for (int c = 0; c < nc; ++c) s[c] = s[c] + k * zp[c];
+                    const float* zr =
+                        z.data() + zplane * c + static_cast<std::size_t>(y + 2 - dy) * zw + 2 - dx;
+                    for (int x = 0; x < w; ++x) sc[x] = sc[x] + k * zr[x];
                 }
-            for (int c = 0; c < nc; ++c) {
+        }
+        for (int c = 0; c < nc; ++c) {
+            float* o = &out.at(c, 0, y);
+            for (int x = 0; x < w; ++x) {
                 float v = 0.0f;
-                for (int d = 0; d < nc; ++d) v = v + a[c][d] * s[d];
-                out.at(c, x, y) = mean[c] + v;
+                for (int d = 0; d < nc; ++d)
+                    v = v + a[c][d] * s[static_cast<std::size_t>(w) * d + x];
+                o[x] = mean[c] + v;
             }
         }
+    }
 }
 
 } // namespace
