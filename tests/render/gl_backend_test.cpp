@@ -112,23 +112,6 @@ void check_probe(GlBackend& gl) {
     }
 }
 
-void check_field_vectors(render::Backend& b) {
-    for (const auto& v : noise_vectors()["field"]) {
-        const auto tex = vector_texton(v["texton"].get<int>());
-        render::NoiseRequest q;
-        q.seed = v["seed"].get<std::uint64_t>();
-        q.mni = v["mni"].get<double>();
-        q.level = v["level"].get<int>();
-        q.x0 = v["x"].get<std::int64_t>();
-        q.y0 = v["y"].get<std::int64_t>();
-        q.width = q.height = 1;
-        auto img = b.render(*tex, q);
-        ASSERT_TRUE(img.ok()) << img.error().message;
-        for (int c = 0; c < tex->channels(); ++c)
-            EXPECT_NEAR(img.value().at(c, 0, 0), v["value"][c].get<double>(), 2e-5) << v.dump();
-    }
-}
-
 // CPU and GL evaluate the same points in the same order with the same float operations
 // (`precise` in the GLSL); what may differ is the rounding of a few operations (llvmpipe and
 // GPUs may still fuse or reorder vector arithmetic, texel fetch paths), each about 1 ulp of the

@@ -101,20 +101,7 @@ TEST(NoiseSpec, PixelNormals) {
 
 TEST(NoiseSpec, FieldValuesOnCpu) {
     render::CpuBackend cpu(1);
-    for (const auto& v : noise_vectors()["field"]) {
-        const auto tex = vector_texton(v["texton"].get<int>());
-        render::NoiseRequest q;
-        q.seed = v["seed"].get<std::uint64_t>();
-        q.mni = v["mni"].get<double>();
-        q.level = v["level"].get<int>();
-        q.x0 = v["x"].get<std::int64_t>();
-        q.y0 = v["y"].get<std::int64_t>();
-        q.width = q.height = 1;
-        auto img = cpu.render(*tex, q);
-        ASSERT_TRUE(img.ok()) << img.error().message;
-        for (int c = 0; c < tex->channels(); ++c)
-            EXPECT_NEAR(img.value().at(c, 0, 0), v["value"][c].get<double>(), 2e-5) << v.dump();
-    }
+    check_field_vectors(cpu);
 }
 
 } // namespace

@@ -1,5 +1,7 @@
 #include "tests/render/noise_vectors.h"
 
+#include <gtest/gtest.h>
+
 #include <fstream>
 #include <stdexcept>
 
@@ -31,6 +33,23 @@ std::shared_ptr<const render::PreparedTexton> vector_texton(int index) {
     auto p = render::PreparedTexton::make(std::move(tex));
     if (!p.ok()) throw std::runtime_error(p.error().message);
     return p.value();
+}
+
+void check_field_vectors(render::Backend& b) {
+    for (const auto& v : noise_vectors()["field"]) {
+        const auto tex = vector_texton(v["texton"].get<int>());
+        render::NoiseRequest q;
+        q.seed = v["seed"].get<std::uint64_t>();
+        q.mni = v["mni"].get<double>();
+        q.level = v["level"].get<int>();
+        q.x0 = v["x"].get<std::int64_t>();
+        q.y0 = v["y"].get<std::int64_t>();
+        q.width = q.height = 1;
+        auto img = b.render(*tex, q);
+        ASSERT_TRUE(img.ok()) << img.error().message;
+        for (int c = 0; c < tex->channels(); ++c)
+            EXPECT_NEAR(img.value().at(c, 0, 0), v["value"][c].get<double>(), 2e-5) << v.dump();
+    }
 }
 
 } // namespace textond::test
