@@ -76,7 +76,7 @@ std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
     t->data.assign(static_cast<std::size_t>(g.channels) * (g.width + 2) * t->stride, 0.0f);
     for (int c = 0; c < g.channels; ++c)
         for (int y = 0; y < g.height; ++y) {
-            float* dst = const_cast<float*>(t->row(c, y + 1)) + 1;
+            float* dst = t->row(c, y + 1) + 1;
             for (int x = 0; x < g.width; ++x) dst[x] = g.at(c, x, y);
         }
     m_tables.emplace(key, t);

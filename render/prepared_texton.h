@@ -27,6 +27,9 @@ struct LevelTable {
     const float* row(int c, int i) const {
         return data.data() + (static_cast<std::size_t>(c) * (length + 2) + i) * stride;
     }
+    float* row(int c, int i) {
+        return data.data() + (static_cast<std::size_t>(c) * (length + 2) + i) * stride;
+    }
 };
 
 class PreparedTexton {

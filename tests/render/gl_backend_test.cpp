@@ -9,6 +9,7 @@
 #include "render/osmesa_backend.h"
 #include "tests/render/noise_vectors.h"
 #include "tests/render/render_fixtures.h"
+#include "tests/support/test_support.h"
 #include <functional>
 
 #include <gtest/gtest.h>
@@ -162,10 +163,7 @@ void check_against_cpu(render::Backend& gl) {
     auto a = cpu.render(*tex, q);
     auto b = gl.render(*tex, q);
     ASSERT_TRUE(a.ok() && b.ok());
-    double worst = 0;
-    for (std::size_t i = 0; i < a.value().data.size(); ++i)
-        worst = std::max(worst, std::fabs(double(a.value().data[i]) - b.value().data[i]));
-    EXPECT_LE(worst, 1e-5 * field_std(*tex, 0));
+    EXPECT_LE(max_abs_diff(a.value(), b.value()), 1e-5 * field_std(*tex, 0));
 }
 
 TEST(OsmesaBackend, AgreesWithCpu) {

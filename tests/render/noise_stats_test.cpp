@@ -79,9 +79,9 @@ TEST_P(Campbell, MomentsMatchTheTexton) {
                 m2 += d * d;
                 m4 += d * d * d * d;
             }
-            mean[i].push_back(s1 / n);
-            var[i].push_back(m2 / n);
-            kurt[i].push_back(m4 / n / (s2 * s2) - 3.0);
+            mean[i].push_back(s1 / static_cast<double>(n));
+            var[i].push_back(m2 / static_cast<double>(n));
+            kurt[i].push_back(m4 / static_cast<double>(n) / (s2 * s2) - 3.0);
         }
     }
     for (int ch = 0; ch < tex->channels(); ++ch) {
@@ -143,7 +143,7 @@ TEST(NoiseStatistics, ColourCovarianceMatchesTheModel) {
                 double s = 0;
                 for (std::size_t k = 0; k < n; ++k)
                     s += (img.value().plane(a)[k] - ma) * (img.value().plane(b)[k] - mb);
-                cov[a][b].push_back(s / n);
+                cov[a][b].push_back(s / static_cast<double>(n));
             }
     }
     for (int a = 0; a < 3; ++a)
@@ -288,8 +288,8 @@ TEST(NoiseLevels, LimitModelKeepsMeanAndVarianceUpToLevel24) {
                 s1 += d;
                 s2 += d * d;
             }
-            mean.push_back(s1 / img.value().plane_size());
-            var.push_back(s2 / img.value().plane_size());
+            mean.push_back(s1 / static_cast<double>(img.value().plane_size()));
+            var.push_back(s2 / static_cast<double>(img.value().plane_size()));
         }
         const Estimate em = of(mean), ev = of(var);
         // Float output: values within half an ulp of the mean cannot show a smaller variance.
