@@ -45,6 +45,7 @@ void to_json(nlohmann::json& j, const TextonMeta& m) {
           {"total", m.timings.total_ms}}},
         {"coefficients_sha256", m.coefficients_sha256},
     };
+    if (!m.created.empty()) j["created"] = m.created;
 }
 
 void from_json(const nlohmann::json& j, TextonMeta& m) {
@@ -74,6 +75,7 @@ void from_json(const nlohmann::json& j, TextonMeta& m) {
     t.at("rme").get_to(m.timings.rme_ms);
     t.at("total").get_to(m.timings.total_ms);
     j.at("coefficients_sha256").get_to(m.coefficients_sha256);
+    m.created = j.value("created", std::string());
 }
 
 } // namespace textond::api

@@ -30,6 +30,7 @@ struct TextonMeta {
     double rme_uncorrected = 0;
     core::AnalysisTimings timings;
     std::string coefficients_sha256; // of the float32 coefficients as stored, checked on load
+    std::string created;             // RFC 3339 UTC, set when the service stores it; may be empty
 
     core::AnalysisParams params() const;
 };

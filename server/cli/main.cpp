@@ -16,6 +16,7 @@ commands:
   analyze   estimate the Gaussian model of an exemplar and compute its texton (+ RME)
   synth     reference synthesis (ADSN, RPN, discrete spot noise) from an exemplar or texton
   render    evaluate a window of texton noise (any position, level, seed) on a backend
+  serve     run the HTTP service (textond serve --help; README "HTTP API")
   bench     benchmarks (textond bench analyze | render)
 
   textond <command> --help   options of one command
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
         if (cmd == "synth") return textond::cli::synth_command(rest);
         if (cmd == "render") return textond::cli::render_command(rest);
         if (cmd == "bench") return textond::cli::bench_command(rest);
+        if (cmd == "serve") return textond::cli::serve_command(rest);
         std::fputs(kUsage, stderr);
         return textond::cli::fail(2, "unknown command '" + cmd + "'");
     } catch (const std::exception& e) {

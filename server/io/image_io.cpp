@@ -74,6 +74,16 @@ Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits) {
     return img;
 }
 
+// Keep colour as stored: OpenImageIO would otherwise premultiply by the alpha we then drop.
+const ImageSpec& read_config() {
+    static const ImageSpec config = [] {
+        ImageSpec c;
+        c.attribute("oiio:UnassociatedAlpha", 1);
+        return c;
+    }();
+    return config;
+}
+
 } // namespace
 
 Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits) {
@@ -81,10 +91,7 @@ Result<core::Image> decode_image_file(const std::string& path, const DecodeLimit
     if (!fs::is_regular_file(path, ec))
         return make_error(ErrorCode::not_found, "no such file: " + path);
     if (fs::file_size(path, ec) == 0) return unprocessable("file is empty: " + path);
-    // Keep colour as stored: OpenImageIO would otherwise premultiply by the alpha we then drop.
-    ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = ImageInput::open(path, &config);
+    auto in = ImageInput::open(path, &read_config());
     if (!in) {
         const std::string err = oiio_message(OIIO::geterror());
         if (err.find("not a file format") != std::string::npos ||
@@ -95,14 +102,34 @@ Result<core::Image> decode_image_file(const std::string& path, const DecodeLimit
     return read_opened(*in, limits);
 }
 
+std::string sniff_format(std::string_view b) {
+    auto starts = [&](std::string_view magic) { return b.substr(0, magic.size()) == magic; };
+    using namespace std::string_view_literals;
+    if (starts("\x89PNG\r\n\x1a\n"sv)) return "png";
+    if (starts("\xff\xd8\xff"sv)) return "jpeg";
+    if (starts("II*\0"sv) || starts("MM\0*"sv)) return "tiff";
+    if (starts("\x76\x2f\x31\x01"sv)) return "openexr";
+    if (starts("BM"sv) && b.size() >= 26) return "bmp";
+    return "";
+}
+
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits) {
     if (bytes.empty()) return unprocessable("image is empty");
+    const std::string format = sniff_format(bytes);
+    const bool allowed = !format.empty() && (limits.formats.empty() ||
+                                             std::find(limits.formats.begin(), limits.formats.end(),
+                                                       format) != limits.formats.end());
+    if (!allowed)
+        return make_error(ErrorCode::unsupported,
+                          format.empty() ? "not an image in a format we accept (PNG, JPEG, TIFF, "
+                                           "OpenEXR, BMP)"
+                                         : "image format '" + format + "' is not accepted here");
     // Not every OpenImageIO 2.4 reader takes an in-memory proxy, so decode from a private
-    // temporary file; the format is detected from the content, not from a name.
-    char tmpl[] = "/tmp/textond-decode-XXXXXX";
-    const int fd = mkstemp(tmpl);
+    // temporary file, opened by the sniffed format's reader only (OpenImageIO would otherwise
+    // try every reader it has on bytes that fail the first one).
+    std::string path = (fs::temp_directory_path() / "textond-decode-XXXXXX").string();
+    const int fd = mkstemp(path.data());
     if (fd < 0) return make_error(ErrorCode::io, std::string("mkstemp: ") + std::strerror(errno));
-    const std::string path = tmpl;
     std::size_t off = 0;
     while (off < bytes.size()) {
         const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
@@ -114,7 +141,15 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
         off += static_cast<std::size_t>(n);
     }
     ::close(fd);
-    auto result = decode_image_file(path, limits);
+    Result<core::Image> result = make_error(ErrorCode::internal, "no reader");
+    auto in = ImageInput::create(format);
+    if (!in)
+        result = make_error(ErrorCode::unsupported, "no reader for " + format);
+    else if (ImageSpec unused; !in->open(path, unused, read_config()))
+        result =
+            unprocessable("cannot decode " + format + " image: " + oiio_message(in->geterror()));
+    else
+        result = read_opened(*in, limits);
     ::unlink(path.c_str());
     return result;
 }
@@ -167,24 +202,61 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
     return true;
 }
 
-Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
-                               const Attributes& attributes) {
-    if (image.empty()) return make_error(ErrorCode::invalid_argument, "nothing to encode");
+namespace {
+
+struct EncodeInput {
+    ImageSpec spec;
+    std::vector<float> interleaved;
+};
+
+EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attributes& attributes) {
     const TypeDesc type = e == Encoding::png8    ? TypeDesc::UINT8
                           : e == Encoding::png16 ? TypeDesc::UINT16
                                                  : TypeDesc::FLOAT;
-    ImageSpec spec(image.width, image.height, image.channels, type);
-    if (e == Encoding::exr) spec.attribute("compression", "zip");
-    if (image.channels == 1) spec.channelnames = {"Y"};
-    for (const auto& [key, value] : attributes) spec.attribute(key, value);
+    EncodeInput in{ImageSpec(image.width, image.height, image.channels, type), {}};
+    if (e == Encoding::exr) in.spec.attribute("compression", "zip");
+    if (image.channels == 1) in.spec.channelnames = {"Y"};
+    for (const auto& [key, value] : attributes) in.spec.attribute(key, value);
     const std::size_t n = image.plane_size();
-    std::vector<float> interleaved(n * static_cast<std::size_t>(image.channels));
-    for (std::size_t k = 0; k < n; ++k)
-        for (int c = 0; c < image.channels; ++c) {
-            float v = image.plane(c)[k];
-            if (e != Encoding::exr) v = std::clamp(v, 0.0f, 1.0f);
-            interleaved[k * image.channels + c] = v;
-        }
+    in.interleaved.resize(n * static_cast<std::size_t>(image.channels));
+    for (int c = 0; c < image.channels; ++c) {
+        const float* p = image.plane(c);
+        float* out = in.interleaved.data() + c;
+        if (e == Encoding::exr)
+            for (std::size_t k = 0; k < n; ++k) out[k * image.channels] = p[k];
+        else
+            for (std::size_t k = 0; k < n; ++k)
+                out[k * image.channels] = std::clamp(p[k], 0.0f, 1.0f);
+    }
+    return in;
+}
+
+} // namespace
+
+Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
+                                        const Attributes& attributes, int png_compression) {
+    if (image.empty()) return make_error(ErrorCode::invalid_argument, "nothing to encode");
+    EncodeInput in = prepare_encode(image, e, attributes);
+    if (e != Encoding::exr) in.spec.attribute("png:compressionLevel", png_compression);
+    std::vector<unsigned char> buffer;
+    OIIO::Filesystem::IOVecOutput proxy(buffer);
+    void* proxy_ptr = &proxy;
+    in.spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy_ptr);
+    // The name only picks the encoder; with an I/O proxy nothing touches the filesystem.
+    auto out = ImageOutput::create(e == Encoding::exr ? "tile.exr" : "tile.png");
+    if (!out) return make_error(ErrorCode::io, "no encoder: " + oiio_message(OIIO::geterror()));
+    if (!out->open(e == Encoding::exr ? "tile.exr" : "tile.png", in.spec) ||
+        !out->write_image(TypeDesc::FLOAT, in.interleaved.data()) || !out->close())
+        return make_error(ErrorCode::internal, "cannot encode: " + oiio_message(out->geterror()));
+    return std::string(buffer.begin(), buffer.end());
+}
+
+Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
+                               const Attributes& attributes) {
+    if (image.empty()) return make_error(ErrorCode::invalid_argument, "nothing to encode");
+    const EncodeInput in = prepare_encode(image, e, attributes);
+    const ImageSpec& spec = in.spec;
+    const std::vector<float>& interleaved = in.interleaved;
     // Encode next to the target under a temporary name, then rename: never a half-written file.
     const fs::path target(path);
     const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");

@@ -18,9 +18,19 @@ namespace textond::io {
 
 struct DecodeLimits {
     std::uint64_t max_pixels = 16'777'216; // 16.8 MP (4096 x 4096)
+    // OpenImageIO format names decode_image_memory accepts ("png", "jpeg", "tiff", "openexr",
+    // "bmp"); empty = whatever sniff_format recognises. Files named on the command line are
+    // trusted more and may be any format OpenImageIO reads.
+    std::vector<std::string> formats;
 };
 
+// The format named by the first bytes (magic numbers), as an OpenImageIO format name, or ""
+// when none of the formats we accept for uploads starts that way.
+std::string sniff_format(std::string_view bytes);
+
 Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits = {});
+// Uploads: the format is sniffed from the bytes and must be in `limits.formats` (else
+// ErrorCode::unsupported), and only that format's reader ever sees the bytes.
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits = {});
 
 enum class Encoding { png8, png16, exr };
@@ -29,10 +39,16 @@ enum class Encoding { png8, png16, exr };
 Result<Encoding> encoding_for_path(const std::string& path);
 const char* extension_of(Encoding e);
 
+using Attributes = std::vector<std::pair<std::string, std::string>>;
+
+// Encodes into memory (tiles): same conventions as encode_image_file. `png_compression` is zlib's
+// level 0..9; noise barely compresses, so a low level saves time for a few percent of size.
+Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
+                                        const Attributes& attributes = {}, int png_compression = 6);
+
 // Writes atomically (temporary file in the same directory, fsync, rename). PNG values are
 // clamped to [0, 1]; EXR keeps floats (bit-exact). One-channel images are written as one channel
 // ("Y"). `attributes` become string metadata of the file.
-using Attributes = std::vector<std::pair<std::string, std::string>>;
 Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
                                const Attributes& attributes = {});
 

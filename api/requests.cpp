@@ -1,0 +1,312 @@
+#include "api/requests.h"
+
+#include "core/grid_poisson.h"
+#include "core/noise_levels.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <initializer_list>
+#include <set>
+
+namespace textond::api {
+
+namespace {
+
+ApiError bad(std::string code, std::string message) {
+    return {400, std::move(code), std::move(message)};
+}
+
+// Refuses fields the endpoint does not know and fields given twice: a typo or an ambiguous URL
+// must not silently fall back to a default (and one image must have one URL, for caches).
+std::optional<ApiError> check_fields(const Query& q, std::initializer_list<const char*> known) {
+    const std::set<std::string> allowed(known.begin(), known.end());
+    for (auto it = q.begin(); it != q.end(); ++it) {
+        if (!allowed.count(it->first)) {
+            std::string list;
+            for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+            return bad("unknown_parameter", "unknown parameter '" + it->first +
+                                                "' (this endpoint takes " +
+                                                (list.empty() ? "none" : list) + ")");
+        }
+        if (q.count(it->first) > 1)
+            return bad("invalid_parameter",
+                       "parameter '" + it->first + "' is given more than once");
+    }
+    return std::nullopt;
+}
+
+const std::string* field(const Query& q, const char* name) {
+    auto it = q.find(name);
+    return it == q.end() ? nullptr : &it->second;
+}
+
+std::optional<ApiError> int_field(const Query& q, const char* name, std::int64_t lo,
+                                  std::int64_t hi, std::int64_t& out) {
+    const std::string* s = field(q, name);
+    if (!s) return std::nullopt;
+    auto v = parse_i64(*s);
+    if (!v || *v < lo || *v > hi)
+        return bad("invalid_parameter", std::string(name) + " must be an integer in [" +
+                                            std::to_string(lo) + ", " + std::to_string(hi) +
+                                            "], not '" + s->substr(0, 40) + "'");
+    out = *v;
+    return std::nullopt;
+}
+
+std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
+    if (const std::string* s = field(q, "seed")) {
+        auto v = parse_u64(*s);
+        if (!v)
+            return bad("invalid_parameter",
+                       "seed must be an unsigned 64-bit integer, not '" + s->substr(0, 40) + "'");
+        out.seed = *v;
+    }
+    if (const std::string* s = field(q, "mni")) {
+        auto v = parse_finite(*s);
+        if (!v || *v < core::noise::kMinMni || *v > core::noise::kMaxMni)
+            return bad(
+                "invalid_parameter",
+                "mni (mean number of impacts per pixel) must be a number in [1, 200], not '" +
+                    s->substr(0, 40) + "'");
+        out.mni = *v;
+    }
+    return std::nullopt;
+}
+
+std::optional<ApiError> format_of(std::string_view ext, ImageFormat& out) {
+    auto f = parse_image_format(ext);
+    if (!f)
+        return bad("invalid_format", "image format must be png, png16 or exr, not '" +
+                                         std::string(ext.substr(0, 20)) + "'");
+    out = *f;
+    return std::nullopt;
+}
+
+std::optional<ApiError> level_of(std::string_view z, int& out) {
+    auto v = parse_i64(z);
+    if (!v)
+        return bad("invalid_parameter",
+                   "z must be an integer, not '" + std::string(z.substr(0, 40)) + "'");
+    if (*v < core::noise::kMinLevel || *v > core::noise::kMaxLevel)
+        return bad("level_out_of_range", "z (level: 2^z texels per pixel) must be in [" +
+                                             std::to_string(core::noise::kMinLevel) + ", " +
+                                             std::to_string(core::noise::kMaxLevel) + "], not " +
+                                             std::to_string(*v));
+    out = static_cast<int>(*v);
+    return std::nullopt;
+}
+
+// The plane is [-2^62, 2^62] texels (render/NOISE_SPEC.md): at level k >= 0 that is 2^(62-k)
+// pixels; finer levels sample the same texels more densely and keep the 2^62-pixel bound.
+std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int64_t w,
+                                     std::int64_t h, int level) {
+    const std::int64_t bound = (std::int64_t{1} << 62) >> (level > 0 ? level : 0);
+    auto inside = [&](std::int64_t v, std::int64_t n) { return v >= -bound && v <= bound - n; };
+    if (!inside(x0, w) || !inside(y0, h))
+        return bad("coordinate_out_of_range",
+                   "window outside the plane: at level " + std::to_string(level) +
+                       " pixel coordinates must stay within +-" + std::to_string(bound));
+    return std::nullopt;
+}
+
+std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std::string_view y,
+                                    std::string_view ext, const Query& q, TileRequest& out) {
+    if (auto e = check_texton_id(id)) return e;
+    out.id = std::string(id);
+    if (auto e = format_of(ext, out.format)) return e;
+    if (auto e = check_fields(q, {"seed", "mni", "size"})) return e;
+    if (auto e = noise_fields(q, out.noise)) return e;
+    if (const std::string* s = field(q, "size")) {
+        auto v = parse_i64(*s);
+        if (!v || (*v != 256 && *v != 512))
+            return bad("invalid_parameter",
+                       "size must be 256 or 512, not '" + s->substr(0, 40) + "'");
+        out.size = static_cast<int>(*v);
+    }
+    auto tx = parse_i64(x), ty = parse_i64(y);
+    if (!tx || !ty)
+        return bad("coordinate_out_of_range", "tile indices must be signed 64-bit integers, not '" +
+                                                  std::string(x.substr(0, 40)) + "', '" +
+                                                  std::string(y.substr(0, 40)) + "'");
+    // x * size must not overflow before the plane check sees it.
+    const std::int64_t limit = INT64_MAX / out.size - 1;
+    if (*tx > limit || *tx < -limit || *ty > limit || *ty < -limit)
+        return bad("coordinate_out_of_range", "tile index too large for the plane");
+    out.x = *tx;
+    out.y = *ty;
+    return check_window(out.x0(), out.y0(), out.size, out.size, out.level);
+}
+
+} // namespace
+
+std::optional<ImageFormat> parse_image_format(std::string_view ext) {
+    if (ext == "png") return ImageFormat::png;
+    if (ext == "png16") return ImageFormat::png16;
+    if (ext == "exr") return ImageFormat::exr;
+    return std::nullopt;
+}
+
+const char* content_type(ImageFormat f) {
+    return f == ImageFormat::exr ? "image/x-exr" : "image/png";
+}
+
+const char* extension(ImageFormat f) {
+    switch (f) {
+    case ImageFormat::png:
+        return "png";
+    case ImageFormat::png16:
+        return "png16";
+    case ImageFormat::exr:
+        return "exr";
+    }
+    return "";
+}
+
+bool is_texton_id(std::string_view s) {
+    if (s.size() != 64) return false;
+    for (char c : s)
+        if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+    return true;
+}
+
+std::optional<ApiError> check_texton_id(std::string_view s) {
+    if (is_texton_id(s)) return std::nullopt;
+    std::string shown(s.substr(0, 80));
+    for (char& c : shown)
+        if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7e) c = '?';
+    return bad("invalid_id", "texton ids are 64 lowercase hex digits (sha256), not '" + shown +
+                                 (s.size() > 80 ? "...'" : "'"));
+}
+
+std::optional<std::int64_t> parse_i64(std::string_view s) {
+    std::int64_t v = 0;
+    const char* b = s.data();
+    if (!s.empty() && s[0] == '+') ++b;
+    auto [p, ec] = std::from_chars(b, s.data() + s.size(), v);
+    if (s.empty() || ec != std::errc() || p != s.data() + s.size()) return std::nullopt;
+    return v;
+}
+
+std::optional<std::uint64_t> parse_u64(std::string_view s) {
+    std::uint64_t v = 0;
+    auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (s.empty() || ec != std::errc() || p != s.data() + s.size()) return std::nullopt;
+    return v;
+}
+
+std::optional<double> parse_finite(std::string_view s) {
+    if (s.empty() || s.size() > 64) return std::nullopt;
+    const std::string copy(s);
+    char* end = nullptr;
+    const double v = std::strtod(copy.c_str(), &end);
+    if (end != copy.c_str() + copy.size() || !std::isfinite(v)) return std::nullopt;
+    return v;
+}
+
+std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
+                                   std::string_view y, std::string_view ext, const Query& q,
+                                   TileRequest& out) {
+    if (auto e = check_texton_id(id)) return e;
+    if (auto e = level_of(z, out.level)) return e;
+    return tile_common(id, x, y, ext, q, out);
+}
+
+std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, std::string_view x,
+                                       std::string_view y, std::string_view ext, const Query& q,
+                                       TileRequest& out) {
+    if (auto e = check_texton_id(id)) return e;
+    auto zoom = parse_i64(z);
+    if (!zoom || *zoom < 0 || *zoom > kMapMaxZoom)
+        return bad("level_out_of_range",
+                   "map zoom must be an integer in [0, " + std::to_string(kMapMaxZoom) + "]");
+    out.level = kMapMaxLevel - static_cast<int>(*zoom);
+    return tile_common(id, x, y, ext, q, out);
+}
+
+std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, const Query& q,
+                                     const Limits& limits, RegionRequest& out) {
+    if (auto e = check_texton_id(id)) return e;
+    out.id = std::string(id);
+    if (auto e = format_of(ext, out.format)) return e;
+    if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "seed", "mni"})) return e;
+    if (auto e = noise_fields(q, out.noise)) return e;
+    std::int64_t w = out.width, h = out.height;
+    if (auto e = int_field(q, "w", 1, 16384, w)) return e;
+    if (auto e = int_field(q, "h", 1, 16384, h)) return e;
+    if (w * h > limits.max_region_pixels)
+        return bad("region_too_large", "region of " + std::to_string(w) + "x" + std::to_string(h) +
+                                           " pixels is over the limit of " +
+                                           std::to_string(limits.max_region_pixels) + " pixels");
+    out.width = static_cast<int>(w);
+    out.height = static_cast<int>(h);
+    if (const std::string* s = field(q, "z"))
+        if (auto e = level_of(*s, out.level)) return e;
+    for (auto [name, dst] : {std::pair{"x", &out.x}, std::pair{"y", &out.y}}) {
+        if (const std::string* s = field(q, name)) {
+            auto v = parse_i64(*s);
+            if (!v)
+                return bad("coordinate_out_of_range",
+                           std::string(name) + " must be a signed 64-bit integer, not '" +
+                               s->substr(0, 40) + "'");
+            *dst = *v;
+        }
+    }
+    return check_window(out.x, out.y, out.width, out.height, out.level);
+}
+
+std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext, const Query& q,
+                                       const Limits& limits, TileableRequest& out) {
+    if (auto e = check_texton_id(id)) return e;
+    out.id = std::string(id);
+    if (auto e = format_of(ext, out.format)) return e;
+    if (auto e = check_fields(q, {"w", "h", "seed", "mni"})) return e;
+    if (auto e = noise_fields(q, out.noise)) return e;
+    std::int64_t w = out.width, h = out.height;
+    if (auto e = int_field(q, "w", 8, limits.max_tileable_side, w)) return e;
+    if (auto e = int_field(q, "h", 8, limits.max_tileable_side, h)) return e;
+    out.width = static_cast<int>(w);
+    out.height = static_cast<int>(h);
+    return std::nullopt;
+}
+
+std::optional<ApiError> parse_list(const Query& q, ListRequest& out) {
+    if (auto e = check_fields(q, {"limit", "after"})) return e;
+    std::int64_t limit = out.limit;
+    if (auto e = int_field(q, "limit", 1, 1000, limit)) return e;
+    out.limit = static_cast<int>(limit);
+    if (const std::string* s = field(q, "after")) {
+        if (auto e = check_texton_id(*s)) return e;
+        out.after = *s;
+    }
+    return std::nullopt;
+}
+
+std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out) {
+    if (auto e = check_fields(q, {"size", "order", "iterations", "seed", "periodic"})) return e;
+    std::int64_t size = out.size, order = out.order, iterations = out.iterations;
+    if (auto e = int_field(q, "size", 8, 256, size)) return e;
+    // Order 3 is analysed by `textond analyze` but not rendered yet, and every stored texton
+    // must be renderable (tiles never fail for a valid request).
+    if (auto e = int_field(q, "order", 0, 1, order)) return e;
+    if (auto e = int_field(q, "iterations", 1, 1000, iterations)) return e;
+    out.size = static_cast<int>(size);
+    out.order = static_cast<int>(order);
+    out.iterations = static_cast<int>(iterations);
+    if (const std::string* s = field(q, "seed")) {
+        auto v = parse_u64(*s);
+        if (!v) return bad("invalid_parameter", "seed must be an unsigned 64-bit integer");
+        out.seed = *v;
+    }
+    if (const std::string* s = field(q, "periodic")) {
+        if (*s == "true" || *s == "1")
+            out.periodic = true;
+        else if (*s == "false" || *s == "0")
+            out.periodic = false;
+        else
+            return bad("invalid_parameter", "periodic must be true or false");
+    }
+    return std::nullopt;
+}
+
+} // namespace textond::api

@@ -1,0 +1,101 @@
+#pragma once
+// The v1 requests as plain structs, parsed and validated from path segments and query fields
+// (style.md: OSRM's *_parameters). No HTTP here: server/ hands in strings and maps ApiError to a
+// response. Every rule below is also written in api/openapi.yaml.
+#include "core/texton_analysis.h"
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace textond::api {
+
+// What a client did wrong (or what went wrong for it): HTTP status, a stable machine-readable
+// code and a sentence for people. One JSON body everywhere (see error_body in server/http).
+struct ApiError {
+    int status = 500;
+    std::string code = "internal";
+    std::string message;
+};
+
+using Query = std::multimap<std::string, std::string>; // httplib::Params has this type
+
+enum class ImageFormat { png, png16, exr };
+std::optional<ImageFormat> parse_image_format(std::string_view ext); // "png" | "png16" | "exr"
+const char* content_type(ImageFormat f);
+const char* extension(ImageFormat f); // without the dot, as in URLs
+
+// Texton ids are lowercase sha256 hex: nothing else can reach the store's file names.
+bool is_texton_id(std::string_view s);
+std::optional<ApiError> check_texton_id(std::string_view s);
+
+struct Limits {
+    std::int64_t max_region_pixels = 8'388'608; // a 4K UHD frame (3840 x 2160) fits
+    int max_tileable_side = 4096;
+};
+
+// Noise parameters every image endpoint takes.
+struct NoiseParams {
+    std::uint64_t seed = 0;
+    double mni = 30.0;
+};
+
+struct TileRequest {
+    std::string id;
+    int level = 0;             // z: 2^z texels per pixel, -4..24
+    std::int64_t x = 0, y = 0; // tile indices, any int64 whose pixels stay on the plane
+    int size = 256;            // 256 or 512
+    ImageFormat format = ImageFormat::png;
+    NoiseParams noise;
+    std::int64_t x0() const { return x * size; }
+    std::int64_t y0() const { return y * size; }
+};
+
+struct RegionRequest {
+    std::string id;
+    int level = 0;
+    std::int64_t x = 0, y = 0; // window origin in pixels of the level
+    int width = 512, height = 512;
+    ImageFormat format = ImageFormat::png;
+    NoiseParams noise;
+};
+
+struct TileableRequest {
+    std::string id;
+    int width = 512, height = 512;
+    ImageFormat format = ImageFormat::png;
+    NoiseParams noise;
+};
+
+struct ListRequest {
+    int limit = 50;    // 1..1000
+    std::string after; // cursor: the last id of the previous page
+};
+
+// Path pieces arrive as the raw strings of the URL (already percent-decoded by the server).
+std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
+                                   std::string_view y, std::string_view ext, const Query& q,
+                                   TileRequest& out);
+// The web-map flavour (TileJSON): client zoom Z, larger = more detail, level = kMapMaxLevel - Z.
+inline constexpr int kMapMaxLevel = 24;
+inline constexpr int kMapMaxZoom = 28; // level -4
+std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, std::string_view x,
+                                       std::string_view y, std::string_view ext, const Query& q,
+                                       TileRequest& out);
+std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, const Query& q,
+                                     const Limits& limits, RegionRequest& out);
+std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext, const Query& q,
+                                       const Limits& limits, TileableRequest& out);
+std::optional<ApiError> parse_list(const Query& q, ListRequest& out);
+// Analysis parameters of POST /v1/textons (query or form fields): size, order, iterations, seed,
+// periodic. Unknown fields are refused so that a typo never silently analyses with defaults.
+std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out);
+
+// Strict number parsing: the whole string, no overflow, no NaN.
+std::optional<std::int64_t> parse_i64(std::string_view s);
+std::optional<std::uint64_t> parse_u64(std::string_view s);
+std::optional<double> parse_finite(std::string_view s);
+
+} // namespace textond::api

@@ -1,0 +1,224 @@
+#include "server/cli/args.h"
+#include "server/cli/commands.h"
+#include "server/http/service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <pthread.h>
+#include <thread>
+
+namespace textond::cli {
+
+namespace {
+
+const char* kHelp = R"(usage: textond serve [options]
+
+Runs the HTTP service (API: /v1/openapi.yaml). Every option can also be set by an environment
+variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment.
+
+  --host ADDR              address to listen on                                [127.0.0.1]
+  --port N                 port, 0 = any free port (printed)                   [8080]
+  --data DIR               texton store directory                              [./data]
+  --backend B              auto | cpu | osmesa | egl (auto: GPU via EGL, else CPU) [auto]
+  --public-url URL         base of the absolute URLs in TileJSON      [from the Host header]
+  --api-key KEY            require "Authorization: Bearer KEY" for POST and DELETE  [none]
+  --cors-origin O          "*", a comma-separated list of origins, or "" for no CORS   [*]
+
+  --http-threads N         connection threads (one per open keep-alive connection) [64]
+  --render-slots N         renders at once, 0 = one per core                   [0]
+  --analysis-workers N     analyses at once (each uses every core)             [1]
+  --analysis-queue N       analyses waiting before uploads get 429             [4]
+  --cache-mb N             in-memory image cache budget, MiB                   [256]
+  --png-compression N      zlib level of PNG images, 0..9                      [1]
+
+  --max-upload-mb N        largest request body, MiB (413 above)               [32]
+  --max-pixels N           largest exemplar, pixels, read from the header (413)  [16777216]
+  --formats LIST           upload formats: png,jpeg,tiff,openexr,bmp (415 otherwise)
+  --max-region-pixels N    largest region image                                [8388608]
+  --max-tileable-side N    largest tileable texture side                       [4096]
+  --read-timeout S, --write-timeout S                                          [30]
+  --keep-alive-max N       requests per connection                             [1000]
+  --keep-alive-timeout S   idle seconds before a kept-alive connection closes  [5]
+
+  --log-level L            trace | debug | info | warn | error | off           [info]
+  --no-access-log          no log line per request
+)";
+
+const std::vector<std::string> kValueOptions = {"--host",
+                                                "--port",
+                                                "--data",
+                                                "--backend",
+                                                "--public-url",
+                                                "--api-key",
+                                                "--cors-origin",
+                                                "--http-threads",
+                                                "--render-slots",
+                                                "--analysis-workers",
+                                                "--analysis-queue",
+                                                "--cache-mb",
+                                                "--png-compression",
+                                                "--max-upload-mb",
+                                                "--max-pixels",
+                                                "--formats",
+                                                "--max-region-pixels",
+                                                "--max-tileable-side",
+                                                "--read-timeout",
+                                                "--write-timeout",
+                                                "--keep-alive-max",
+                                                "--keep-alive-timeout",
+                                                "--log-level"};
+const std::vector<std::string> kFlagOptions = {"--no-access-log"};
+
+// --max-upload-mb <-> TEXTOND_MAX_UPLOAD_MB
+std::string env_name(const std::string& flag) {
+    std::string e = "TEXTOND_";
+    for (char c : flag.substr(2)) e += c == '-' ? '_' : static_cast<char>(std::toupper(c));
+    return e;
+}
+
+// Environment first, then the command line, so flags override.
+Argv with_environment(const Argv& argv) {
+    Argv merged;
+    for (const auto& o : kValueOptions)
+        if (const char* v = std::getenv(env_name(o).c_str())) merged.insert(merged.end(), {o, v});
+    for (const auto& f : kFlagOptions)
+        if (const char* v = std::getenv(env_name(f).c_str()); v && std::string(v) == "1")
+            merged.push_back(f);
+    merged.insert(merged.end(), argv.begin(), argv.end());
+    return merged;
+}
+
+std::vector<std::string> split_list(const std::string& s) {
+    std::vector<std::string> out;
+    std::size_t pos = 0;
+    while (pos <= s.size()) {
+        std::size_t end = s.find(',', pos);
+        if (end == std::string::npos) end = s.size();
+        std::string item = s.substr(pos, end - pos);
+        item.erase(0, item.find_first_not_of(' '));
+        item.erase(item.find_last_not_of(' ') + 1);
+        if (!item.empty()) out.push_back(item);
+        pos = end + 1;
+    }
+    return out;
+}
+
+Result<http::ServeConfig> config_from(const Args& a) {
+    http::ServeConfig c;
+    auto num = [&](const char* name, long long fallback, long long lo, long long hi,
+                   auto& out) -> std::optional<Error> {
+        auto v = a.get_int(name, fallback, lo, hi);
+        if (!v) return v.error();
+        out = static_cast<std::remove_reference_t<decltype(out)>>(v.value());
+        return std::nullopt;
+    };
+    long long cache_mb = 256, upload_mb = 32, max_pixels = 16'777'216;
+    for (auto err :
+         {num("--port", c.port, 0, 65535, c.port),
+          num("--http-threads", c.http_threads, 1, 4096, c.http_threads),
+          num("--render-slots", c.render_slots, 0, 1024, c.render_slots),
+          num("--analysis-workers", c.analysis_workers, 1, 64, c.analysis_workers),
+          num("--analysis-queue", c.analysis_queue, 0, 10000, c.analysis_queue),
+          num("--cache-mb", cache_mb, 0, 1 << 20, cache_mb),
+          num("--png-compression", c.png_compression, 0, 9, c.png_compression),
+          num("--max-upload-mb", upload_mb, 1, 4096, upload_mb),
+          num("--max-pixels", max_pixels, 1, 1LL << 32, max_pixels),
+          num("--max-region-pixels", c.limits.max_region_pixels, 1, 1LL << 26,
+              c.limits.max_region_pixels),
+          num("--max-tileable-side", c.limits.max_tileable_side, 8, 16384,
+              c.limits.max_tileable_side),
+          num("--read-timeout", c.read_timeout_s, 1, 3600, c.read_timeout_s),
+          num("--write-timeout", c.write_timeout_s, 1, 3600, c.write_timeout_s),
+          num("--keep-alive-max", c.keep_alive_max, 1, 1000000, c.keep_alive_max),
+          num("--keep-alive-timeout", c.keep_alive_timeout_s, 1, 3600, c.keep_alive_timeout_s)})
+        if (err) return *err;
+    c.cache_bytes = static_cast<std::size_t>(cache_mb) << 20;
+    c.max_upload_bytes = static_cast<std::size_t>(upload_mb) << 20;
+    c.max_pixels = static_cast<std::uint64_t>(max_pixels);
+    c.host = a.get("--host", c.host);
+    c.data_dir = a.get("--data", c.data_dir);
+    c.public_url = a.get("--public-url", c.public_url);
+    c.api_key = a.get("--api-key", c.api_key);
+    c.cors_origin = a.get("--cors-origin", c.cors_origin);
+    c.log_level = a.get("--log-level", c.log_level);
+    c.access_log = !a.flags.count("--no-access-log");
+    auto kind = render::parse_backend_kind(a.get("--backend", "auto"));
+    if (!kind) return kind.error();
+    c.backend = kind.value();
+    if (a.options.count("--formats")) {
+        c.formats = split_list(a.get("--formats"));
+        const std::vector<std::string> known = {"png", "jpeg", "tiff", "openexr", "bmp"};
+        for (const auto& f : c.formats)
+            if (std::find(known.begin(), known.end(), f) == known.end())
+                return make_error(ErrorCode::invalid_argument,
+                                  "--formats: unknown format '" + f +
+                                      "' (png, jpeg, tiff, openexr, bmp)");
+        if (c.formats.empty())
+            return make_error(ErrorCode::invalid_argument, "--formats: name at least one format");
+    }
+    if (spdlog::level::from_str(c.log_level) == spdlog::level::off && c.log_level != "off")
+        return make_error(ErrorCode::invalid_argument,
+                          "--log-level must be trace, debug, info, warn, error or off");
+    return c;
+}
+
+} // namespace
+
+int serve_command(const Argv& argv) {
+    std::set<std::string> options(kValueOptions.begin(), kValueOptions.end());
+    std::set<std::string> flags(kFlagOptions.begin(), kFlagOptions.end());
+    flags.insert("--help");
+    auto args = parse_args(with_environment(argv), options, flags);
+    if (!args) return fail(2, args.error().message + " (see textond serve --help)");
+    if (args.value().flags.count("--help")) {
+        std::fputs(kHelp, stdout);
+        return 0;
+    }
+    if (!args.value().positional.empty())
+        return fail(2, "serve takes no positional arguments (see textond serve --help)");
+    auto config = config_from(args.value());
+    if (!config) return fail(2, config.error().message);
+    spdlog::set_level(spdlog::level::from_str(config.value().log_level));
+
+    // Signals are taken by one thread with sigwait, never by a handler in a random thread:
+    // block them before any thread starts so every thread inherits the mask.
+    sigset_t stop_signals;
+    sigemptyset(&stop_signals);
+    sigaddset(&stop_signals, SIGINT);
+    sigaddset(&stop_signals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+    std::signal(SIGPIPE, SIG_IGN);
+
+    auto service = http::Service::create(config.value());
+    if (!service) return fail(1, service.error().message);
+    auto port = service.value()->bind();
+    if (!port) return fail(1, port.error().message);
+    http::Service& svc = *service.value();
+    spdlog::info("backend: {}", svc.backend_description());
+    spdlog::info("build: {}", http::build_id());
+    // The URL on stdout (one line) so scripts and tests can read the port chosen by --port 0.
+    std::printf("textond listening on http://%s:%d/\n", config.value().host.c_str(), port.value());
+    std::fflush(stdout);
+
+    std::thread signal_thread([&svc, stop_signals] {
+        int sig = 0;
+        sigwait(&stop_signals, &sig);
+        spdlog::info("signal {}: stopping (finishing requests in flight)", sig);
+        svc.stop();
+    });
+    svc.run();
+    // run() returned: stop() was called by the signal thread (or the listener failed).
+    if (signal_thread.joinable()) {
+        pthread_kill(signal_thread.native_handle(), SIGTERM);
+        signal_thread.join();
+    }
+    service.value().reset();
+    spdlog::info("stopped");
+    return 0;
+}
+
+} // namespace textond::cli

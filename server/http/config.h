@@ -1,0 +1,46 @@
+#pragma once
+// Everything `textond serve` can be told, with the embedded defaults the README promises: a
+// local data directory, the `auto` backend (a GPU through EGL when there is one, else the CPU),
+// loopback on port 8080. Set by flags or TEXTOND_* environment variables
+// (server/cli/serve_command).
+#include "api/requests.h"
+#include "render/backend_factory.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace textond::http {
+
+struct ServeConfig {
+    std::string host = "127.0.0.1";
+    int port = 8080; // 0 = any free port (tests)
+    std::string data_dir = "./data";
+    render::BackendKind backend = render::BackendKind::automatic;
+    std::string public_url; // base of TileJSON URLs; empty = from the request's Host header
+
+    // cpp-httplib serves one connection per worker thread for as long as it is kept alive, so
+    // the pool must cover the connections expected at once; renders are bounded separately.
+    int http_threads = 64;
+    int render_slots = 0;     // renders at once; 0 = one per core
+    int analysis_workers = 1; // analyses at once (each uses every core)
+    int analysis_queue = 4;   // waiting analyses before 429
+    int read_timeout_s = 30;
+    int write_timeout_s = 30;
+    int keep_alive_max = 1000; // requests per connection
+    int keep_alive_timeout_s = 5;
+
+    std::size_t cache_bytes = std::size_t{256} << 20;
+    std::size_t max_upload_bytes = std::size_t{32} << 20;
+    std::uint64_t max_pixels = 16'777'216; // exemplar pixels, checked from the header
+    std::vector<std::string> formats = {"png", "jpeg", "tiff", "openexr", "bmp"};
+    api::Limits limits;
+    int png_compression = 1; // zlib level for PNG tiles: noise hardly compresses
+
+    std::string api_key;           // empty: POST and DELETE are open
+    std::string cors_origin = "*"; // "" disables CORS; else "*" or a comma-separated list
+    std::string log_level = "info";
+    bool access_log = true;
+};
+
+} // namespace textond::http

@@ -1,0 +1,120 @@
+#include "server/http/http_support.h"
+
+#include <atomic>
+#include <cstdio>
+#include <ctime>
+#include <random>
+
+namespace textond::http {
+
+RequestContext& current_request() {
+    thread_local RequestContext ctx;
+    return ctx;
+}
+
+namespace {
+bool sane_request_id(const std::string& s) {
+    if (s.empty() || s.size() > 64) return false;
+    for (char c : s)
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
+            return false;
+    return true;
+}
+
+std::string fresh_request_id() {
+    // A per-process random prefix and a counter: unique, cheap, and sortable within a process.
+    static const std::uint32_t prefix = std::random_device{}();
+    static std::atomic<std::uint64_t> counter{0};
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%08x-%08llx", prefix,
+                  static_cast<unsigned long long>(counter.fetch_add(1) + 1));
+    return buf;
+}
+} // namespace
+
+void begin_request(const httplib::Request& req) {
+    RequestContext& ctx = current_request();
+    const std::string given = req.get_header_value("X-Request-Id");
+    ctx.id = sane_request_id(given) ? given : fresh_request_id();
+    ctx.route = "unmatched";
+    ctx.start = std::chrono::steady_clock::now();
+    ctx.active = true;
+}
+
+void set_route(const char* route_template) {
+    current_request().route = route_template;
+}
+
+void send_error(httplib::Response& res, const api::ApiError& e) {
+    RequestContext& ctx = current_request();
+    if (!ctx.active) begin_request(httplib::Request{});
+    const nlohmann::json body = {{"error", {{"code", e.code}, {"message", e.message}}},
+                                 {"request_id", ctx.id}};
+    res.status = e.status;
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(body.dump(), "application/json");
+}
+
+void send_json(httplib::Response& res, int status, const nlohmann::json& body,
+               const char* cache_control) {
+    res.status = status;
+    if (cache_control) res.set_header("Cache-Control", cache_control);
+    res.set_content(body.dump(2) + "\n", "application/json");
+}
+
+api::ApiError to_api_error(const Error& e, std::string code) {
+    auto pick = [&](int status, const char* fallback) {
+        return api::ApiError{status, code.empty() ? fallback : std::move(code), e.message};
+    };
+    switch (e.code) {
+    case ErrorCode::invalid_argument:
+        return pick(400, "invalid_parameter");
+    case ErrorCode::too_large:
+        return pick(413, "too_large");
+    case ErrorCode::unsupported:
+        return pick(415, "unsupported_media_type");
+    case ErrorCode::unprocessable:
+        return pick(422, "unprocessable");
+    case ErrorCode::not_found:
+        return pick(404, "not_found");
+    case ErrorCode::io:
+        if (e.message.find("No space left") != std::string::npos ||
+            e.message.find("quota") != std::string::npos)
+            return pick(507, "insufficient_storage");
+        return pick(500, "storage_error");
+    case ErrorCode::internal:
+        break;
+    }
+    return pick(500, "internal");
+}
+
+bool etag_matches(std::string_view header, std::string_view etag) {
+    if (header.empty()) return false;
+    // Weak comparison (RFC 9110 13.1.2): W/"x" matches "x".
+    std::string_view bare = etag;
+    if (bare.substr(0, 2) == "W/") bare.remove_prefix(2);
+    std::size_t pos = 0;
+    while (pos < header.size()) {
+        std::size_t end = header.find(',', pos);
+        if (end == std::string_view::npos) end = header.size();
+        std::string_view tag = header.substr(pos, end - pos);
+        while (!tag.empty() && (tag.front() == ' ' || tag.front() == '\t')) tag.remove_prefix(1);
+        while (!tag.empty() && (tag.back() == ' ' || tag.back() == '\t')) tag.remove_suffix(1);
+        if (tag == "*") return true;
+        if (tag.substr(0, 2) == "W/") tag.remove_prefix(2);
+        if (tag == bare) return true;
+        pos = end + 1;
+    }
+    return false;
+}
+
+std::string rfc3339_now() {
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+} // namespace textond::http

@@ -1,0 +1,43 @@
+#pragma once
+// What every route shares: the per-request context (id, start time, route template), the one
+// JSON error body, the mapping from library errors to HTTP, and entity-tag matching.
+#include "api/requests.h"
+#include "core/result.h"
+
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <string>
+#include <string_view>
+
+namespace textond::http {
+
+// cpp-httplib runs pre-routing, the handler, the error handler and the logger of one request on
+// one thread, so the context of the request being served lives in a thread_local.
+struct RequestContext {
+    std::string id;
+    std::string route = "unmatched"; // route template for metrics, e.g. /v1/textons/{id}
+    std::chrono::steady_clock::time_point start;
+    bool active = false;
+};
+RequestContext& current_request();
+// Starts a context: the client's X-Request-Id when it is sane, else a fresh one.
+void begin_request(const httplib::Request& req);
+void set_route(const char* route_template);
+
+// {"error": {"code", "message"}, "request_id"} with the status, and `Cache-Control: no-store`.
+void send_error(httplib::Response& res, const api::ApiError& e);
+void send_json(httplib::Response& res, int status, const nlohmann::json& body,
+               const char* cache_control = "no-cache");
+
+// The one mapping table from library errors to HTTP (style.md): invalid argument 400, too large
+// 413, unsupported media 415, unprocessable 422, not found 404, full disk 507, otherwise 500.
+api::ApiError to_api_error(const Error& e, std::string code = {});
+
+// RFC 9110 If-None-Match: a list of strong or weak tags, or "*".
+bool etag_matches(std::string_view if_none_match, std::string_view etag);
+
+std::string rfc3339_now();
+
+} // namespace textond::http

@@ -1,0 +1,251 @@
+// Images of the noise: tiles (game clients, z = level), map tiles and TileJSON (web maps),
+// regions (pipelines) and tileable textures. Every image is a window onto one deterministic
+// function, so its bytes are named by a strong ETag and cached.
+#include "api/requests.h"
+#include "core/grid_poisson.h"
+#include "core/periodic_resample.h"
+#include "render/noise_request.h"
+#include "server/http/http_support.h"
+#include "server/http/service.h"
+#include "server/io/image_io.h"
+#include "server/io/sha256.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace textond::http {
+
+namespace {
+
+constexpr const char* kImmutable = "public, max-age=31536000, immutable";
+
+io::Encoding encoding_of(api::ImageFormat f) {
+    switch (f) {
+    case api::ImageFormat::png:
+        return io::Encoding::png8;
+    case api::ImageFormat::png16:
+        return io::Encoding::png16;
+    case api::ImageFormat::exr:
+        return io::Encoding::exr;
+    }
+    return io::Encoding::png8;
+}
+
+std::string mni_text(double mni) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", mni);
+    return buf;
+}
+
+// One key per distinct image: everything that changes a pixel or a byte of it.
+std::string noise_key(const std::string& id, const render::NoiseRequest& q, api::ImageFormat f,
+                      const char* kind, int out_w, int out_h) {
+    return std::string(kind) + "/" + id + "/" + std::to_string(q.level) + "/" +
+           std::to_string(q.x0) + "/" + std::to_string(q.y0) + "/" + std::to_string(q.width) + "x" +
+           std::to_string(q.height) + "/p" + std::to_string(q.period[0]) + "x" +
+           std::to_string(q.period[1]) + "/o" + std::to_string(out_w) + "x" +
+           std::to_string(out_h) + "/s" + std::to_string(q.seed) + "/m" + mni_text(q.mni) + "." +
+           api::extension(f);
+}
+
+render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
+                                   const api::NoiseParams& noise) {
+    render::NoiseRequest q;
+    q.level = level;
+    q.x0 = x0;
+    q.y0 = y0;
+    q.width = w;
+    q.height = h;
+    q.seed = noise.seed;
+    q.mni = noise.mni;
+    return q;
+}
+
+} // namespace
+
+struct Service::ImageJob {
+    std::string id;
+    const char* kind; // tile | region | tileable (metrics label)
+    api::ImageFormat format;
+    render::NoiseRequest request;
+    int out_width = 0, out_height = 0; // tileable textures are resampled to the asked size
+    bool use_region_backend = false;
+};
+
+std::string Service::etag_for(const std::string& key) const {
+    io::Sha256 h;
+    h.update(build_id()).update("\n").update(m_backend_identity).update("\n").update(key);
+    return "\"" + h.hex().substr(0, 40) + "\"";
+}
+
+void Service::serve_image(const httplib::Request& req, httplib::Response& res,
+                          const ImageJob& job) {
+    if (!m_store->contains(job.id))
+        return send_error(res, {404, "not_found", "no texton " + job.id});
+    const std::string key =
+        noise_key(job.id, job.request, job.format, job.kind, job.out_width, job.out_height);
+    auto cached = m_cache.get(key);
+    m_metrics.tile_cache(cached != nullptr);
+    const std::string etag = cached ? cached->etag : etag_for(key);
+    res.set_header("ETag", etag);
+    res.set_header("Cache-Control", kImmutable);
+    if (etag_matches(req.get_header_value("If-None-Match"), etag)) {
+        res.status = 304;
+        return;
+    }
+    if (cached) return res.set_content(cached->body, cached->content_type);
+
+    auto prepared = m_store->prepared(job.id);
+    if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    if (auto err = prepared.value()->check(job.request))
+        return send_error(res, to_api_error(*err, "invalid_parameter"));
+    render::Backend& backend = job.use_region_backend ? *m_region_backend : *m_tile_backend;
+    const auto t0 = std::chrono::steady_clock::now();
+    m_render_slots.acquire();
+    Result<core::Image> image = make_error(ErrorCode::internal, "not rendered");
+    try {
+        image = backend.render(*prepared.value(), job.request);
+    } catch (...) {
+        m_render_slots.release();
+        throw;
+    }
+    m_render_slots.release();
+    if (!image) return send_error(res, to_api_error(image.error()));
+    if (job.out_width != job.request.width || job.out_height != job.request.height)
+        image = core::resample_periodic(image.value(), job.out_width, job.out_height);
+    m_metrics.render(
+        backend.name(), job.kind,
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    auto bytes = io::encode_image_memory(
+        image.value(), encoding_of(job.format),
+        {{"textond:noise", render::kNoiseVersion}, {"textond:texton", job.id}},
+        m_config.png_compression);
+    if (!bytes) return send_error(res, to_api_error(bytes.error()));
+    auto entry = std::make_shared<CachedImage>();
+    entry->body = std::move(bytes.value());
+    entry->etag = etag;
+    entry->content_type = api::content_type(job.format);
+    entry->texton_id = job.id;
+    m_cache.put(key, entry);
+    res.set_content(entry->body, entry->content_type);
+}
+
+std::string Service::base_url(const httplib::Request& req) const {
+    if (!m_config.public_url.empty()) {
+        std::string u = m_config.public_url;
+        while (!u.empty() && u.back() == '/') u.pop_back();
+        return u;
+    }
+    std::string host = req.get_header_value("Host");
+    const bool sane = !host.empty() && host.size() < 256 &&
+                      host.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                             "0123456789.-:[]") == std::string::npos;
+    if (!sane) host = m_config.host + ":" + std::to_string(m_port);
+    return "http://" + host;
+}
+
+void Service::tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res) {
+    set_route("/v1/textons/{id}/tilejson.json");
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    api::Query q = req.params;
+    api::TileRequest probe;
+    // seed, mni and size are checked exactly as the tiles will check them.
+    if (auto e = api::parse_map_tile(id, "0", "0", "0", "png", q, probe))
+        return send_error(res, *e);
+    auto meta = m_store->meta(id);
+    if (!meta) return send_error(res, {404, "not_found", "no texton " + id});
+    const std::string query = "?seed=" + std::to_string(probe.noise.seed) +
+                              "&mni=" + mni_text(probe.noise.mni) +
+                              (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "");
+    const std::string base = base_url(req);
+    const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
+    nlohmann::json j = {
+        {"tilejson", "3.0.0"},
+        {"name", "textond " + id.substr(0, 12)},
+        {"description", "Texton noise of texton " + id + " (seed " +
+                            std::to_string(probe.noise.seed) + ", MNI " +
+                            mni_text(probe.noise.mni) + "), an unbounded seamless plane"},
+        {"version", "1.0.0"},
+        {"scheme", "xyz"},
+        {"tiles", {base + "/v1/textons/" + id + "/map/{z}/{x}/{y}.png" + query}},
+        {"minzoom", 0},
+        {"maxzoom", api::kMapMaxZoom},
+        {"center", {0, 0, native_zoom}},
+        {"textond",
+         {{"tile_size", probe.size},
+          {"level_of_zoom", "level = " + std::to_string(api::kMapMaxLevel) +
+                                " - z: zoom z shows 2^(24 - z) texels per pixel; z = 24 is "
+                                "the texton's own resolution"},
+          {"native_zoom", native_zoom},
+          {"crs", "Leaflet L.CRS.Simple / OpenLayers pixel projection; y grows downwards"},
+          {"game_tiles", base + "/v1/textons/" + id + "/tiles/{level}/{x}/{y}.png" + query}}}};
+    // The absolute URLs come from the Host header unless --public-url is set.
+    if (m_config.public_url.empty()) res.set_header("Vary", "Host");
+    send_json(res, 200, j, "public, max-age=60");
+}
+
+void Service::install_image_routes() {
+    using Req = const httplib::Request&;
+    using Res = httplib::Response&;
+    m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               [this](Req req, Res res) {
+                   set_route("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}");
+                   api::TileRequest t;
+                   if (auto e = api::parse_tile(req.matches[1].str(), req.matches[2].str(),
+                                                req.matches[3].str(), req.matches[4].str(),
+                                                req.matches[5].str(), req.params, t))
+                       return send_error(res, *e);
+                   serve_image(req, res,
+                               {t.id, "tile", t.format,
+                                noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
+                                t.size, t.size, false});
+               });
+    m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               [this](Req req, Res res) {
+                   set_route("/v1/textons/{id}/map/{z}/{x}/{y}.{format}");
+                   api::TileRequest t;
+                   if (auto e = api::parse_map_tile(req.matches[1].str(), req.matches[2].str(),
+                                                    req.matches[3].str(), req.matches[4].str(),
+                                                    req.matches[5].str(), req.params, t))
+                       return send_error(res, *e);
+                   serve_image(req, res,
+                               {t.id, "tile", t.format,
+                                noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
+                                t.size, t.size, false});
+               });
+    m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))", [this](Req req, Res res) {
+        set_route("/v1/textons/{id}/region.{format}");
+        api::RegionRequest r;
+        if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), req.params,
+                                       m_config.limits, r))
+            return send_error(res, *e);
+        serve_image(req, res,
+                    {r.id, "region", r.format,
+                     noise_request(r.level, r.x, r.y, r.width, r.height, r.noise), r.width,
+                     r.height, true});
+    });
+    m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", [this](Req req, Res res) {
+        set_route("/v1/textons/{id}/tileable.{format}");
+        api::TileableRequest t;
+        if (auto e = api::parse_tileable(req.matches[1].str(), req.matches[2].str(), req.params,
+                                         m_config.limits, t))
+            return send_error(res, *e);
+        auto meta = m_store->meta(t.id);
+        if (!meta) return send_error(res, {404, "not_found", "no texton " + t.id});
+        // The noise repeats every P cells of side a; the nearest whole number of cells is
+        // rendered and resampled by its Fourier series to exactly w x h (still periodic).
+        const int a = core::noise::cell_size(meta->size);
+        const auto cells = [a](int n) { return std::max(1, (n + a / 2) / a); };
+        render::NoiseRequest q =
+            noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
+        q.period = {cells(t.width), cells(t.height)};
+        serve_image(req, res, {t.id, "tileable", t.format, q, t.width, t.height, true});
+    });
+    m_http.Get(R"(/v1/textons/([^/]+)/tilejson\.json)",
+               [this](Req req, Res res) { tilejson(req, req.matches[1].str(), res); });
+}
+
+} // namespace textond::http

@@ -1,0 +1,132 @@
+#include "server/http/metrics.h"
+
+#include <cstdio>
+#include <sstream>
+
+namespace textond::http {
+
+namespace {
+std::string num(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+// Label values are route templates, backend names and numbers; escape anyway.
+std::string esc(const std::string& s) {
+    std::string out;
+    for (char c : s) {
+        if (c == '\\' || c == '"') out += '\\';
+        if (c == '\n') {
+            out += "\\n";
+            continue;
+        }
+        out += c;
+    }
+    return out;
+}
+
+template <class H>
+void write_histogram(std::ostringstream& o, const std::string& name, const std::string& labels,
+                     const H& h, const std::array<double, Metrics::kLatencyBuckets.size()>& le) {
+    std::uint64_t cumulative = 0;
+    const std::string sep = labels.empty() ? "" : ",";
+    for (std::size_t i = 0; i < le.size(); ++i) {
+        cumulative += h.buckets[i];
+        o << name << "_bucket{" << labels << sep << "le=\"" << num(le[i]) << "\"} " << cumulative
+          << "\n";
+    }
+    o << name << "_bucket{" << labels << sep << "le=\"+Inf\"} " << h.count << "\n";
+    const std::string braced = labels.empty() ? "" : "{" + labels + "}";
+    o << name << "_sum" << braced << " " << num(h.sum) << "\n";
+    o << name << "_count" << braced << " " << h.count << "\n";
+}
+} // namespace
+
+void Metrics::Histogram::observe(double v) {
+    for (std::size_t i = 0; i < kLatencyBuckets.size(); ++i)
+        if (v <= kLatencyBuckets[i]) {
+            ++buckets[i];
+            break;
+        }
+    ++count;
+    sum += v;
+}
+
+void Metrics::request(const std::string& route, const std::string& method, int status,
+                      double seconds) {
+    const std::string s = std::to_string(status);
+    std::lock_guard lock(m_mutex);
+    ++m_requests[{route, method, s}];
+    m_latency[{route, s}].observe(seconds);
+}
+
+void Metrics::render(const std::string& backend, const std::string& kind, double ms) {
+    std::lock_guard lock(m_mutex);
+    m_render_ms[{backend, kind}].observe(ms / 1000.0);
+}
+
+void Metrics::tile_cache(bool hit) {
+    std::lock_guard lock(m_mutex);
+    ++(hit ? m_cache_hits : m_cache_misses);
+}
+
+void Metrics::analysis(bool ok, double ms) {
+    std::lock_guard lock(m_mutex);
+    ++(ok ? m_analyses_ok : m_analyses_failed);
+    m_analysis_seconds.observe(ms / 1000.0);
+}
+
+void Metrics::gauge(const std::string& name, const std::string& help,
+                    std::function<double()> read) {
+    std::lock_guard lock(m_mutex);
+    m_gauges[name] = {help, std::move(read)};
+}
+
+std::uint64_t Metrics::analyses() const {
+    std::lock_guard lock(m_mutex);
+    return m_analyses_ok + m_analyses_failed;
+}
+
+std::string Metrics::prometheus_text() const {
+    std::map<std::string, Gauge> gauges;
+    std::ostringstream o;
+    {
+        std::lock_guard lock(m_mutex);
+        gauges = m_gauges;
+        o << "# HELP textond_http_requests_total HTTP requests by route template, method and "
+             "status.\n# TYPE textond_http_requests_total counter\n";
+        for (const auto& [k, v] : m_requests)
+            o << "textond_http_requests_total{route=\"" << esc(k[0]) << "\",method=\"" << esc(k[1])
+              << "\",status=\"" << k[2] << "\"} " << v << "\n";
+        o << "# HELP textond_http_request_duration_seconds Time from routing to the response "
+             "being written.\n# TYPE textond_http_request_duration_seconds histogram\n";
+        for (const auto& [k, h] : m_latency)
+            write_histogram(o, "textond_http_request_duration_seconds",
+                            "route=\"" + esc(k[0]) + "\",status=\"" + k[1] + "\"", h,
+                            kLatencyBuckets);
+        o << "# HELP textond_render_seconds Noise evaluation time by backend and kind (tile, "
+             "region, tileable).\n# TYPE textond_render_seconds histogram\n";
+        for (const auto& [k, h] : m_render_ms)
+            write_histogram(o, "textond_render_seconds",
+                            "backend=\"" + esc(k[0]) + "\",kind=\"" + esc(k[1]) + "\"", h,
+                            kLatencyBuckets);
+        o << "# HELP textond_tile_cache_requests_total Image cache lookups.\n"
+             "# TYPE textond_tile_cache_requests_total counter\n"
+          << "textond_tile_cache_requests_total{result=\"hit\"} " << m_cache_hits << "\n"
+          << "textond_tile_cache_requests_total{result=\"miss\"} " << m_cache_misses << "\n";
+        o << "# HELP textond_analyses_total Texton analyses run (joined uploads are not "
+             "counted).\n# TYPE textond_analyses_total counter\n"
+          << "textond_analyses_total{result=\"ok\"} " << m_analyses_ok << "\n"
+          << "textond_analyses_total{result=\"error\"} " << m_analyses_failed << "\n";
+        o << "# HELP textond_analysis_seconds Analysis time.\n"
+             "# TYPE textond_analysis_seconds histogram\n";
+        write_histogram(o, "textond_analysis_seconds", "", m_analysis_seconds, kLatencyBuckets);
+    }
+    // Gauges read outside the lock: they take other components' locks.
+    for (const auto& [name, g] : gauges)
+        o << "# HELP " << name << " " << g.help << "\n# TYPE " << name << " gauge\n"
+          << name << " " << num(g.read()) << "\n";
+    return o.str();
+}
+
+} // namespace textond::http

@@ -1,0 +1,279 @@
+#include "server/http/service.h"
+
+#include "api/openapi_spec.h"
+#include "core/texton_analysis.h"
+#include "render/backend_factory.h"
+#include "render/noise_request.h"
+#include "server/http/http_support.h"
+
+#include <OpenImageIO/oiioversion.h>
+#include <spdlog/spdlog.h>
+
+#include <thread>
+
+#ifndef TEXTOND_GIT_COMMIT
+#define TEXTOND_GIT_COMMIT "unknown"
+#endif
+#ifndef TEXTOND_VERSION
+#define TEXTOND_VERSION "0.0.0"
+#endif
+
+namespace textond::http {
+
+const std::string& build_id() {
+    // The PNG/EXR encoder is part of what produced a tile's bytes, so its version is too.
+    static const std::string id = std::string("textond/") + TEXTOND_VERSION + "+" +
+                                  TEXTOND_GIT_COMMIT + " " + render::kNoiseVersion + " " +
+                                  core::kAnalysisVersion + " oiio/" OIIO_VERSION_STRING;
+    return id;
+}
+
+void RenderSlots::acquire() {
+    std::unique_lock lock(m_mutex);
+    m_cv.wait(lock, [&] { return m_free > 0; });
+    --m_free;
+}
+
+void RenderSlots::release() {
+    {
+        std::lock_guard lock(m_mutex);
+        ++m_free;
+    }
+    m_cv.notify_one();
+}
+
+namespace {
+int cores() {
+    const unsigned n = std::thread::hardware_concurrency();
+    return n == 0 ? 1 : static_cast<int>(n);
+}
+
+// CORS: "*" or one of a comma-separated list of origins (echoed, with Vary: Origin).
+void apply_cors(const std::string& allowed, const httplib::Request& req, httplib::Response& res) {
+    if (allowed.empty()) return;
+    if (allowed == "*") {
+        res.set_header("Access-Control-Allow-Origin", "*");
+    } else {
+        res.set_header("Vary", "Origin");
+        const std::string origin = req.get_header_value("Origin");
+        std::size_t pos = 0;
+        bool ok = false;
+        while (!origin.empty() && pos <= allowed.size()) {
+            std::size_t end = allowed.find(',', pos);
+            if (end == std::string::npos) end = allowed.size();
+            std::string o = allowed.substr(pos, end - pos);
+            while (!o.empty() && o.front() == ' ') o.erase(0, 1);
+            while (!o.empty() && o.back() == ' ') o.pop_back();
+            if (o == origin) ok = true;
+            pos = end + 1;
+        }
+        if (!ok) return;
+        res.set_header("Access-Control-Allow-Origin", origin);
+    }
+    res.set_header("Access-Control-Expose-Headers",
+                   "ETag, X-Request-Id, Location, Retry-After, X-Textond-Backend");
+}
+} // namespace
+
+Service::Service(ServeConfig config)
+    : m_config(std::move(config)), m_cache(m_config.cache_bytes),
+      m_render_slots(m_config.render_slots > 0 ? m_config.render_slots : cores()) {}
+
+Service::~Service() {
+    stop();
+    if (m_pool) m_pool->shutdown();
+}
+
+Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
+    std::unique_ptr<Service> s(new Service(std::move(config)));
+    auto store = TextonStore::open(s->m_config.data_dir);
+    if (!store) return store.error();
+    s->m_store = std::move(store.value());
+
+    render::BackendOptions options;
+    options.threads = 0;
+    auto choice = render::make_backend(s->m_config.backend, options);
+    if (!choice) return choice.error();
+    s->m_region_backend = choice.value().backend;
+    s->m_backend_reason = choice.value().reason;
+    if (s->m_region_backend->name() == "cpu") {
+        // Tiles are small: one thread each, as many at once as there are render slots.
+        render::BackendOptions one;
+        one.threads = 1;
+        auto tiles = render::make_backend(render::BackendKind::cpu, one);
+        if (!tiles) return tiles.error();
+        s->m_tile_backend = tiles.value().backend;
+        s->m_backend_identity = "cpu"; // bit-identical for any thread count and instruction set
+    } else {
+        s->m_tile_backend = s->m_region_backend;
+        s->m_backend_identity = s->m_region_backend->name() + ":" + s->m_region_backend->renderer();
+    }
+    s->m_pool =
+        std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
+
+    Metrics& m = s->m_metrics;
+    Service* self = s.get();
+    m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
+            [self] { return static_cast<double>(self->m_pool->queued()); });
+    m.gauge("textond_analysis_running", "Analyses running now.",
+            [self] { return static_cast<double>(self->m_pool->running()); });
+    m.gauge("textond_store_textons", "Textons in the store.",
+            [self] { return static_cast<double>(self->m_store->count()); });
+    m.gauge("textond_store_bytes", "Bytes of texton files in the store.",
+            [self] { return static_cast<double>(self->m_store->bytes()); });
+    m.gauge("textond_store_quarantined", "Damaged texton files moved aside since start.",
+            [self] { return static_cast<double>(self->m_store->quarantined().size()); });
+    m.gauge("textond_image_cache_bytes", "Bytes held by the image cache.",
+            [self] { return static_cast<double>(self->m_cache.bytes()); });
+    m.gauge("textond_image_cache_entries", "Images held by the image cache.",
+            [self] { return static_cast<double>(self->m_cache.entries()); });
+    m.gauge("textond_image_cache_budget_bytes", "The image cache's byte budget.",
+            [self] { return static_cast<double>(self->m_cache.budget()); });
+
+    s->install_hooks();
+    s->install_image_routes(); // the hot path first: cpp-httplib tries routes in order
+    s->install_texton_routes();
+    s->install_ops_routes();
+    return s;
+}
+
+void Service::install_hooks() {
+    const ServeConfig& c = m_config;
+    const std::size_t threads = static_cast<std::size_t>(c.http_threads < 1 ? 1 : c.http_threads);
+    // Debian's prebuilt cpp-httplib ignores CPPHTTPLIB_THREAD_POOL_COUNT in our code.
+    m_http.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+    m_http.set_payload_max_length(c.max_upload_bytes);
+    m_http.set_read_timeout(c.read_timeout_s, 0);
+    m_http.set_write_timeout(c.write_timeout_s, 0);
+    m_http.set_keep_alive_max_count(static_cast<std::size_t>(c.keep_alive_max));
+    m_http.set_keep_alive_timeout(c.keep_alive_timeout_s);
+
+    m_http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+        begin_request(req);
+        if (req.method == "OPTIONS") { // CORS preflight
+            set_route("OPTIONS *");
+            res.status = 204;
+            if (!m_config.cors_origin.empty()) {
+                res.set_header("Access-Control-Allow-Methods", "GET, HEAD, POST, DELETE, OPTIONS");
+                res.set_header("Access-Control-Allow-Headers",
+                               "Authorization, Content-Type, If-None-Match, Prefer, X-Request-Id");
+                res.set_header("Access-Control-Max-Age", "600");
+            }
+            return httplib::Server::HandlerResponse::Handled;
+        }
+        return httplib::Server::HandlerResponse::Unhandled;
+    });
+    m_http.set_post_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+        res.set_header("X-Request-Id", current_request().id);
+        apply_cors(m_config.cors_origin, req, res);
+    });
+    // Errors raised before or outside a route (404, 413 from the body limit, 414...) get the
+    // same JSON body as ours; bodies a route already wrote are left alone.
+    m_http.set_error_handler(
+        httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
+            if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+            api::ApiError e{res.status, "http_error", "HTTP error " + std::to_string(res.status)};
+            if (res.status == 400) e = {400, "bad_request", "malformed HTTP request"};
+            if (res.status == 404) e = {404, "not_found", "no such endpoint"};
+            if (res.status == 413)
+                e = {413, "payload_too_large", "request body is over the upload limit"};
+            if (res.status == 414) e = {414, "uri_too_long", "request URI is too long"};
+            send_error(res, e);
+            return httplib::Server::HandlerResponse::Handled;
+        }));
+    m_http.set_exception_handler([](const httplib::Request& req, httplib::Response& res,
+                                    std::exception_ptr ep) {
+        std::string what = "unknown exception";
+        try {
+            std::rethrow_exception(ep);
+        } catch (const std::exception& e) {
+            what = e.what();
+        } catch (...) {
+        }
+        spdlog::error("{} {} {}: unhandled exception: {}", current_request().id, req.method,
+                      req.path, what);
+        send_error(res,
+                   {500, "internal", "internal error (request id " + current_request().id + ")"});
+    });
+    m_http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+        RequestContext& ctx = current_request();
+        const double seconds =
+            ctx.active ? std::chrono::duration<double>(std::chrono::steady_clock::now() - ctx.start)
+                             .count()
+                       : 0.0;
+        m_metrics.request(ctx.route, req.method, res.status, seconds);
+        if (m_config.access_log)
+            spdlog::info("{} {} {} {} {}B {:.2f}ms", ctx.id, req.method, req.path, res.status,
+                         res.body.size(), seconds * 1000.0);
+        ctx.active = false;
+    });
+}
+
+void Service::install_ops_routes() {
+    m_http.Get("/healthz", [](const httplib::Request&, httplib::Response& res) {
+        set_route("/healthz");
+        send_json(res, 200, {{"status", "ok"}, {"build", build_id()}}, "no-store");
+    });
+    m_http.Get("/readyz", [this](const httplib::Request&, httplib::Response& res) {
+        set_route("/readyz");
+        const bool writable = m_store->writable();
+        const bool ready = !m_stopping && writable && m_tile_backend != nullptr;
+        send_json(res, ready ? 200 : 503,
+                  {{"ready", ready},
+                   {"stopping", m_stopping.load()},
+                   {"backend",
+                    {{"name", m_region_backend->name()},
+                     {"renderer", m_region_backend->renderer()},
+                     {"reason", m_backend_reason}}},
+                   {"store",
+                    {{"writable", writable},
+                     {"textons", m_store->count()},
+                     {"quarantined", m_store->quarantined()}}}},
+                  "no-store");
+    });
+    m_http.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+        set_route("/metrics");
+        res.set_header("Cache-Control", "no-store");
+        res.set_content(m_metrics.prometheus_text(), "text/plain; version=0.0.4; charset=utf-8");
+    });
+    m_http.Get("/v1/openapi.yaml", [](const httplib::Request&, httplib::Response& res) {
+        set_route("/v1/openapi.yaml");
+        res.set_header("Cache-Control", "public, max-age=300");
+        res.set_content(api::kOpenApiYaml, "application/yaml");
+    });
+    m_http.Get("/", [](const httplib::Request&, httplib::Response& res) {
+        set_route("/");
+        send_json(res, 200,
+                  {{"service", "textond"},
+                   {"build", build_id()},
+                   {"api", "/v1/openapi.yaml"},
+                   {"textons", "/v1/textons"}});
+    });
+}
+
+Result<int> Service::bind() {
+    const int port = m_config.port == 0
+                         ? m_http.bind_to_any_port(m_config.host)
+                         : (m_http.bind_to_port(m_config.host, m_config.port) ? m_config.port : -1);
+    if (port < 0)
+        return make_error(ErrorCode::io, "cannot listen on " + m_config.host + ":" +
+                                             std::to_string(m_config.port) +
+                                             " (in use, or not an address of this machine)");
+    m_port = port;
+    return port;
+}
+
+void Service::run() {
+    m_http.listen_after_bind();
+}
+
+void Service::stop() {
+    if (m_stopping.exchange(true)) return;
+    m_http.stop();
+}
+
+bool Service::ready() const {
+    return !m_stopping && m_http.is_running();
+}
+
+} // namespace textond::http

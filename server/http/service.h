@@ -1,0 +1,97 @@
+#pragma once
+// The HTTP service of `textond serve`: routes of api/openapi.yaml on cpp-httplib, wired to the
+// texton store, the analysis pool, the render backends and the image cache.
+#include "core/result.h"
+#include "render/backend.h"
+#include "server/http/analysis_pool.h"
+#include "server/http/config.h"
+#include "server/http/image_cache.h"
+#include "server/http/metrics.h"
+#include "server/http/texton_store.h"
+
+#include <httplib.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace textond::http {
+
+// Bounds how many renders run at once (C++17 has no std::counting_semaphore).
+class RenderSlots {
+public:
+    explicit RenderSlots(int n) : m_free(n < 1 ? 1 : n) {}
+    void acquire();
+    void release();
+
+private:
+    std::mutex m_mutex;
+    std::condition_variable m_cv;
+    int m_free;
+};
+
+class Service {
+public:
+    static Result<std::unique_ptr<Service>> create(ServeConfig config);
+    ~Service();
+
+    // Binds the listening socket (port 0: any free port) and returns the port.
+    Result<int> bind();
+    // Serves until stop(); returns when in-flight requests have finished.
+    void run();
+    // Stops accepting, lets in-flight requests finish; safe from any thread.
+    void stop();
+    bool ready() const;
+
+    int port() const { return m_port; }
+    const ServeConfig& config() const { return m_config; }
+    Metrics& metrics() { return m_metrics; }
+    const std::string& backend_description() const { return m_backend_reason; }
+
+private:
+    explicit Service(ServeConfig config);
+    void install_hooks();
+    void install_ops_routes();
+    void install_texton_routes();
+    void install_image_routes();
+
+    // texton_routes.cpp
+    void upload(const httplib::Request& req, httplib::Response& res,
+                const httplib::ContentReader& reader);
+    void get_texton(const std::string& id, httplib::Response& res);
+    void texton_status(const std::string& id, httplib::Response& res);
+    void texton_file(const std::string& id, const std::string& ext, httplib::Response& res);
+    void delete_texton(const httplib::Request& req, const std::string& id, httplib::Response& res);
+    void list_textons(const httplib::Request& req, httplib::Response& res);
+    nlohmann::json texton_json(const api::TextonMeta& meta) const;
+    bool authorised(const httplib::Request& req, httplib::Response& res) const;
+
+    // image_routes.cpp
+    struct ImageJob;
+    void serve_image(const httplib::Request& req, httplib::Response& res, const ImageJob& job);
+    void tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res);
+    std::string etag_for(const std::string& key) const;
+    std::string base_url(const httplib::Request& req) const;
+
+    ServeConfig m_config;
+    httplib::Server m_http;
+    Metrics m_metrics;
+    std::unique_ptr<TextonStore> m_store;
+    std::unique_ptr<AnalysisPool> m_pool;
+    ImageCache m_cache;
+    std::shared_ptr<render::Backend> m_tile_backend;   // one thread per render: many at once
+    std::shared_ptr<render::Backend> m_region_backend; // every core on one large window
+    std::string m_backend_reason;
+    std::string m_backend_identity; // part of every ETag
+    RenderSlots m_render_slots;
+    std::atomic<bool> m_stopping{false};
+    int m_port = 0;
+};
+
+// Identifies the build in ETags and /healthz: version, commit, noise and analysis versions.
+const std::string& build_id();
+
+} // namespace textond::http

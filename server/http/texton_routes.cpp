@@ -1,0 +1,326 @@
+// POST/GET/DELETE /v1/textons...: uploads (single flight on a bounded pool), metadata, the
+// texton's files, listing.
+#include "api/requests.h"
+#include "core/texton_analysis.h"
+#include "server/http/http_support.h"
+#include "server/http/service.h"
+#include "server/io/image_io.h"
+#include "server/io/texton_file.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace textond::http {
+
+namespace {
+
+const char* kLinkTemplates[][2] = {
+    {"self", ""},
+    {"status", "/status"},
+    {"texton_png", "/texton.png"},
+    {"texton_exr", "/texton.exr"},
+    {"texton_v1", "/texton.texton"},
+    {"tilejson", "/tilejson.json"},
+    {"tiles", "/tiles/{z}/{x}/{y}.png"},
+    {"region", "/region.png"},
+    {"tileable", "/tileable.png"},
+};
+
+// A view of the coefficients people can look at: mid-grey is zero, full scale the largest
+// magnitude of any channel (the raw values are in texton.exr).
+core::Image visualise(const core::Texton& t) {
+    core::Image out(t.size, t.size, t.channels);
+    float peak = 0;
+    for (float v : t.alpha.data) peak = std::max(peak, std::abs(v));
+    const float scale = peak > 0 ? 0.5f / peak : 0.0f;
+    for (std::size_t k = 0; k < out.data.size(); ++k) out.data[k] = 0.5f + t.alpha.data[k] * scale;
+    return out;
+}
+
+bool constant_time_equal(const std::string& a, const std::string& b) {
+    unsigned char diff = a.size() == b.size() ? 0 : 1;
+    const std::string& ref = a.size() == b.size() ? b : a;
+    for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ ref[i]);
+    return diff == 0;
+}
+
+} // namespace
+
+nlohmann::json Service::texton_json(const api::TextonMeta& meta) const {
+    nlohmann::json j = meta;
+    j["analysis_ms"] = meta.timings.total_ms;
+    const std::string base = "/v1/textons/" + meta.id;
+    nlohmann::json links;
+    for (const auto& [name, suffix] : kLinkTemplates) links[name] = base + suffix;
+    j["links"] = links;
+    return j;
+}
+
+bool Service::authorised(const httplib::Request& req, httplib::Response& res) const {
+    if (m_config.api_key.empty()) return true;
+    const std::string h = req.get_header_value("Authorization");
+    const std::string prefix = "Bearer ";
+    if (h.size() > prefix.size() && h.compare(0, prefix.size(), prefix) == 0 &&
+        constant_time_equal(h.substr(prefix.size()), m_config.api_key))
+        return true;
+    res.set_header("WWW-Authenticate", "Bearer realm=\"textond\"");
+    send_error(res, {401, "unauthorized",
+                     "this server needs an API key for writes: Authorization: Bearer <key>"});
+    return false;
+}
+
+void Service::upload(const httplib::Request& req, httplib::Response& res,
+                     const httplib::ContentReader& reader) {
+    set_route("/v1/textons");
+    if (!authorised(req, res)) return;
+    if (m_stopping) {
+        res.set_header("Retry-After", "5");
+        return send_error(res, {503, "shutting_down", "the service is shutting down"});
+    }
+    // The body is read here rather than by cpp-httplib, which would parse a body sent as
+    // application/x-www-form-urlencoded (curl --data-binary's default) as form fields.
+    std::string body;
+    std::vector<httplib::MultipartFormData> parts;
+    const bool multipart = req.is_multipart_form_data();
+    const bool read_ok = multipart ? reader(
+                                         [&](const httplib::MultipartFormData& part) {
+                                             parts.push_back(part);
+                                             return true;
+                                         },
+                                         [&](const char* data, std::size_t n) {
+                                             parts.back().content.append(data, n);
+                                             return true;
+                                         })
+                                   : reader([&](const char* data, std::size_t n) {
+                                         body.append(data, n);
+                                         return true;
+                                     });
+    if (!read_ok) {
+        if (res.status == 413)
+            return send_error(res, {413, "payload_too_large",
+                                    "request body is over the upload limit of " +
+                                        std::to_string(m_config.max_upload_bytes) + " bytes"});
+        return send_error(res, {400, "bad_request", "could not read the request body"});
+    }
+    // Parameters come from the query and, for multipart uploads, from the other form fields.
+    api::Query fields = req.params;
+    std::string_view bytes = body;
+    if (multipart) {
+        bytes = {};
+        for (const auto& part : parts) {
+            const std::string& name = part.name;
+            if (name == "exemplar") {
+                if (!bytes.empty())
+                    return send_error(res, {400, "invalid_parameter",
+                                            "more than one 'exemplar' field in the form"});
+                bytes = part.content;
+                if (bytes.empty())
+                    return send_error(res, {400, "empty_body", "the 'exemplar' field is empty"});
+            } else {
+                fields.emplace(name, part.content);
+            }
+        }
+        if (bytes.empty())
+            return send_error(res, {400, "missing_exemplar",
+                                    "multipart upload without an 'exemplar' file field"});
+    }
+    core::AnalysisParams params;
+    if (auto e = api::parse_analysis(fields, params)) return send_error(res, *e);
+    if (bytes.empty())
+        return send_error(res, {400, "empty_body",
+                                "no exemplar: send the image as the body (Content-Type: image/*) "
+                                "or as the 'exemplar' field of a multipart form"});
+
+    io::DecodeLimits limits;
+    limits.max_pixels = m_config.max_pixels;
+    limits.formats = m_config.formats;
+    auto image = io::decode_image_memory(bytes, limits);
+    if (!image) {
+        const Error& err = image.error();
+        const char* code = err.code == ErrorCode::too_large     ? "image_too_large"
+                           : err.code == ErrorCode::unsupported ? "unsupported_media_type"
+                                                                : "invalid_image";
+        return send_error(res, to_api_error(err, code));
+    }
+    const core::Image& u = image.value();
+    if (auto err = core::validate_analysis(params, u.width, u.height, u.channels))
+        return send_error(res, {422, "exemplar_too_small", err->message});
+
+    const std::string id = io::texton_id(u, params);
+    if (auto meta = m_store->meta(id)) return send_json(res, 200, texton_json(*meta));
+
+    auto exemplar = std::make_shared<core::Image>(std::move(image.value()));
+    TextonStore* store = m_store.get();
+    Metrics* metrics = &m_metrics;
+    auto submitted = m_pool->submit(
+        id,
+        [exemplar, params, store, metrics,
+         id](const core::ProgressFn& progress) -> Result<AnalysisOutcome> {
+            if (auto meta = store->meta(id)) return AnalysisOutcome{*meta, false};
+            const auto t0 = std::chrono::steady_clock::now();
+            auto result = core::analyze_texton(*exemplar, params, progress);
+            const double ms =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                    .count();
+            metrics->analysis(result.ok(), ms);
+            if (!result) return result.error();
+            auto put = store->put(io::make_record(*exemplar, params, result.value()));
+            if (!put) return put.error();
+            auto meta = store->meta(id);
+            if (!meta) return make_error(ErrorCode::internal, "stored texton vanished");
+            spdlog::info("analysed {}: {}x{}x{}, r = {}, RME {:.4f}, {:.0f} ms", id,
+                         exemplar->width, exemplar->height, exemplar->channels, params.size,
+                         meta->rme, ms);
+            return AnalysisOutcome{*meta, true};
+        });
+    if (!submitted.job) {
+        const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
+        res.set_header("Retry-After", std::to_string(wait_s));
+        return send_error(res, {429, "overloaded",
+                                "every analysis worker is busy and the queue is full; retry "
+                                "after " +
+                                    std::to_string(wait_s) + " s"});
+    }
+    const std::string status_url = "/v1/textons/" + id + "/status";
+    // RFC 7240: a client that prefers not to wait gets 202 and polls the status URL.
+    if (req.get_header_value("Prefer").find("respond-async") != std::string::npos) {
+        res.set_header("Location", status_url);
+        res.set_header("Preference-Applied", "respond-async");
+        const auto [done, total] = submitted.job->progress();
+        return send_json(res, 202,
+                         {{"id", id},
+                          {"state", to_string(submitted.job->state())},
+                          {"progress", {{"done", done}, {"total", total}}},
+                          {"links", {{"status", status_url}, {"self", "/v1/textons/" + id}}}});
+    }
+    const Result<AnalysisOutcome>& outcome = submitted.job->wait();
+    if (!outcome) {
+        const Error& err = outcome.error();
+        return send_error(
+            res,
+            to_api_error(err, err.code == ErrorCode::invalid_argument ? "invalid_parameter" : ""));
+    }
+    const bool created = outcome.value().created && !submitted.joined;
+    if (created) res.set_header("Location", "/v1/textons/" + id);
+    send_json(res, created ? 201 : 200, texton_json(outcome.value().meta));
+}
+
+void Service::get_texton(const std::string& id, httplib::Response& res) {
+    set_route("/v1/textons/{id}");
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    auto meta = m_store->meta(id);
+    if (!meta) return send_error(res, {404, "not_found", "no texton " + id});
+    send_json(res, 200, texton_json(*meta), "public, max-age=60");
+}
+
+void Service::texton_status(const std::string& id, httplib::Response& res) {
+    set_route("/v1/textons/{id}/status");
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    const std::string self = "/v1/textons/" + id;
+    if (auto meta = m_store->meta(id))
+        return send_json(res, 200,
+                         {{"id", id},
+                          {"state", "done"},
+                          {"progress", {{"done", meta->iterations}, {"total", meta->iterations}}},
+                          {"links", {{"self", self}}}});
+    auto job = m_pool->find(id);
+    if (!job) return send_error(res, {404, "not_found", "no texton or analysis " + id});
+    const auto [done, total] = job->progress();
+    nlohmann::json body = {{"id", id},
+                           {"state", to_string(job->state())},
+                           {"progress", {{"done", done}, {"total", total}}},
+                           {"links", {{"self", self}}}};
+    if (job->state() == AnalysisJob::State::failed) {
+        const api::ApiError e = to_api_error(job->wait().error());
+        body["error"] = {{"code", e.code}, {"message", e.message}};
+    }
+    send_json(res, 200, body);
+}
+
+void Service::texton_file(const std::string& id, const std::string& ext, httplib::Response& res) {
+    set_route("/v1/textons/{id}/texton.{ext}");
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    if (!m_store->contains(id)) return send_error(res, {404, "not_found", "no texton " + id});
+    if (ext == "exr") {
+        auto bytes = m_store->file_bytes(id);
+        if (!bytes) return send_error(res, to_api_error(bytes.error()));
+        res.set_header("Cache-Control", "public, max-age=86400");
+        res.set_header("Content-Disposition", "inline; filename=\"" + id.substr(0, 12) + ".exr\"");
+        return res.set_content(bytes.value(), "image/x-exr");
+    }
+    auto record = m_store->record(id);
+    if (!record) return send_error(res, to_api_error(record.error()));
+    res.set_header("Cache-Control", "public, max-age=86400");
+    if (ext == "texton") {
+        res.set_header("Content-Disposition",
+                       "attachment; filename=\"" + id.substr(0, 12) + ".texton\"");
+        return res.set_content(io::texton_v1_text(record.value(), id + ".png"), "text/plain");
+    }
+    if (ext != "png")
+        return send_error(res, {400, "invalid_format", "texton views are .png, .exr or .texton"});
+    auto png = io::encode_image_memory(visualise(record.value().texton), io::Encoding::png8);
+    if (!png) return send_error(res, to_api_error(png.error()));
+    res.set_content(png.value(), "image/png");
+}
+
+void Service::delete_texton(const httplib::Request& req, const std::string& id,
+                            httplib::Response& res) {
+    set_route("/v1/textons/{id}");
+    if (!authorised(req, res)) return;
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    auto r = m_store->remove(id);
+    if (!r) return send_error(res, to_api_error(r.error()));
+    m_cache.erase_texton(id);
+    res.status = 204;
+}
+
+void Service::list_textons(const httplib::Request& req, httplib::Response& res) {
+    set_route("/v1/textons");
+    api::ListRequest q;
+    if (auto e = api::parse_list(req.params, q)) return send_error(res, *e);
+    const auto page = m_store->list(q.after, q.limit + 1);
+    nlohmann::json items = nlohmann::json::array();
+    for (std::size_t i = 0; i < page.size() && static_cast<int>(i) < q.limit; ++i)
+        items.push_back(texton_json(page[i]));
+    nlohmann::json body = {{"items", items}, {"total", m_store->count()}};
+    if (static_cast<int>(page.size()) > q.limit) {
+        const std::string& last = page[static_cast<std::size_t>(q.limit) - 1].id;
+        body["next"] = "/v1/textons?limit=" + std::to_string(q.limit) + "&after=" + last;
+    } else {
+        body["next"] = nullptr;
+    }
+    send_json(res, 200, body, "no-cache");
+}
+
+void Service::install_texton_routes() {
+    using Req = const httplib::Request&;
+    using Res = httplib::Response&;
+    m_http.Post("/v1/textons", [this](Req req, Res res, const httplib::ContentReader& reader) {
+        upload(req, res, reader);
+    });
+    m_http.Get("/v1/textons", [this](Req req, Res res) { list_textons(req, res); });
+    m_http.Get(R"(/v1/textons/([^/]+))",
+               [this](Req req, Res res) { get_texton(req.matches[1], res); });
+    m_http.Delete(R"(/v1/textons/([^/]+))",
+                  [this](Req req, Res res) { delete_texton(req, req.matches[1], res); });
+    m_http.Get(R"(/v1/textons/([^/]+)/status)",
+               [this](Req req, Res res) { texton_status(req.matches[1], res); });
+    m_http.Get(R"(/v1/textons/([^/]+)/texton\.([a-z0-9]+))",
+               [this](Req req, Res res) { texton_file(req.matches[1], req.matches[2], res); });
+    // Anything else under /v1/textons/: a bad id is a 400 (never a path), a good one a 404.
+    auto fallback = [](Req req, Res res) {
+        set_route("/v1/textons/*");
+        const std::string rest = req.matches[1];
+        const std::string first = rest.substr(0, rest.find('/'));
+        if (auto e = api::check_texton_id(first)) return send_error(res, *e);
+        send_error(res, {404, "not_found", "no such endpoint under /v1/textons/" + first});
+    };
+    m_http.Get(R"(/v1/textons/(.*))", fallback);
+    m_http.Delete(R"(/v1/textons/(.*))", fallback);
+    m_http.Post(R"(/v1/textons/(.*))", fallback);
+}
+
+} // namespace textond::http
