@@ -19,6 +19,7 @@ struct RequestContext {
     std::string id;
     std::string route = "unmatched"; // route template for metrics, e.g. /v1/textons/{id}
     std::chrono::steady_clock::time_point start;
+    double handler_ms = 0; // until the response is ready, before it is written
     bool active = false;
 };
 RequestContext& current_request();

@@ -9,6 +9,7 @@
 #include <OpenImageIO/oiioversion.h>
 #include <spdlog/spdlog.h>
 
+#include <sys/socket.h>
 #include <thread>
 
 #ifndef TEXTOND_GIT_COMMIT
@@ -30,16 +31,25 @@ const std::string& build_id() {
 
 void RenderSlots::acquire() {
     std::unique_lock lock(m_mutex);
-    m_cv.wait(lock, [&] { return m_free > 0; });
-    --m_free;
+    if (m_free > 0 && m_waiters.empty()) {
+        --m_free;
+        return;
+    }
+    Waiter me;
+    m_waiters.push_back(&me);
+    me.cv.wait(lock, [&] { return me.granted; });
 }
 
 void RenderSlots::release() {
-    {
-        std::lock_guard lock(m_mutex);
+    std::lock_guard lock(m_mutex);
+    if (m_waiters.empty()) {
         ++m_free;
+        return;
     }
-    m_cv.notify_one();
+    Waiter* next = m_waiters.front();
+    m_waiters.pop_front();
+    next->granted = true; // the slot passes straight to the next waiter
+    next->cv.notify_one();
 }
 
 namespace {
@@ -164,7 +174,11 @@ void Service::install_hooks() {
         return httplib::Server::HandlerResponse::Unhandled;
     });
     m_http.set_post_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-        res.set_header("X-Request-Id", current_request().id);
+        RequestContext& ctx = current_request();
+        ctx.handler_ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ctx.start)
+                .count();
+        res.set_header("X-Request-Id", ctx.id);
         apply_cors(m_config.cors_origin, req, res);
     });
     // Errors raised before or outside a route (404, 413 from the body limit, 414...) get the
@@ -203,8 +217,8 @@ void Service::install_hooks() {
                        : 0.0;
         m_metrics.request(ctx.route, req.method, res.status, seconds);
         if (m_config.access_log)
-            spdlog::info("{} {} {} {} {}B {:.2f}ms", ctx.id, req.method, req.path, res.status,
-                         res.body.size(), seconds * 1000.0);
+            spdlog::info("{} {} {} {} {}B {:.2f}ms (handler {:.2f}ms)", ctx.id, req.method,
+                         req.path, res.status, res.body.size(), seconds * 1000.0, ctx.handler_ms);
         ctx.active = false;
     });
 }
@@ -259,6 +273,8 @@ Result<int> Service::bind() {
         return make_error(ErrorCode::io, "cannot listen on " + m_config.host + ":" +
                                              std::to_string(m_config.port) +
                                              " (in use, or not an address of this machine)");
+    if (::listen(m_http.listening_socket(), m_config.listen_backlog) != 0)
+        spdlog::warn("cannot enlarge the listen backlog to {}", m_config.listen_backlog);
     m_port = port;
     return port;
 }

@@ -1,0 +1,42 @@
+-- wrk script: 256x256 PNG tiles of one texton. mode "cold": every request a distinct tile (a
+-- per-thread walk over a huge grid), mode "warm": the same WARM_SET tiles over and over.
+-- Environment: TEXTON (id), MODE (cold|warm), WARM_SET (default 64), SEED.
+local threads = {}
+local counter = 0
+
+function setup(thread)
+  thread:set("tid", #threads)
+  table.insert(threads, thread)
+end
+
+function init(args)
+  texton = os.getenv("TEXTON")
+  mode = os.getenv("MODE") or "cold"
+  warm_set = tonumber(os.getenv("WARM_SET") or "64")
+  seed = os.getenv("SEED") or "0"
+  errors_seen = 0
+end
+
+request = function()
+  counter = counter + 1
+  local x, y
+  if mode == "warm" then
+    local k = counter % warm_set
+    x, y = k % 8, math.floor(k / 8)
+  else
+    -- distinct per thread and per request: rows far apart per thread
+    x, y = counter, tid * 1000003 + 17
+  end
+  return wrk.format("GET", "/v1/textons/" .. texton .. "/tiles/0/" .. x .. "/" .. y .. ".png?seed=" .. seed)
+end
+
+response = function(status, headers, body)
+  if status ~= 200 then errors_seen = errors_seen + 1 end
+end
+
+done = function(summary, latency, requests)
+  io.write(string.format("WRK %d %.1f %.3f %.3f %d %d %d\n", summary.requests,
+    summary.requests / (summary.duration / 1e6), latency:percentile(50) / 1000,
+    latency:percentile(99) / 1000, summary.errors.connect + summary.errors.read +
+    summary.errors.write + summary.errors.timeout, summary.errors.status, summary.bytes))
+end
