@@ -2,9 +2,9 @@
 PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
-ARGS   ?= --help
+ARGS   ?= serve
 
-.PHONY: deps build run test bench format clean
+.PHONY: deps build run test bench load format clean
 
 deps:
 	bash docker/install-deps.sh
@@ -13,7 +13,8 @@ build: deps
 	cmake --preset $(PRESET) >/dev/null
 	cmake --build $(BUILD) -j $(JOBS)
 
-# Starts textond (for now the CLI; `make run ARGS="analyze ..."`).
+# Starts the HTTP service with its embedded defaults (./data, backend auto, 127.0.0.1:8080);
+# `make run ARGS="serve --port 9000"` or any other command (`make run ARGS="analyze ..."`).
 run: build
 	./$(BUILD)/textond $(ARGS)
 
@@ -22,6 +23,10 @@ test: build
 
 bench: build
 	./$(BUILD)/textond bench analyze
+
+# Tile throughput with wrk against a fresh server (tests/load/load_test.sh; not part of `test`).
+load: build
+	tests/load/load_test.sh
 
 format:
 	clang-format -i $$(git ls-files '*.h' '*.cpp')

@@ -8,6 +8,8 @@ packages=(
     libfftw3-dev libopenimageio-dev openimageio-tools nlohmann-json3-dev libspdlog-dev
     libcpp-httplib-dev libssl-dev libosmesa6-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
     googletest libgtest-dev
+    # tests: the API schema test (Debian's python, not whatever python3 is first on PATH), load
+    python3 python3-yaml python3-jsonschema wrk curl
 )
 
 missing=()

@@ -64,6 +64,18 @@ render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, 
     return q;
 }
 
+// Writes the cached bytes straight to the socket: no copy into the response (a warm tile is
+// ~200 kB, and copying it was a fifth of a cache hit's CPU time).
+void send_cached(httplib::Response& res, std::shared_ptr<const CachedImage> image) {
+    const std::size_t size = image->body.size();
+    const std::string type = image->content_type;
+    res.set_content_provider(size, type.c_str(),
+                             [image = std::move(image)](std::size_t offset, std::size_t length,
+                                                        httplib::DataSink& sink) {
+                                 return sink.write(image->body.data() + offset, length);
+                             });
+}
+
 } // namespace
 
 struct Service::ImageJob {
@@ -96,7 +108,7 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
         res.status = 304;
         return;
     }
-    if (cached) return res.set_content(cached->body, cached->content_type);
+    if (cached) return send_cached(res, std::move(cached));
 
     auto prepared = m_store->prepared(job.id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
@@ -130,7 +142,7 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
     entry->content_type = api::content_type(job.format);
     entry->texton_id = job.id;
     m_cache.put(key, entry);
-    res.set_content(entry->body, entry->content_type);
+    send_cached(res, std::move(entry));
 }
 
 std::string Service::base_url(const httplib::Request& req) const {

@@ -218,7 +218,8 @@ void Service::install_hooks() {
         m_metrics.request(ctx.route, req.method, res.status, seconds);
         if (m_config.access_log)
             spdlog::info("{} {} {} {} {}B {:.2f}ms (handler {:.2f}ms)", ctx.id, req.method,
-                         req.path, res.status, res.body.size(), seconds * 1000.0, ctx.handler_ms);
+                         req.path, res.status, res.get_header_value("Content-Length"),
+                         seconds * 1000.0, ctx.handler_ms);
         ctx.active = false;
     });
 }

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <memory>
 #include <random>
+#include <stdexcept>
 #include <sys/stat.h>
 #include <type_traits>
 #include <unistd.h>
@@ -214,17 +215,19 @@ struct EncodeInput {
 template <class T> void interleave(const core::Image& image, float scale, T* out) {
     const std::size_t n = image.plane_size();
     const int nc = image.channels;
-    for (int c = 0; c < nc; ++c) {
-        const float* p = image.plane(c);
-        T* o = out + c;
-        if constexpr (std::is_same_v<T, float>) {
-            for (std::size_t k = 0; k < n; ++k) o[k * nc] = p[k];
-        } else {
-            // Round to nearest, as OpenImageIO's own conversion does.
-            for (std::size_t k = 0; k < n; ++k)
-                o[k * nc] = static_cast<T>(std::clamp(p[k], 0.0f, 1.0f) * scale + 0.5f);
+    if (nc < 1 || nc > 4) throw std::invalid_argument("encode: 1 to 4 channels");
+    const float* planes[4] = {};
+    for (int c = 0; c < nc; ++c) planes[c] = image.plane(c);
+    // Pixel-major, so the writes are sequential (channel-major strided stores were 10% of a cold
+    // tile's CPU time).
+    for (std::size_t k = 0; k < n; ++k)
+        for (int c = 0; c < nc; ++c) {
+            const float v = planes[c][k];
+            if constexpr (std::is_same_v<T, float>)
+                out[k * nc + c] = v;
+            else // round to nearest, as OpenImageIO's own conversion does
+                out[k * nc + c] = static_cast<T>(std::clamp(v, 0.0f, 1.0f) * scale + 0.5f);
         }
-    }
 }
 
 // The pixels are converted here, not by OpenImageIO: its conversion of a small image fans out
@@ -255,10 +258,14 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
     EncodeInput in = prepare_encode(image, e, attributes);
     if (e != Encoding::exr) {
         in.spec.attribute("png:compressionLevel", png_compression);
-        // No row filters: on noise they cost time (libpng tries five per row) and save ~1%.
-        in.spec.attribute("png:filter", 8 /* PNG_FILTER_NONE */);
+        // Stored (level 0): filters are wasted work. Compressed: the Average filter alone gives
+        // nearly the size of libpng's five-filter search on texton noise in half the time
+        // (measured on 256x256 tiles: -39% bytes for cork, -19% for sand, at level 1).
+        in.spec.attribute("png:filter", png_compression == 0 ? 8 /* PNG_FILTER_NONE */
+                                                             : 64 /* PNG_FILTER_AVG */);
     }
     std::vector<unsigned char> buffer;
+    buffer.reserve(in.pixels.size() + in.pixels.size() / 64 + 4096); // stored PNG, no regrowth
     OIIO::Filesystem::IOVecOutput proxy(buffer);
     void* proxy_ptr = &proxy;
     in.spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy_ptr);

@@ -17,7 +17,7 @@ BIN=${BIN:-$root/build/release/textond}
 EXEMPLAR=${EXEMPLAR:-$root/../shared/data/exemplars/etr_sand01.png}
 [ -f "$EXEMPLAR" ] || EXEMPLAR=$root/shared/data/exemplars/etr_sand01.png
 
-command -v wrk >/dev/null || bash "$root/docker/install-deps.sh" --load
+command -v wrk >/dev/null || bash "$root/docker/install-deps.sh"
 command -v wrk >/dev/null || { echo "load_test: wrk is not installed" >&2; exit 1; }
 
 server_pid=""

@@ -1,0 +1,118 @@
+// The store across restarts of the real binary: kill -9 during an upload leaves the texton
+// complete or absent; a damaged file is quarantined and reported, never served; SIGTERM lets a
+// request in flight finish.
+#include "tests/server/server_fixture.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+namespace textond::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+int files_in(const std::string& dir) {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(dir)) n += e.is_regular_file();
+    return n;
+}
+
+TEST(Store, KillDuringUploadsLeavesCompleteOrAbsentTextons) {
+    const std::string data = fresh_dir("store-kill");
+    const std::string body = read_file(exemplar_path("skimage_grass.png"));
+    // Kill at several moments: before, during and after the analysis and its write.
+    for (int delay_ms : {5, 40, 120, 300}) {
+        SCOPED_TRACE(delay_ms);
+        {
+            ServerProcess server(data);
+            std::thread uploader([&] {
+                auto c = server.client();
+                c.Post(
+                    ("/v1/textons?size=32&iterations=40&seed=" + std::to_string(delay_ms)).c_str(),
+                    body, "image/png");
+            });
+            std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+            server.kill_hard();
+            uploader.join();
+        }
+        ServerProcess again(data);
+        auto c = again.client();
+        auto ready = c.Get("/readyz");
+        ASSERT_TRUE(ready);
+        EXPECT_EQ(ready->status, 200);
+        EXPECT_TRUE(json::parse(ready->body)["store"]["quarantined"].empty()) << ready->body;
+        const json list = json::parse(c.Get("/v1/textons")->body);
+        for (const auto& t : list["items"]) {
+            const std::string id = t["id"];
+            auto exr = c.Get(("/v1/textons/" + id + "/texton.exr").c_str());
+            EXPECT_EQ(exr->status, 200); // verified (checksum) on the way out
+            EXPECT_EQ(c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str())->status, 200);
+        }
+        // No temporary file survives a restart.
+        for (const auto& e : fs::directory_iterator(data + "/textons"))
+            EXPECT_NE(e.path().filename().string()[0], '.') << e.path();
+        EXPECT_EQ(files_in(data + "/textons"), static_cast<int>(list["items"].size()));
+    }
+}
+
+TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
+    const std::string data = fresh_dir("store-damage");
+    std::string id;
+    {
+        ServerProcess server(data);
+        auto c = server.client();
+        id = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+        upload(c, "etr_pebbles04.png", "?size=16&iterations=5");
+        ASSERT_EQ(server.terminate(10000), 0);
+    }
+    // Flip bytes in the middle of the coefficients of one texton.
+    const std::string path = data + "/textons/" + id + ".exr";
+    std::string bytes = read_file(path);
+    for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 64; ++i) bytes[i] ^= 0x5a;
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+
+    ServerProcess server(data);
+    auto c = server.client();
+    auto ready = c.Get("/readyz");
+    ASSERT_TRUE(ready);
+    const json r = json::parse(ready->body);
+    ASSERT_EQ(r["store"]["quarantined"].size(), 1u) << ready->body;
+    EXPECT_EQ(r["store"]["quarantined"][0].get<std::string>().rfind(id, 0), 0u);
+    EXPECT_EQ(r["store"]["textons"], 1);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id).c_str())->status, 404);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str())->status, 404);
+    EXPECT_FALSE(fs::exists(path));
+    EXPECT_EQ(files_in(data + "/quarantine"), 1);
+    EXPECT_NE(c.Get("/metrics")->body.find("textond_store_quarantined 1"), std::string::npos);
+    // The same upload again analyses afresh and serves.
+    int status = 0;
+    EXPECT_EQ(upload(c, "etr_sand01.png", "?size=16&iterations=5", &status), id);
+    EXPECT_EQ(status, 201);
+}
+
+TEST(Store, SigtermFinishesTheRequestInFlight) {
+    const std::string data = fresh_dir("store-sigterm");
+    ServerProcess server(data);
+    int status = 0;
+    std::thread uploader([&] {
+        auto c = server.client();
+        auto res = c.Post("/v1/textons?size=64&iterations=150",
+                          read_file(exemplar_path("mypaint_HR_Cork.png")), "image/png");
+        status = res ? res->status : -1;
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(150));
+    EXPECT_EQ(server.terminate(60000), 0);
+    uploader.join();
+    EXPECT_EQ(status, 201);
+    EXPECT_EQ(files_in(data + "/textons"), 1);
+}
+
+} // namespace
+} // namespace textond::test

@@ -1,0 +1,267 @@
+// Images over HTTP: tiles stitch into the region of the same window (near the origin, at negative
+// and at huge indices, at several levels), map tiles are level tiles, TileJSON points at them,
+// tileable textures wrap, and the caching headers (ETag, 304, Cache-Control, CORS, HEAD) hold.
+#include "tests/server/server_fixture.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+
+namespace textond::test {
+namespace {
+
+using nlohmann::json;
+
+class Tiles : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        server = new TestServer();
+        auto c = server->client();
+        id = upload(c, "etr_pebbles04.png", "?size=32&iterations=20");
+    }
+    static void TearDownTestSuite() {
+        delete server;
+        server = nullptr;
+    }
+    static core::Image get_image(const std::string& path) {
+        auto c = server->client();
+        auto res = c.Get(path.c_str());
+        if (!res || res->status != 200) {
+            ADD_FAILURE() << path << ": "
+                          << (res ? std::to_string(res->status) + " " + res->body : "no response");
+            return {};
+        }
+        return decode(res->body);
+    }
+    static core::Image stitch(const std::vector<core::Image>& tiles, int n) {
+        const int s = tiles[0].width;
+        core::Image out(2 * s, 2 * s, tiles[0].channels);
+        for (int t = 0; t < 4; ++t)
+            for (int c = 0; c < out.channels; ++c)
+                for (int y = 0; y < s; ++y)
+                    for (int x = 0; x < s; ++x)
+                        out.at(c, (t % 2) * s + x, (t / 2) * s + y) = tiles[t].at(c, x, y);
+        (void)n;
+        return out;
+    }
+    static inline TestServer* server = nullptr;
+    static inline std::string id;
+};
+
+TEST_F(Tiles, FourTilesEqualTheRegionOfTheSameWindow) {
+    ASSERT_FALSE(id.empty());
+    struct Case {
+        int z;
+        long long x, y;
+        const char* ext;
+    };
+    const long long big = (1LL << 53) + 12345; // beyond float precision, still on the plane
+    for (const Case& k : {Case{0, 0, 0, "png"}, Case{0, -1, -1, "exr"}, Case{0, -7, 3, "png16"},
+                          Case{0, big, -big, "exr"}, Case{2, -3, 5, "exr"}, Case{-2, 11, -4, "png"},
+                          Case{9, 40, -40, "exr"}}) {
+        SCOPED_TRACE(std::string("z=") + std::to_string(k.z) + " x=" + std::to_string(k.x) +
+                     " y=" + std::to_string(k.y) + " " + k.ext);
+        std::vector<core::Image> tiles;
+        for (int t = 0; t < 4; ++t)
+            tiles.push_back(get_image("/v1/textons/" + id + "/tiles/" + std::to_string(k.z) + "/" +
+                                      std::to_string(k.x + t % 2) + "/" +
+                                      std::to_string(k.y + t / 2) + "." + k.ext + "?seed=9"));
+        ASSERT_EQ(tiles[0].width, 256);
+        const core::Image region =
+            get_image("/v1/textons/" + id + "/region." + k.ext +
+                      "?seed=9&w=512&h=512&z=" + std::to_string(k.z) +
+                      "&x=" + std::to_string(k.x * 256) + "&y=" + std::to_string(k.y * 256));
+        ASSERT_EQ(region.width, 512);
+        EXPECT_EQ(max_abs_diff(stitch(tiles, 2), region), 0.0);
+        // Not a constant: the comparison above could not pass by accident.
+        EXPECT_GT(moments(region.plane(0), region.plane_size()).variance, 1e-5);
+    }
+}
+
+TEST_F(Tiles, SeedsAndSizesChangeTheImage) {
+    const core::Image a = get_image("/v1/textons/" + id + "/tiles/0/0/0.exr?seed=1");
+    const core::Image b = get_image("/v1/textons/" + id + "/tiles/0/0/0.exr?seed=2");
+    EXPECT_GT(max_abs_diff(a, b), 0.01);
+    const core::Image big = get_image("/v1/textons/" + id + "/tiles/0/0/0.exr?seed=1&size=512");
+    EXPECT_EQ(big.width, 512);
+    EXPECT_EQ(max_abs_diff(test::crop(big, 256, 256), a), 0.0);
+}
+
+TEST_F(Tiles, MapTilesAreLevelTilesAndTileJsonPointsAtThem) {
+    auto c = server->client();
+    auto res = c.Get(("/v1/textons/" + id + "/tilejson.json?seed=4&mni=20").c_str());
+    ASSERT_TRUE(res);
+    ASSERT_EQ(res->status, 200) << res->body;
+    EXPECT_EQ(res->get_header_value("Vary"), "Host");
+    const json tj = json::parse(res->body);
+    EXPECT_EQ(tj.at("tilejson"), "3.0.0");
+    EXPECT_EQ(tj.at("scheme"), "xyz");
+    EXPECT_LT(tj.at("minzoom").get<int>(), tj.at("maxzoom").get<int>());
+    std::string url = tj.at("tiles").at(0);
+    const std::string base = "http://127.0.0.1:" + std::to_string(server->port());
+    ASSERT_EQ(url.rfind(base, 0), 0u) << url; // absolute
+    // Fill the template as a map client would at zoom 23 (one level coarser than native).
+    for (auto [key, value] : {std::pair{"{z}", "23"}, {"{x}", "-2"}, {"{y}", "1"}})
+        url.replace(url.find(key), std::string(key).size(), value);
+    const core::Image map_tile = get_image(url.substr(base.size()));
+    const core::Image level_tile =
+        get_image("/v1/textons/" + id + "/tiles/1/-2/1.png?seed=4&mni=20");
+    EXPECT_EQ(max_abs_diff(map_tile, level_tile), 0.0);
+    // A larger client zoom shows more detail: zoom 24 is level 0, whose 2x2 box average is level 1.
+    const core::Image fine =
+        get_image("/v1/textons/" + id + "/region.exr?seed=4&mni=20&w=512&h=512&x=-1024&y=512");
+    const core::Image coarse =
+        get_image("/v1/textons/" + id + "/region.exr?seed=4&mni=20&w=256&h=256&z=1&x=-512&y=256");
+    double worst = 0;
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x) {
+            const double avg = (fine.at(0, 2 * x, 2 * y) + fine.at(0, 2 * x + 1, 2 * y) +
+                                fine.at(0, 2 * x, 2 * y + 1) + fine.at(0, 2 * x + 1, 2 * y + 1)) /
+                               4;
+            worst = std::max(worst, std::abs(avg - coarse.at(0, x, y)));
+        }
+    EXPECT_LT(worst, 1e-4);
+}
+
+// Mean square of the jump across the wrap-around edges (left/right and top/bottom) over the mean
+// square of the jumps between neighbouring pixels inside: about 1 for a texture that wraps, about
+// 2 (two independent values) for an ordinary window, so the test can fail.
+double wrap_ratio(const core::Image& im) {
+    double inside = 0, wrap = 0;
+    long long n_inside = 0, n_wrap = 0;
+    for (int c = 0; c < im.channels; ++c)
+        for (int y = 0; y < im.height; ++y)
+            for (int x = 0; x < im.width; ++x) {
+                const int xr = (x + 1) % im.width, yd = (y + 1) % im.height;
+                const double dx = im.at(c, xr, y) - im.at(c, x, y);
+                const double dy = im.at(c, x, yd) - im.at(c, x, y);
+                (xr == 0 ? wrap : inside) += dx * dx;
+                (xr == 0 ? n_wrap : n_inside) += 1;
+                (yd == 0 ? wrap : inside) += dy * dy;
+                (yd == 0 ? n_wrap : n_inside) += 1;
+            }
+    return (wrap / static_cast<double>(n_wrap)) / (inside / static_cast<double>(n_inside));
+}
+
+TEST_F(Tiles, TileableTexturesWrapAtAnySize) {
+    // Cell side a = 20 for r = 32: 400 x 300 is 20 x 15 cells exactly; the others are
+    // resampled by their Fourier series.
+    for (auto [w, h] : {std::pair{400, 300}, std::pair{515, 389}, std::pair{257, 700}}) {
+        SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h));
+        const core::Image t =
+            get_image("/v1/textons/" + id + "/tileable.exr?w=" + std::to_string(w) +
+                      "&h=" + std::to_string(h) + "&seed=3");
+        ASSERT_EQ(t.width, w);
+        ASSERT_EQ(t.height, h);
+        // Neighbour differences decorrelate within a few pixels, so the w + h edge jumps are
+        // worth at least (w + h) / 4 independent squares: relative sd <= sqrt(8 / (w + h)).
+        // 6 / sqrt(w + h) is over 2 of those sds.
+        const double bound = 6.0 / std::sqrt(static_cast<double>(w + h));
+        EXPECT_NEAR(wrap_ratio(t), 1.0, bound);
+    }
+    const core::Image plain = get_image("/v1/textons/" + id + "/region.exr?w=400&h=300&seed=3");
+    EXPECT_GT(wrap_ratio(plain), 1.6);
+}
+
+TEST_F(Tiles, EtagNotModifiedCacheHeadersCorsAndHead) {
+    auto c = server->client();
+    const std::string path = "/v1/textons/" + id + "/tiles/3/-5/8.png?seed=12";
+    auto first = c.Get(path.c_str());
+    ASSERT_TRUE(first);
+    ASSERT_EQ(first->status, 200);
+    const std::string etag = first->get_header_value("ETag");
+    ASSERT_GE(etag.size(), 3u);
+    EXPECT_EQ(etag.front(), '"'); // strong
+    EXPECT_EQ(first->get_header_value("Cache-Control"), "public, max-age=31536000, immutable");
+    EXPECT_EQ(first->get_header_value("Content-Type"), "image/png");
+    EXPECT_EQ(first->get_header_value("Access-Control-Allow-Origin"), "*");
+    EXPECT_FALSE(first->has_header("Vary"));
+    EXPECT_FALSE(first->get_header_value("X-Request-Id").empty());
+
+    auto second = c.Get(path.c_str()); // from the cache: same bytes, same tag
+    ASSERT_TRUE(second);
+    EXPECT_EQ(second->body, first->body);
+    EXPECT_EQ(second->get_header_value("ETag"), etag);
+
+    for (const std::string& inm : {etag, "\"nope\", " + etag, std::string("*"), "W/" + etag}) {
+        auto nm = c.Get(path.c_str(), {{"If-None-Match", inm}});
+        ASSERT_TRUE(nm);
+        EXPECT_EQ(nm->status, 304) << inm;
+        EXPECT_TRUE(nm->body.empty());
+        EXPECT_EQ(nm->get_header_value("ETag"), etag);
+    }
+    EXPECT_EQ(c.Get(path.c_str(), {{"If-None-Match", "\"other\""}})->status, 200);
+    // Another seed is another image with another tag.
+    auto other = c.Get(("/v1/textons/" + id + "/tiles/3/-5/8.png?seed=13").c_str());
+    EXPECT_NE(other->get_header_value("ETag"), etag);
+
+    auto head = c.Head(path.c_str());
+    ASSERT_TRUE(head);
+    EXPECT_EQ(head->status, 200);
+    EXPECT_TRUE(head->body.empty());
+    EXPECT_EQ(head->get_header_value("Content-Length"), std::to_string(first->body.size()));
+    EXPECT_EQ(head->get_header_value("ETag"), etag);
+
+    auto pre = c.Options(path.c_str(), {{"Origin", "https://game.example"},
+                                        {"Access-Control-Request-Method", "GET"}});
+    ASSERT_TRUE(pre);
+    EXPECT_EQ(pre->status, 204);
+    EXPECT_EQ(pre->get_header_value("Access-Control-Allow-Origin"), "*");
+    EXPECT_NE(pre->get_header_value("Access-Control-Allow-Methods").find("GET"), std::string::npos);
+
+    // Short caching where the answer can change.
+    EXPECT_EQ(
+        c.Get(("/v1/textons/" + id + "/tilejson.json").c_str())->get_header_value("Cache-Control"),
+        "public, max-age=60");
+    EXPECT_EQ(c.Get("/v1/textons")->get_header_value("Cache-Control"), "no-cache");
+}
+
+TEST(TilesCors, ListedOriginsAreEchoedWithVary) {
+    http::ServeConfig config = TestServer::default_config();
+    config.cors_origin = "https://a.example, https://b.example";
+    TestServer server(config);
+    auto c = server.client();
+    auto ok = c.Get("/healthz", {{"Origin", "https://b.example"}});
+    EXPECT_EQ(ok->get_header_value("Access-Control-Allow-Origin"), "https://b.example");
+    EXPECT_EQ(ok->get_header_value("Vary"), "Origin");
+    auto no = c.Get("/healthz", {{"Origin", "https://evil.example"}});
+    EXPECT_FALSE(no->has_header("Access-Control-Allow-Origin"));
+}
+
+TEST(Ops, HealthReadinessMetricsAndSpec) {
+    TestServer server;
+    auto c = server.client();
+    auto h = c.Get("/healthz");
+    ASSERT_TRUE(h);
+    EXPECT_EQ(h->status, 200);
+    EXPECT_EQ(json::parse(h->body).at("status"), "ok");
+    auto r = c.Get("/readyz");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200) << r->body;
+    EXPECT_EQ(json::parse(r->body).at("backend").at("name"), "cpu");
+    const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str());
+    c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str());
+    auto m = c.Get("/metrics");
+    ASSERT_TRUE(m);
+    for (const char* series :
+         {"textond_http_requests_total{route=\"/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}\","
+          "method=\"GET\",status=\"200\"} 2",
+          "textond_http_request_duration_seconds_bucket{route=\"/v1/"
+          "textons\",status=\"201\",le=\"+Inf\"} 1",
+          "textond_tile_cache_requests_total{result=\"hit\"} 1",
+          "textond_tile_cache_requests_total{result=\"miss\"} 1",
+          "textond_render_seconds_count{backend=\"cpu\",kind=\"tile\"} 1",
+          "textond_analyses_total{result=\"ok\"} 1", "textond_analysis_queue_depth 0",
+          "textond_store_textons 1"})
+        EXPECT_NE(m->body.find(series), std::string::npos) << series << "\n" << m->body;
+    auto spec = c.Get("/v1/openapi.yaml");
+    ASSERT_TRUE(spec);
+    EXPECT_EQ(spec->body.rfind("openapi: 3.1", 0), 0u);
+    EXPECT_NE(spec->body.find("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}"), std::string::npos);
+}
+
+} // namespace
+} // namespace textond::test
