@@ -116,15 +116,10 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
         return send_error(res, to_api_error(*err, "invalid_parameter"));
     render::Backend& backend = job.use_region_backend ? *m_region_backend : *m_tile_backend;
     const auto t0 = std::chrono::steady_clock::now();
-    m_render_slots.acquire();
-    Result<core::Image> image = make_error(ErrorCode::internal, "not rendered");
-    try {
-        image = backend.render(*prepared.value(), job.request);
-    } catch (...) {
-        m_render_slots.release();
-        throw;
-    }
-    m_render_slots.release();
+    Result<core::Image> image = [&] {
+        SlotGuard slot(m_render_slots);
+        return backend.render(*prepared.value(), job.request);
+    }();
     if (!image) return send_error(res, to_api_error(image.error()));
     if (job.out_width != job.request.width || job.out_height != job.request.height)
         image = core::resample_periodic(image.value(), job.out_width, job.out_height);

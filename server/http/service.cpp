@@ -87,7 +87,8 @@ void apply_cors(const std::string& allowed, const httplib::Request& req, httplib
 
 Service::Service(ServeConfig config)
     : m_config(std::move(config)), m_cache(m_config.cache_bytes),
-      m_render_slots(m_config.render_slots > 0 ? m_config.render_slots : cores()) {}
+      m_render_slots(m_config.render_slots > 0 ? m_config.render_slots : cores()),
+      m_decode_slots(cores()) {}
 
 Service::~Service() {
     stop();

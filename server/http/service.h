@@ -40,6 +40,18 @@ private:
     std::deque<Waiter*> m_waiters;
 };
 
+// Holds one slot for a scope, whatever is thrown.
+class SlotGuard {
+public:
+    explicit SlotGuard(RenderSlots& slots) : m_slots(slots) { m_slots.acquire(); }
+    ~SlotGuard() { m_slots.release(); }
+    SlotGuard(const SlotGuard&) = delete;
+    SlotGuard& operator=(const SlotGuard&) = delete;
+
+private:
+    RenderSlots& m_slots;
+};
+
 // cpp-httplib 0.11 listens with a backlog of 5: a burst of connections (64 clients starting at
 // once) overflows it and the kernel drops SYNs, which clients retry after a second. Linux lets
 // listen() be called again on a listening socket to enlarge the backlog; this exposes the socket.
@@ -102,6 +114,9 @@ private:
     std::string m_backend_reason;
     std::string m_backend_identity; // part of every ETag
     RenderSlots m_render_slots;
+    // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
+    // so that many simultaneous large uploads cannot exhaust memory.
+    RenderSlots m_decode_slots;
     std::atomic<bool> m_stopping{false};
     int m_port = 0;
 };

@@ -137,7 +137,10 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     io::DecodeLimits limits;
     limits.max_pixels = m_config.max_pixels;
     limits.formats = m_config.formats;
-    auto image = io::decode_image_memory(bytes, limits);
+    auto image = [&] {
+        SlotGuard slot(m_decode_slots);
+        return io::decode_image_memory(bytes, limits);
+    }();
     if (!image) {
         const Error& err = image.error();
         const char* code = err.code == ErrorCode::too_large     ? "image_too_large"

@@ -39,7 +39,7 @@ RunResult run(const std::string& args) {
 
 TEST(Cli, HelpForEveryCommand) {
     for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help",
-                          "render --help", "bench render --help"}) {
+                          "render --help", "bench render --help", "serve --help"}) {
         const RunResult r = run(c);
         EXPECT_EQ(r.code, 0) << c;
         EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
@@ -152,5 +152,51 @@ TEST(Cli, RenderWritesTheAskedWindowOnEverySoftwareBackend) {
         const RunResult e = run(c.args);
         EXPECT_EQ(e.code, c.code) << c.args << "\n" << e.err;
         EXPECT_NE(e.err.find(c.says), std::string::npos) << c.args << "\n" << e.err;
+    }
+}
+
+TEST(Cli, ServeHelpShowsEveryFlagWithItsEnvironmentVariable) {
+    const RunResult r = run("serve --help");
+    ASSERT_EQ(r.code, 0);
+    for (const char* flag : {"--host", "--port", "--data", "--backend", "--api-key", "--cache-mb",
+                             "--max-upload-mb", "--max-pixels", "--formats", "--http-threads",
+                             "--read-timeout", "--keep-alive-max", "--log-level"})
+        EXPECT_NE(r.out.find(flag), std::string::npos) << flag;
+    EXPECT_NE(r.out.find("TEXTOND_CACHE_MB"), std::string::npos);
+    EXPECT_NE(r.out.find("[./data]"), std::string::npos);
+    EXPECT_NE(r.out.find("[127.0.0.1]"), std::string::npos);
+    EXPECT_NE(r.out.find("[8080]"), std::string::npos);
+}
+
+TEST(Cli, ServeRefusesBadConfigurationFromFlagsAndEnvironment) {
+    struct Case {
+        std::string command;
+        const char* says;
+    };
+    for (const Case& c :
+         {Case{"serve --cache-mb lots", "--cache-mb"}, Case{"serve --port 70000", "--port"},
+          Case{"serve --backend vulkan", "vulkan"}, Case{"serve --formats png,gif", "gif"},
+          Case{"serve --log-level loud", "--log-level"},
+          Case{"serve --no-such-flag", "--no-such-flag"}, Case{"serve extra", "positional"},
+          Case{"TEXTOND_CACHE_MB=lots " + std::string(TEXTOND_BINARY) + " serve", "--cache-mb"},
+          Case{"TEXTOND_PORT=-1 " + std::string(TEXTOND_BINARY) + " serve", "--port"}}) {
+        // Cases that set the environment run the binary themselves through the shell.
+        const bool env = c.command.rfind("TEXTOND_", 0) == 0;
+        RunResult r;
+        if (env) {
+            const fs::path errfile = test::temp_path("serve-env-err");
+            const int status =
+                std::system((c.command + " >/dev/null 2>" + errfile.string()).c_str());
+            r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+            std::FILE* e = std::fopen(errfile.c_str(), "r");
+            std::array<char, 4096> buf{};
+            while (std::size_t n = std::fread(buf.data(), 1, buf.size(), e))
+                r.err.append(buf.data(), n);
+            std::fclose(e);
+        } else {
+            r = run(c.command);
+        }
+        EXPECT_EQ(r.code, 2) << c.command << "\n" << r.err;
+        EXPECT_NE(r.err.find(c.says), std::string::npos) << c.command << "\n" << r.err;
     }
 }

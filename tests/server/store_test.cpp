@@ -114,5 +114,24 @@ TEST(Store, SigtermFinishesTheRequestInFlight) {
     EXPECT_EQ(files_in(data + "/textons"), 1);
 }
 
+TEST(Serve, EnvironmentConfiguresAndFlagsWin) {
+    // TEXTOND_API_KEY guards writes; TEXTOND_MAX_REGION_PIXELS is overridden by its flag.
+    ::setenv("TEXTOND_API_KEY", "from-env", 1);
+    ::setenv("TEXTOND_MAX_REGION_PIXELS", "100", 1);
+    ServerProcess server(fresh_dir("serve-env"), {"--max-region-pixels", "300000"});
+    ::unsetenv("TEXTOND_API_KEY");
+    ::unsetenv("TEXTOND_MAX_REGION_PIXELS");
+    auto c = server.client();
+    const std::string body = read_file(exemplar_path("etr_sand01.png"));
+    EXPECT_EQ(c.Post("/v1/textons?size=16&iterations=5", body, "image/png")->status, 401);
+    auto ok = c.Post("/v1/textons?size=16&iterations=5", {{"Authorization", "Bearer from-env"}},
+                     body, "image/png");
+    ASSERT_TRUE(ok);
+    ASSERT_EQ(ok->status, 201);
+    const std::string id = json::parse(ok->body).at("id");
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + "/region.png?w=500&h=500").c_str())->status, 200);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + "/region.png?w=600&h=600").c_str())->status, 400);
+}
+
 } // namespace
 } // namespace textond::test
