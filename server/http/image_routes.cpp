@@ -197,32 +197,25 @@ void Service::tilejson(const httplib::Request& req, const std::string& id, httpl
 void Service::install_image_routes() {
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
+    // Game tiles (z = level) and web-map tiles (z = zoom, level = 24 - z) differ only in parsing.
+    using TileParser = decltype(&api::parse_tile);
+    auto tile_route = [this](const char* route, TileParser parse) {
+        return [this, route, parse](Req req, Res res) {
+            set_route(route);
+            api::TileRequest t;
+            if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
+                               req.matches[4].str(), req.matches[5].str(), req.params, t))
+                return send_error(res, *e);
+            serve_image(req, res,
+                        {t.id, "tile", t.format,
+                         noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise), t.size,
+                         t.size, false});
+        };
+    };
     m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               [this](Req req, Res res) {
-                   set_route("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}");
-                   api::TileRequest t;
-                   if (auto e = api::parse_tile(req.matches[1].str(), req.matches[2].str(),
-                                                req.matches[3].str(), req.matches[4].str(),
-                                                req.matches[5].str(), req.params, t))
-                       return send_error(res, *e);
-                   serve_image(req, res,
-                               {t.id, "tile", t.format,
-                                noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
-                                t.size, t.size, false});
-               });
+               tile_route("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &api::parse_tile));
     m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               [this](Req req, Res res) {
-                   set_route("/v1/textons/{id}/map/{z}/{x}/{y}.{format}");
-                   api::TileRequest t;
-                   if (auto e = api::parse_map_tile(req.matches[1].str(), req.matches[2].str(),
-                                                    req.matches[3].str(), req.matches[4].str(),
-                                                    req.matches[5].str(), req.params, t))
-                       return send_error(res, *e);
-                   serve_image(req, res,
-                               {t.id, "tile", t.format,
-                                noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
-                                t.size, t.size, false});
-               });
+               tile_route("/v1/textons/{id}/map/{z}/{x}/{y}.{format}", &api::parse_map_tile));
     m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))", [this](Req req, Res res) {
         set_route("/v1/textons/{id}/region.{format}");
         api::RegionRequest r;

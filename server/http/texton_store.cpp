@@ -1,13 +1,13 @@
 #include "server/http/texton_store.h"
 
 #include "api/requests.h"
+#include "server/http/http_support.h"
 
 #include <spdlog/spdlog.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cstring>
-#include <ctime>
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
@@ -21,15 +21,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kExtension = ".exr";
-
-std::string now_rfc3339() {
-    const std::time_t t = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf;
-}
 
 // A rename is durable only once its directory entry is.
 void fsync_directory(const std::string& dir) {
@@ -173,7 +164,7 @@ Result<std::string> TextonStore::file_bytes(const std::string& id) {
 Result<bool> TextonStore::put(io::TextonRecord record) {
     const std::string id = record.meta.id;
     if (contains(id)) return false;
-    record.meta.created = now_rfc3339();
+    record.meta.created = rfc3339_now();
     const std::string path = path_of(id);
     auto w = io::write_texton_file(path, record);
     if (!w) return w.error();
