@@ -6,7 +6,8 @@
 #   tests/load/load_test.sh                    # starts its own server on a free port
 #   URL=http://127.0.0.1:8080 tests/load/load_test.sh   # against a running one (same machine
 #                                                         for the CPU column)
-# Environment: DURATION (20s), CONNECTIONS (64), THREADS (2), EXEMPLAR, BIN.
+# Environment: DURATION (20s), CONNECTIONS (64), THREADS (2), EXEMPLAR, BIN, ACCESS_LOG=1 (keep
+# the per-request log line, to a file), SERVER_ARGS (more `serve` flags).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -26,7 +27,10 @@ trap cleanup EXIT
 if [ -z "${URL:-}" ]; then
     data=$(mktemp -d)
     log=$(mktemp)
-    "$BIN" serve --port 0 --data "$data" --no-access-log --log-level warn >"$log" 2>&1 &
+    access=(--no-access-log --log-level warn)
+    [ "${ACCESS_LOG:-0}" = 1 ] && access=()
+    # shellcheck disable=SC2086
+    "$BIN" serve --port 0 --data "$data" "${access[@]}" ${SERVER_ARGS:-} >"$log" 2>&1 &
     server_pid=$!
     for _ in $(seq 100); do grep -q "listening on" "$log" && break; sleep 0.1; done
     URL=$(sed -n 's/.*listening on \(http:[^ ]*\)\/$/\1/p' "$log")
