@@ -16,6 +16,8 @@ const char* to_string(ErrorCode code) {
         return "not_found";
     case ErrorCode::io:
         return "io_error";
+    case ErrorCode::no_space:
+        return "no_space";
     case ErrorCode::internal:
         return "internal";
     }

@@ -13,6 +13,7 @@ enum class ErrorCode {
     unprocessable,    // well-formed but unusable: corrupt, truncated, NaN (422)
     not_found,        // unknown file or id (404)
     io,               // the filesystem failed us (500)
+    no_space,         // the disk (or quota, or file-size limit) is full (507)
     internal,
 };
 

@@ -77,10 +77,9 @@ api::ApiError to_api_error(const Error& e, std::string code) {
         return pick(422, "unprocessable");
     case ErrorCode::not_found:
         return pick(404, "not_found");
+    case ErrorCode::no_space:
+        return pick(507, "insufficient_storage");
     case ErrorCode::io:
-        if (e.message.find("No space left") != std::string::npos ||
-            e.message.find("quota") != std::string::npos)
-            return pick(507, "insufficient_storage");
         return pick(500, "storage_error");
     case ErrorCode::internal:
         break;

@@ -33,7 +33,7 @@ void send_json(httplib::Response& res, int status, const nlohmann::json& body,
                const char* cache_control = "no-cache");
 
 // The one mapping table from library errors to HTTP (style.md): invalid argument 400, too large
-// 413, unsupported media 415, unprocessable 422, not found 404, full disk 507, otherwise 500.
+// 413, unsupported media 415, unprocessable 422, not found 404, no space 507, otherwise 500.
 api::ApiError to_api_error(const Error& e, std::string code = {});
 
 // RFC 9110 If-None-Match: a list of strong or weak tags, or "*".

@@ -126,34 +126,20 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
                           format.empty() ? "not an image in a format we accept (PNG, JPEG, TIFF, "
                                            "OpenEXR, BMP)"
                                          : "image format '" + format + "' is not accepted here");
-    // Not every OpenImageIO 2.4 reader takes an in-memory proxy, so decode from a private
-    // temporary file, opened by the sniffed format's reader only (OpenImageIO would otherwise
-    // try every reader it has on bytes that fail the first one).
-    std::string path = (fs::temp_directory_path() / "textond-decode-XXXXXX").string();
-    const int fd = mkstemp(path.data());
-    if (fd < 0) return make_error(ErrorCode::io, std::string("mkstemp: ") + std::strerror(errno));
-    std::size_t off = 0;
-    while (off < bytes.size()) {
-        const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
-        if (n <= 0) {
-            ::close(fd);
-            ::unlink(path.c_str());
-            return make_error(ErrorCode::io, "cannot buffer upload");
-        }
-        off += static_cast<std::size_t>(n);
-    }
-    ::close(fd);
-    Result<core::Image> result = make_error(ErrorCode::internal, "no reader");
+    // Decoded straight from memory (every accepted format's reader takes an I/O proxy), so an
+    // upload needs no disk: a full disk must not make a good image look bad. Only the sniffed
+    // format's reader sees the bytes (OpenImageIO's open() would try every reader it has).
     auto in = ImageInput::create(format);
-    if (!in)
-        result = make_error(ErrorCode::unsupported, "no reader for " + format);
-    else if (ImageSpec unused; !in->open(path, unused, read_config()))
-        result =
-            unprocessable("cannot decode " + format + " image: " + oiio_message(in->geterror()));
-    else
-        result = read_opened(*in, limits);
-    ::unlink(path.c_str());
-    return result;
+    if (!in || !in->supports("ioproxy"))
+        return make_error(ErrorCode::unsupported, "no in-memory reader for " + format);
+    OIIO::Filesystem::IOMemReader memory(const_cast<char*>(bytes.data()), bytes.size());
+    void* proxy = &memory;
+    ImageSpec config = read_config();
+    config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+    ImageSpec opened;
+    if (!in->open("upload." + format, opened, config))
+        return unprocessable("cannot decode " + format + " image: " + oiio_message(in->geterror()));
+    return read_opened(*in, limits);
 }
 
 Result<Encoding> encoding_for_path(const std::string& path) {
@@ -188,10 +174,12 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
     bool ok = true;
     while (ok && off < bytes.size()) {
         const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
-        if (n <= 0)
+        if (n <= 0) {
             ok = false;
-        else
+            if (n == 0) errno = ENOSPC;
+        } else {
             off += static_cast<std::size_t>(n);
+        }
     }
     ok = ok && ::fchmod(fd, 0644) == 0 && ::fsync(fd) == 0;
     const int saved = errno;
@@ -199,7 +187,9 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
     if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
         const int e = ok ? errno : saved;
         ::unlink(tmp.c_str());
-        return make_error(ErrorCode::io, "cannot write " + path + ": " + std::strerror(e));
+        const bool full = e == ENOSPC || e == EDQUOT || e == EFBIG;
+        return make_error(full ? ErrorCode::no_space : ErrorCode::io,
+                          "cannot write " + path + ": " + std::strerror(e));
     }
     return true;
 }

@@ -29,8 +29,8 @@ struct DecodeLimits {
 std::string sniff_format(std::string_view bytes);
 
 Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits = {});
-// Uploads: the format is sniffed from the bytes and must be in `limits.formats` (else
-// ErrorCode::unsupported), and only that format's reader ever sees the bytes.
+// Uploads, decoded in memory: the format is sniffed from the bytes and must be in
+// `limits.formats` (else ErrorCode::unsupported), and only that format's reader sees the bytes.
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits = {});
 
 enum class Encoding { png8, png16, exr };

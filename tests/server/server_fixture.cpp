@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -87,7 +88,8 @@ httplib::Client TestServer::client() const {
     return c;
 }
 
-ServerProcess::ServerProcess(const std::string& data_dir, const std::vector<std::string>& extra) {
+ServerProcess::ServerProcess(const std::string& data_dir, const std::vector<std::string>& extra,
+                             unsigned long file_size_limit) {
     int out[2];
     if (::pipe(out) != 0) throw std::runtime_error("pipe");
     m_pid = ::fork();
@@ -95,6 +97,11 @@ ServerProcess::ServerProcess(const std::string& data_dir, const std::vector<std:
         ::dup2(out[1], 1);
         ::close(out[0]);
         ::close(out[1]);
+        if (file_size_limit > 0) {
+            ::signal(SIGXFSZ, SIG_IGN); // kept across exec
+            const rlimit lim{file_size_limit, file_size_limit};
+            ::setrlimit(RLIMIT_FSIZE, &lim);
+        }
         std::vector<std::string> args = {TEXTOND_BINARY, "serve",  "--port",    "0",
                                          "--data",       data_dir, "--backend", "cpu",
                                          "--log-level",  "warn"};

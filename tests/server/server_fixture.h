@@ -35,7 +35,10 @@ private:
 
 class ServerProcess {
 public:
-    ServerProcess(const std::string& data_dir, const std::vector<std::string>& extra_args = {});
+    // `file_size_limit` (bytes, 0 = none) caps every file the server writes (RLIMIT_FSIZE, with
+    // SIGXFSZ ignored so writes fail with EFBIG): a full disk without root or a mount.
+    ServerProcess(const std::string& data_dir, const std::vector<std::string>& extra_args = {},
+                  unsigned long file_size_limit = 0);
     ~ServerProcess();
     httplib::Client client() const;
     int pid() const { return m_pid; }

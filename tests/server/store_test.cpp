@@ -114,6 +114,48 @@ TEST(Store, SigtermFinishesTheRequestInFlight) {
     EXPECT_EQ(files_in(data + "/textons"), 1);
 }
 
+TEST(Store, FullDiskAnswers507AndLosesNothing) {
+    const std::string data = fresh_dir("store-full");
+    ServerProcess server(data, {}, 40'000); // no file over 40 kB can be written
+    auto c = server.client();
+    const std::string small = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    ASSERT_FALSE(small.empty()); // a 16 x 16 texton file fits
+    auto full = c.Post("/v1/textons?size=96&iterations=5",
+                       read_file(exemplar_path("etr_sand01.png")), "image/png");
+    ASSERT_TRUE(full);
+    EXPECT_EQ(full->status, 507) << full->body;
+    EXPECT_EQ(json::parse(full->body)["error"]["code"], "insufficient_storage");
+    // Nothing half-written, the old texton intact and served, the server healthy.
+    EXPECT_EQ(files_in(data + "/textons"), 1);
+    EXPECT_EQ(c.Get(("/v1/textons/" + small + "/texton.exr").c_str())->status, 200);
+    EXPECT_EQ(c.Get(("/v1/textons/" + small + "/tiles/0/0/0.png").c_str())->status, 200);
+    EXPECT_EQ(json::parse(c.Get("/v1/textons")->body).at("total"), 1);
+    EXPECT_EQ(c.Get("/healthz")->status, 200);
+}
+
+TEST(Store, SameTileSameBytesAndEtagAfterARestart) {
+    const std::string data = fresh_dir("store-restart");
+    std::string id, body, etag;
+    const std::string tile = "/tiles/4/-123456789/987654321.png?seed=77&mni=12.5";
+    {
+        ServerProcess server(data);
+        auto c = server.client();
+        id = upload(c, "etr_floor01.png", "?size=24&iterations=10");
+        auto res = c.Get(("/v1/textons/" + id + tile).c_str());
+        ASSERT_EQ(res->status, 200);
+        body = res->body;
+        etag = res->get_header_value("ETag");
+        ASSERT_EQ(server.terminate(10000), 0);
+    }
+    ServerProcess again(data);
+    auto c = again.client();
+    auto res = c.Get(("/v1/textons/" + id + tile).c_str());
+    ASSERT_EQ(res->status, 200);
+    EXPECT_EQ(res->get_header_value("ETag"), etag);
+    EXPECT_EQ(res->body, body);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + tile).c_str(), {{"If-None-Match", etag}})->status, 304);
+}
+
 TEST(Serve, EnvironmentConfiguresAndFlagsWin) {
     // TEXTOND_API_KEY guards writes; TEXTOND_MAX_REGION_PIXELS is overridden by its flag.
     ::setenv("TEXTOND_API_KEY", "from-env", 1);
