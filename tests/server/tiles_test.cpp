@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 namespace textond::test {
 namespace {
@@ -244,19 +246,31 @@ TEST(Ops, HealthReadinessMetricsAndSpec) {
     const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=5");
     c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str());
     c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str());
-    auto m = c.Get("/metrics");
-    ASSERT_TRUE(m);
-    for (const char* series :
-         {"textond_http_requests_total{route=\"/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}\","
-          "method=\"GET\",status=\"200\"} 2",
-          "textond_http_request_duration_seconds_bucket{route=\"/v1/"
-          "textons\",status=\"201\",le=\"+Inf\"} 1",
-          "textond_tile_cache_requests_total{result=\"hit\"} 1",
-          "textond_tile_cache_requests_total{result=\"miss\"} 1",
-          "textond_render_seconds_count{backend=\"cpu\",kind=\"tile\"} 1",
-          "textond_analyses_total{result=\"ok\"} 1", "textond_analysis_queue_depth 0",
-          "textond_store_textons 1"})
-        EXPECT_NE(m->body.find(series), std::string::npos) << series << "\n" << m->body;
+    // A request is counted after its response is written, so the last one can land a moment
+    // after the client has its answer: poll briefly.
+    const std::vector<std::string> series = {
+        "textond_http_requests_total{route=\"/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}\","
+        "method=\"GET\",status=\"200\"} 2",
+        "textond_http_request_duration_seconds_bucket{route=\"/v1/textons\",status=\"201\","
+        "le=\"+Inf\"} 1",
+        "textond_tile_cache_requests_total{result=\"hit\"} 1",
+        "textond_tile_cache_requests_total{result=\"miss\"} 1",
+        "textond_render_seconds_count{backend=\"cpu\",kind=\"tile\"} 1",
+        "textond_analyses_total{result=\"ok\"} 1",
+        "textond_analysis_queue_depth 0",
+        "textond_store_textons 1"};
+    std::string metrics;
+    for (int attempt = 0; attempt < 100; ++attempt) {
+        auto m = c.Get("/metrics");
+        ASSERT_TRUE(m);
+        metrics = m->body;
+        bool all = true;
+        for (const auto& s : series) all = all && metrics.find(s) != std::string::npos;
+        if (all) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    for (const auto& s : series)
+        EXPECT_NE(metrics.find(s), std::string::npos) << s << "\n" << metrics;
     auto spec = c.Get("/v1/openapi.yaml");
     ASSERT_TRUE(spec);
     EXPECT_EQ(spec->body.rfind("openapi: 3.1", 0), 0u);
