@@ -3,7 +3,9 @@
 // function, so its bytes are named by a strong ETag and cached.
 #include "api/requests.h"
 #include "core/grid_poisson.h"
+#include "core/periodic_component.h"
 #include "core/periodic_resample.h"
+#include "core/power_spectrum.h"
 #include "render/noise_request.h"
 #include "server/http/http_support.h"
 #include "server/http/service.h"
@@ -93,12 +95,10 @@ std::string Service::etag_for(const std::string& key) const {
     return "\"" + h.hex().substr(0, 40) + "\"";
 }
 
-void Service::serve_image(const httplib::Request& req, httplib::Response& res,
-                          const ImageJob& job) {
-    if (!m_store->contains(job.id))
-        return send_error(res, {404, "not_found", "no texton " + job.id});
-    const std::string key =
-        noise_key(job.id, job.request, job.format, job.kind, job.out_width, job.out_height);
+void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
+                           const std::string& id, const std::string& key, api::ImageFormat format,
+                           const std::function<Result<core::Image>()>& produce) {
+    if (!m_store->contains(id)) return send_error(res, {404, "not_found", "no texton " + id});
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
     const std::string etag = cached ? cached->etag : etag_for(key);
@@ -109,35 +109,107 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
         return;
     }
     if (cached) return send_cached(res, std::move(cached));
-
-    auto prepared = m_store->prepared(job.id);
-    if (!prepared) return send_error(res, to_api_error(prepared.error()));
-    if (auto err = prepared.value()->check(job.request))
-        return send_error(res, to_api_error(*err, "invalid_parameter"));
-    render::Backend& backend = job.use_region_backend ? *m_region_backend : *m_tile_backend;
-    const auto t0 = std::chrono::steady_clock::now();
-    Result<core::Image> image = [&] {
-        SlotGuard slot(m_render_slots);
-        return backend.render(*prepared.value(), job.request);
-    }();
+    auto image = produce();
     if (!image) return send_error(res, to_api_error(image.error()));
-    if (job.out_width != job.request.width || job.out_height != job.request.height)
-        image = core::resample_periodic(image.value(), job.out_width, job.out_height);
-    m_metrics.render(
-        backend.name(), job.kind,
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    auto bytes = io::encode_image_memory(
-        image.value(), encoding_of(job.format),
-        {{"textond:noise", render::kNoiseVersion}, {"textond:texton", job.id}},
-        m_config.png_compression);
+    auto bytes =
+        io::encode_image_memory(image.value(), encoding_of(format),
+                                {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}},
+                                m_config.png_compression);
     if (!bytes) return send_error(res, to_api_error(bytes.error()));
     auto entry = std::make_shared<CachedImage>();
     entry->body = std::move(bytes.value());
     entry->etag = etag;
-    entry->content_type = api::content_type(job.format);
-    entry->texton_id = job.id;
+    entry->content_type = api::content_type(format);
+    entry->texton_id = id;
     m_cache.put(key, entry);
     send_cached(res, std::move(entry));
+}
+
+Result<core::Image> Service::render_noise(const std::string& id, const render::NoiseRequest& q,
+                                          bool whole_machine, const char* kind) {
+    auto prepared = m_store->prepared(id);
+    if (!prepared) return prepared.error();
+    if (auto err = prepared.value()->check(q)) return *err;
+    render::Backend& backend = whole_machine ? *m_region_backend : *m_tile_backend;
+    const auto t0 = std::chrono::steady_clock::now();
+    Result<core::Image> image = [&] {
+        SlotGuard slot(m_render_slots);
+        return backend.render(*prepared.value(), q);
+    }();
+    m_metrics.render(
+        backend.name(), kind,
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    return image;
+}
+
+void Service::serve_image(const httplib::Request& req, httplib::Response& res,
+                          const ImageJob& job) {
+    const std::string key =
+        noise_key(job.id, job.request, job.format, job.kind, job.out_width, job.out_height);
+    serve_cached(req, res, job.id, key, job.format, [&]() -> Result<core::Image> {
+        auto image = render_noise(job.id, job.request, job.use_region_backend, job.kind);
+        if (image && (job.out_width != job.request.width || job.out_height != job.request.height))
+            return core::resample_periodic(image.value(), job.out_width, job.out_height);
+        return image;
+    });
+}
+
+// The exemplar's power spectrum (periodic component, centre crop of at most 512 x 512) next to
+// that of a window of its texton noise of the same size, on one log scale: where the Gaussian
+// model holds they look alike; for a macro-texture (bricks) the exemplar shows peaks the noise
+// cannot have.
+void Service::spectrum(const httplib::Request& req, const std::string& id, httplib::Response& res) {
+    set_route("/v1/textons/{id}/spectrum.png");
+    api::TileRequest probe; // seed and mni, checked as for tiles
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    api::Query q = req.params;
+    for (const auto& [k, v] : q)
+        if (k != "seed" && k != "mni")
+            return send_error(res,
+                              {400, "unknown_parameter",
+                               "unknown parameter '" + k + "' (this endpoint takes seed, mni)"});
+    if (auto e = api::parse_tile(id, "0", "0", "0", "png", q, probe)) return send_error(res, *e);
+    const std::string key = "spectrum/" + id + "/s" + std::to_string(probe.noise.seed) + "/m" +
+                            mni_text(probe.noise.mni) + ".png";
+    serve_cached(req, res, id, key, api::ImageFormat::png, [&]() -> Result<core::Image> {
+        auto png = m_store->exemplar_png(id);
+        if (!png) return png.error();
+        auto exemplar = io::decode_image_memory(png.value());
+        if (!exemplar) return exemplar.error();
+        const core::Image& u = exemplar.value();
+        const int w = std::min(512, u.width), h = std::min(512, u.height);
+        core::Image crop(w, h, u.channels);
+        for (int c = 0; c < u.channels; ++c)
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    crop.at(c, x, y) = u.at(c, x + (u.width - w) / 2, y + (u.height - h) / 2);
+        render::NoiseRequest nq = noise_request(0, 0, 0, w, h, probe.noise);
+        auto noise = render_noise(id, nq, true, "spectrum");
+        if (!noise) return noise.error();
+        const core::Image a = core::centred_power_spectrum(core::periodic_component(crop));
+        const core::Image b = core::centred_power_spectrum(noise.value());
+        const double top = std::max(core::log10_max(a), core::log10_max(b));
+        constexpr double kDecades = 5.0;
+        const core::Image la = core::log_display(a, top, kDecades);
+        const core::Image lb = core::log_display(b, top, kDecades);
+        constexpr int kGap = 4;
+        core::Image out(2 * w + kGap, h, 1, 1.0f);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                out.at(0, x, y) = la.at(0, x, y);
+                out.at(0, w + kGap + x, y) = lb.at(0, x, y);
+            }
+        return out;
+    });
+}
+
+void Service::exemplar(const std::string& id, httplib::Response& res) {
+    set_route("/v1/textons/{id}/exemplar.png");
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    auto png = m_store->exemplar_png(id);
+    if (!png) return send_error(res, to_api_error(png.error()));
+    res.set_header("Cache-Control", "public, max-age=86400");
+    res.set_content(png.value(), "image/png");
 }
 
 std::string Service::base_url(const httplib::Request& req) const {
@@ -244,6 +316,10 @@ void Service::install_image_routes() {
         q.period = {cells(t.width), cells(t.height)};
         serve_image(req, res, {t.id, "tileable", t.format, q, t.width, t.height, true});
     });
+    m_http.Get(R"(/v1/textons/([^/]+)/spectrum\.png)",
+               [this](Req req, Res res) { spectrum(req, req.matches[1].str(), res); });
+    m_http.Get(R"(/v1/textons/([^/]+)/exemplar\.png)",
+               [this](Req req, Res res) { exemplar(req.matches[1].str(), res); });
     m_http.Get(R"(/v1/textons/([^/]+)/tilejson\.json)",
                [this](Req req, Res res) { tilejson(req, req.matches[1].str(), res); });
 }

@@ -98,7 +98,15 @@ private:
 
     // image_routes.cpp
     struct ImageJob;
+    // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
+    void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
+                      const std::string& key, api::ImageFormat format,
+                      const std::function<Result<core::Image>()>& produce);
+    Result<core::Image> render_noise(const std::string& id, const render::NoiseRequest& q,
+                                     bool whole_machine, const char* kind);
     void serve_image(const httplib::Request& req, httplib::Response& res, const ImageJob& job);
+    void spectrum(const httplib::Request& req, const std::string& id, httplib::Response& res);
+    void exemplar(const std::string& id, httplib::Response& res);
     void tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res);
     std::string etag_for(const std::string& key) const;
     std::string base_url(const httplib::Request& req) const;

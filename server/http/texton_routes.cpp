@@ -23,6 +23,8 @@ const char* kLinkTemplates[][2] = {
     {"texton_png", "/texton.png"},
     {"texton_exr", "/texton.exr"},
     {"texton_v1", "/texton.texton"},
+    {"exemplar_png", "/exemplar.png"},
+    {"spectrum_png", "/spectrum.png"},
     {"tilejson", "/tilejson.json"},
     {"tiles", "/tiles/{z}/{x}/{y}.png"},
     {"region", "/region.png"},
@@ -170,7 +172,8 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
                     .count();
             metrics->analysis(result.ok(), ms);
             if (!result) return result.error();
-            auto put = store->put(io::make_record(*exemplar, params, result.value()));
+            auto put =
+                store->put(io::make_record(*exemplar, params, result.value()), exemplar.get());
             if (!put) return put.error();
             auto meta = store->meta(id);
             if (!meta) return make_error(ErrorCode::internal, "stored texton vanished");

@@ -2,6 +2,7 @@
 
 #include "api/requests.h"
 #include "server/http/http_support.h"
+#include "server/io/image_io.h"
 
 #include <spdlog/spdlog.h>
 
@@ -35,6 +36,7 @@ void fsync_directory(const std::string& dir) {
 
 TextonStore::TextonStore(std::string dir, std::size_t prepared_cache)
     : m_root(dir), m_dir((fs::path(dir) / "textons").string()),
+      m_exemplars((fs::path(dir) / "exemplars").string()),
       m_quarantine((fs::path(dir) / "quarantine").string()),
       m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache) {}
 
@@ -43,11 +45,16 @@ std::string TextonStore::path_of(const std::string& id) const {
     return (fs::path(m_dir) / (id + kExtension)).string();
 }
 
+std::string TextonStore::exemplar_path_of(const std::string& id) const {
+    if (!api::is_texton_id(id)) throw std::logic_error("TextonStore: unchecked id");
+    return (fs::path(m_exemplars) / (id + ".png")).string();
+}
+
 Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_dir,
                                                        std::size_t prepared_cache) {
     std::unique_ptr<TextonStore> s(new TextonStore(data_dir, prepared_cache));
     std::error_code ec;
-    for (const std::string& d : {s->m_dir, s->m_quarantine}) {
+    for (const std::string& d : {s->m_dir, s->m_exemplars, s->m_quarantine}) {
         fs::create_directories(d, ec);
         if (ec) return make_error(ErrorCode::io, "cannot create " + d + ": " + ec.message());
     }
@@ -78,6 +85,13 @@ Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_d
         s->m_index[stem] = std::move(r.value().meta);
     }
     if (ec) return make_error(ErrorCode::io, "cannot list " + s->m_dir + ": " + ec.message());
+    // Exemplars of textons that were never completed (a crash between the two writes) or whose
+    // texton was quarantined, and unfinished writes.
+    for (const auto& entry : fs::directory_iterator(s->m_exemplars, ec)) {
+        const std::string name = entry.path().filename().string();
+        const std::string stem = entry.path().stem().string();
+        if ((!name.empty() && name[0] == '.') || !s->m_index.count(stem)) fs::remove(entry, ec);
+    }
     spdlog::info("store: {} textons in {}{}", s->m_index.size(), s->m_dir,
                  s->m_quarantined.empty()
                      ? ""
@@ -93,6 +107,7 @@ void TextonStore::quarantine_locked(const std::string& id, const std::string& wh
     std::error_code ec;
     fs::rename(from, fs::path(m_quarantine) / name, ec);
     if (ec) fs::remove(from, ec); // never leave it where it could be served
+    fs::remove(exemplar_path_of(id), ec);
     m_index.erase(id);
     m_sizes.erase(id);
     m_prepared.remove_if([&](const auto& p) { return p.first == id; });
@@ -161,13 +176,23 @@ Result<std::string> TextonStore::file_bytes(const std::string& id) {
     return out.str();
 }
 
-Result<bool> TextonStore::put(io::TextonRecord record) {
+Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exemplar) {
     const std::string id = record.meta.id;
     if (contains(id)) return false;
     record.meta.created = rfc3339_now();
+    if (exemplar) {
+        auto png = io::encode_image_memory(*exemplar, io::Encoding::png8, {}, 6);
+        if (!png) return png.error();
+        auto w = io::write_file_atomic(exemplar_path_of(id), png.value());
+        if (!w) return w.error();
+    }
     const std::string path = path_of(id);
     auto w = io::write_texton_file(path, record);
-    if (!w) return w.error();
+    if (!w) {
+        std::error_code ec;
+        fs::remove(exemplar_path_of(id), ec);
+        return w.error();
+    }
     fsync_directory(m_dir);
     std::error_code ec;
     std::lock_guard lock(m_mutex);
@@ -182,11 +207,24 @@ Result<bool> TextonStore::remove(const std::string& id) {
     std::error_code ec;
     fs::remove(path_of(id), ec);
     if (ec) return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
+    fs::remove(exemplar_path_of(id), ec);
     fsync_directory(m_dir);
     m_index.erase(id);
     m_sizes.erase(id);
     m_prepared.remove_if([&](const auto& p) { return p.first == id; });
     return true;
+}
+
+Result<std::string> TextonStore::exemplar_png(const std::string& id) const {
+    if (!contains(id)) return make_error(ErrorCode::not_found, "no texton " + id);
+    std::ifstream in(exemplar_path_of(id), std::ios::binary);
+    if (!in)
+        return make_error(ErrorCode::not_found,
+                          "texton " + id +
+                              " was stored without its exemplar (before exemplars were kept)");
+    std::ostringstream out;
+    out << in.rdbuf();
+    return out.str();
 }
 
 std::vector<api::TextonMeta> TextonStore::list(const std::string& after, int limit) const {

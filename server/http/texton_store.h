@@ -1,6 +1,8 @@
 #pragma once
 // Textons on disk, content-addressed: <data>/textons/<id>.exr (the texton file of
-// api/TEXTON_FORMAT.md). Writes are atomic (temporary file, fsync, rename, fsync of the
+// api/TEXTON_FORMAT.md), and the exemplar it came from as <data>/exemplars/<id>.png (8-bit, for
+// people and the quality panel; written before the texton, so a texton has its exemplar unless it
+// predates them). Writes are atomic (temporary file, fsync, rename, fsync of the
 // directory), so after a crash a texton is complete or absent. Every file is verified (metadata,
 // coefficient checksum, id = file name) when the store opens and again whenever it is loaded; a
 // file that fails is moved to <data>/quarantine/ and reported, never served. Ids are checked
@@ -35,8 +37,11 @@ public:
     // The stored file's bytes (GET .../texton.exr), verified first.
     Result<std::string> file_bytes(const std::string& id);
 
-    // Stores a new texton; `created` is set here. Returns false when it already existed.
-    Result<bool> put(io::TextonRecord record);
+    // Stores a new texton (and its exemplar when given); `created` is set here. Returns false
+    // when it already existed.
+    Result<bool> put(io::TextonRecord record, const core::Image* exemplar = nullptr);
+    // The stored exemplar PNG, or not_found.
+    Result<std::string> exemplar_png(const std::string& id) const;
     Result<bool> remove(const std::string& id);
 
     // Ids in ascending order after `after` (exclusive), at most `limit`.
@@ -52,10 +57,11 @@ public:
 private:
     explicit TextonStore(std::string dir, std::size_t prepared_cache);
     std::string path_of(const std::string& id) const;
+    std::string exemplar_path_of(const std::string& id) const;
     void quarantine_locked(const std::string& id, const std::string& why);
     Result<io::TextonRecord> load_verified(const std::string& id);
 
-    const std::string m_root, m_dir, m_quarantine;
+    const std::string m_root, m_dir, m_exemplars, m_quarantine;
     const std::size_t m_prepared_capacity;
     mutable std::mutex m_mutex;
     std::map<std::string, api::TextonMeta> m_index;

@@ -1,6 +1,7 @@
 // The store across restarts of the real binary: kill -9 during an upload leaves the texton
 // complete or absent; a damaged file is quarantined and reported, never served; SIGTERM lets a
 // request in flight finish.
+#include "server/io/image_io.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -59,6 +60,8 @@ TEST(Store, KillDuringUploadsLeavesCompleteOrAbsentTextons) {
         for (const auto& e : fs::directory_iterator(data + "/textons"))
             EXPECT_NE(e.path().filename().string()[0], '.') << e.path();
         EXPECT_EQ(files_in(data + "/textons"), static_cast<int>(list["items"].size()));
+        // An exemplar written just before the kill, without its texton, is gone too.
+        EXPECT_EQ(files_in(data + "/exemplars"), static_cast<int>(list["items"].size()));
     }
 }
 
@@ -90,6 +93,7 @@ TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
     EXPECT_EQ(c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str())->status, 404);
     EXPECT_FALSE(fs::exists(path));
     EXPECT_EQ(files_in(data + "/quarantine"), 1);
+    EXPECT_EQ(files_in(data + "/exemplars"), 1); // the damaged texton's exemplar went with it
     EXPECT_NE(c.Get("/metrics")->body.find("textond_store_quarantined 1"), std::string::npos);
     // The same upload again analyses afresh and serves.
     int status = 0;
@@ -118,8 +122,15 @@ TEST(Store, FullDiskAnswers507AndLosesNothing) {
     const std::string data = fresh_dir("store-full");
     ServerProcess server(data, {}, 40'000); // no file over 40 kB can be written
     auto c = server.client();
-    const std::string small = upload(c, "etr_sand01.png", "?size=16&iterations=5");
-    ASSERT_FALSE(small.empty()); // a 16 x 16 texton file fits
+    // A 64 x 64 exemplar and its 16 x 16 texton fit; a 256 x 256 exemplar does not.
+    const std::string tiny =
+        io::encode_image_memory(test::crop(load_exemplar("etr_sand01.png"), 64, 64),
+                                io::Encoding::png8)
+            .value();
+    auto first = c.Post("/v1/textons?size=16&iterations=5", tiny, "image/png");
+    ASSERT_TRUE(first);
+    ASSERT_EQ(first->status, 201) << first->body;
+    const std::string small = json::parse(first->body).at("id");
     auto full = c.Post("/v1/textons?size=96&iterations=5",
                        read_file(exemplar_path("etr_sand01.png")), "image/png");
     ASSERT_TRUE(full);
@@ -127,6 +138,7 @@ TEST(Store, FullDiskAnswers507AndLosesNothing) {
     EXPECT_EQ(json::parse(full->body)["error"]["code"], "insufficient_storage");
     // Nothing half-written, the old texton intact and served, the server healthy.
     EXPECT_EQ(files_in(data + "/textons"), 1);
+    EXPECT_EQ(files_in(data + "/exemplars"), 1);
     EXPECT_EQ(c.Get(("/v1/textons/" + small + "/texton.exr").c_str())->status, 200);
     EXPECT_EQ(c.Get(("/v1/textons/" + small + "/tiles/0/0/0.png").c_str())->status, 200);
     EXPECT_EQ(json::parse(c.Get("/v1/textons")->body).at("total"), 1);

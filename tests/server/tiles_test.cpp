@@ -167,6 +167,52 @@ TEST_F(Tiles, TileableTexturesWrapAtAnySize) {
     EXPECT_GT(wrap_ratio(plain), 1.6);
 }
 
+TEST_F(Tiles, ExemplarIsKeptAndItsSpectrumMatchesTheNoises) {
+    // The stored exemplar is the uploaded pixels (an 8-bit RGB PNG round-trips exactly).
+    const core::Image stored = get_image("/v1/textons/" + id + "/exemplar.png");
+    EXPECT_EQ(max_abs_diff(stored, load_exemplar("etr_pebbles04.png")), 0.0);
+
+    const core::Image s = get_image("/v1/textons/" + id + "/spectrum.png?seed=5");
+    const int w = 256, h = 256, gap = 4;
+    ASSERT_EQ(s.width, 2 * w + gap);
+    ASSERT_EQ(s.height, h);
+    // Radial profiles of the two log spectra (exemplar | noise): a Gaussian model reproduces
+    // the exemplar's spectrum, so the profiles agree (the bins average hundreds of values each).
+    std::vector<double> a(w / 2, 0), b(w / 2, 0), n(w / 2, 0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const int r = static_cast<int>(std::hypot(x - w / 2, y - h / 2));
+            if (r < 1 || r >= w / 2) continue;
+            a[r] += s.at(0, x, y);
+            b[r] += s.at(0, w + gap + x, y);
+            n[r] += 1;
+        }
+    double ma = 0, mb = 0, k = 0;
+    for (int r = 1; r < w / 2; ++r) {
+        a[r] /= n[r];
+        b[r] /= n[r];
+        ma += a[r];
+        mb += b[r];
+        k += 1;
+    }
+    ma /= k;
+    mb /= k;
+    double sab = 0, saa = 0, sbb = 0, worst = 0;
+    for (int r = 1; r < w / 2; ++r) {
+        sab += (a[r] - ma) * (b[r] - mb);
+        saa += (a[r] - ma) * (a[r] - ma);
+        sbb += (b[r] - mb) * (b[r] - mb);
+        worst = std::max(worst, std::abs(a[r] - b[r]));
+    }
+    EXPECT_GT(sab / std::sqrt(saa * sbb), 0.9);
+    EXPECT_LT(worst, 0.15); // 0.15 of 5 decades: within a factor 5.6 at every radius
+    // Cached and immutable like every image.
+    auto c = server->client();
+    auto again = c.Get(("/v1/textons/" + id + "/spectrum.png?seed=5").c_str());
+    EXPECT_EQ(again->get_header_value("Cache-Control"), "public, max-age=31536000, immutable");
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + "/spectrum.png?size=3").c_str())->status, 400);
+}
+
 TEST_F(Tiles, EtagNotModifiedCacheHeadersCorsAndHead) {
     auto c = server->client();
     const std::string path = "/v1/textons/" + id + "/tiles/3/-5/8.png?seed=12";

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <filesystem>
 #include <thread>
 
 namespace textond::test {
@@ -117,9 +118,18 @@ TEST(Upload, MetadataFilesListAndDelete) {
 
     // A tile before deletion is cached; after it, texton and tiles are gone.
     ASSERT_EQ(c.Get(("/v1/textons/" + a + "/tiles/0/0/0.png").c_str())->status, 200);
+    EXPECT_TRUE(std::filesystem::exists(server.data_dir() + "/exemplars/" + a + ".png"));
     auto del = c.Delete(("/v1/textons/" + a).c_str());
     ASSERT_TRUE(del);
     EXPECT_EQ(del->status, 204);
+    EXPECT_FALSE(std::filesystem::exists(server.data_dir() + "/exemplars/" + a + ".png"));
+    // A texton stored before exemplars were kept: its views say so, its tiles still work.
+    std::filesystem::remove(server.data_dir() + "/exemplars/" + b + ".png");
+    auto no_exemplar = c.Get(("/v1/textons/" + b + "/exemplar.png").c_str());
+    EXPECT_EQ(no_exemplar->status, 404);
+    EXPECT_NE(no_exemplar->body.find("without its exemplar"), std::string::npos);
+    EXPECT_EQ(c.Get(("/v1/textons/" + b + "/spectrum.png").c_str())->status, 404);
+    EXPECT_EQ(c.Get(("/v1/textons/" + b + "/tiles/0/0/0.png").c_str())->status, 200);
     EXPECT_EQ(c.Get(("/v1/textons/" + a).c_str())->status, 404);
     EXPECT_EQ(c.Get(("/v1/textons/" + a + "/tiles/0/0/0.png").c_str())->status, 404);
     EXPECT_EQ(c.Delete(("/v1/textons/" + a).c_str())->status, 404);
