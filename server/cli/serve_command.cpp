@@ -27,6 +27,7 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --public-url URL         base of the absolute URLs in TileJSON      [from the Host header]
   --api-key KEY            require "Authorization: Bearer KEY" for POST and DELETE  [none]
   --cors-origin O          "*", a comma-separated list of origins, or "" for no CORS   [*]
+  --web-dir DIR            the page served at / (built into build/release/web)
 
   --http-threads N         connection threads (one per open keep-alive connection) [128]
   --listen-backlog N       pending connections before the kernel drops SYNs    [1024]
@@ -146,6 +147,7 @@ Result<http::ServeConfig> config_from(const Args& a) {
     c.api_key = a.get("--api-key", c.api_key);
     c.cors_origin = a.get("--cors-origin", c.cors_origin);
     c.log_level = a.get("--log-level", c.log_level);
+    c.web_dir = a.get("--web-dir", c.web_dir);
     c.access_log = !a.flags.count("--no-access-log");
     auto kind = render::parse_backend_kind(a.get("--backend", "auto"));
     if (!kind) return kind.error();

@@ -42,6 +42,7 @@ struct ServeConfig {
 
     std::string api_key;           // empty: POST and DELETE are open
     std::string cors_origin = "*"; // "" disables CORS; else "*" or a comma-separated list
+    std::string web_dir; // the page served at / (index.html, app.js, leaflet/); empty = built-in
     std::string log_level = "info";
     bool access_log = true;
 };

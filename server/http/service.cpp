@@ -9,11 +9,17 @@
 #include <OpenImageIO/oiioversion.h>
 #include <spdlog/spdlog.h>
 
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <sys/socket.h>
 #include <thread>
 
 #ifndef TEXTOND_GIT_COMMIT
 #define TEXTOND_GIT_COMMIT "unknown"
+#endif
+#ifndef TEXTOND_WEB_DIR
+#define TEXTOND_WEB_DIR "web"
 #endif
 #ifndef TEXTOND_VERSION
 #define TEXTOND_VERSION "0.0.0"
@@ -145,6 +151,7 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     s->install_image_routes(); // the hot path first: cpp-httplib tries routes in order
     s->install_texton_routes();
     s->install_ops_routes();
+    s->install_web_routes();
     return s;
 }
 
@@ -257,13 +264,49 @@ void Service::install_ops_routes() {
         res.set_header("Cache-Control", "public, max-age=300");
         res.set_content(api::kOpenApiYaml, "application/yaml");
     });
-    m_http.Get("/", [](const httplib::Request&, httplib::Response& res) {
+}
+
+// The page of server/web/, read into memory once: no stat() per request on the hot path, and
+// a request can only name a file that is in the map, never a path.
+void Service::install_web_routes() {
+    namespace fs = std::filesystem;
+    const std::string dir = m_config.web_dir.empty() ? TEXTOND_WEB_DIR : m_config.web_dir;
+    const std::map<std::string, std::string> types = {{".html", "text/html; charset=utf-8"},
+                                                      {".js", "text/javascript; charset=utf-8"},
+                                                      {".css", "text/css; charset=utf-8"},
+                                                      {".png", "image/png"},
+                                                      {".svg", "image/svg+xml"},
+                                                      {".json", "application/json"}};
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::end(it);
+         it.increment(ec)) {
+        if (!it->is_regular_file() || m_web.size() >= 256) continue;
+        auto type = types.find(it->path().extension().string());
+        if (type == types.end()) continue;
+        std::ifstream in(it->path(), std::ios::binary);
+        std::ostringstream body;
+        body << in.rdbuf();
+        const std::string rel = fs::relative(it->path(), dir, ec).generic_string();
+        m_web["/static/" + rel] = {body.str(), type->second};
+    }
+    if (!m_web.count("/static/index.html"))
+        spdlog::warn("web: no page in {} (the API works; / answers 404)", dir);
+    else
+        spdlog::info("web: {} files from {}", m_web.size(), dir);
+    auto serve = [this](const std::string& key, httplib::Response& res) {
+        auto f = m_web.find(key);
+        if (f == m_web.end()) return send_error(res, {404, "not_found", "no such file"});
+        // The page changes with the build; revalidate rather than cache for a year.
+        res.set_header("Cache-Control", "no-cache");
+        res.set_content(f->second.body, f->second.content_type.c_str());
+    };
+    m_http.Get("/", [serve](const httplib::Request&, httplib::Response& res) {
         set_route("/");
-        send_json(res, 200,
-                  {{"service", "textond"},
-                   {"build", build_id()},
-                   {"api", "/v1/openapi.yaml"},
-                   {"textons", "/v1/textons"}});
+        serve("/static/index.html", res);
+    });
+    m_http.Get(R"(/static/(.+))", [serve](const httplib::Request& req, httplib::Response& res) {
+        set_route("/static/{file}");
+        serve("/static/" + req.matches[1].str(), res);
     });
 }
 

@@ -15,6 +15,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -82,6 +83,7 @@ private:
     explicit Service(ServeConfig config);
     void install_hooks();
     void install_ops_routes();
+    void install_web_routes();
     void install_texton_routes();
     void install_image_routes();
 
@@ -121,6 +123,11 @@ private:
     std::shared_ptr<render::Backend> m_region_backend; // every core on one large window
     std::string m_backend_reason;
     std::string m_backend_identity; // part of every ETag
+    struct StaticFile {
+        std::string body;
+        std::string content_type;
+    };
+    std::map<std::string, StaticFile> m_web; // "/static/app.js" -> bytes, read once at start
     RenderSlots m_render_slots;
     // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
     // so that many simultaneous large uploads cannot exhaust memory.

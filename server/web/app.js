@@ -1,0 +1,234 @@
+// The textond page: upload an exemplar, look at its texton, pan an infinite texture of it.
+// Plain ES module over the HTTP API (api/openapi.yaml); Leaflet is the only dependency.
+const $ = (id) => document.getElementById(id);
+const state = { meta: null, map: null, layer: null, tilesLoaded: 0, tileErrors: 0 };
+window.textond = state; // for people poking around, and for the browser test
+
+// API errors in plain words: the server's message, with what to do for the common cases.
+const advice = {
+  unsupported_media_type: 'That file is not an image in a format we read (PNG, JPEG, TIFF, EXR, BMP).',
+  invalid_image: 'That image looks damaged or truncated.',
+  image_too_large: 'That image has too many pixels for this server.',
+  payload_too_large: 'That file is too large for this server.',
+  exemplar_too_small: 'The photo is too small for this texton size: pick a smaller size.',
+  overloaded: 'The server is busy analysing other photos: try again in a few seconds.',
+  unauthorized: 'This server needs an API key to upload.',
+};
+
+function showError(text) {
+  $('error').textContent = text;
+  $('error').hidden = !text;
+}
+
+async function apiError(res) {
+  try {
+    const body = await res.json();
+    const e = body.error || {};
+    return (advice[e.code] ? advice[e.code] + ' ' : '') + `(${e.message || res.statusText})`;
+  } catch {
+    return `The server answered ${res.status} ${res.statusText}.`;
+  }
+}
+
+async function getJson(url) {
+  const res = await fetch(url);
+  if (!res.ok) throw new Error(await apiError(res));
+  return res.json();
+}
+
+function noiseQuery() {
+  const seed = Math.max(0, Math.floor(Number($('seed').value) || 0));
+  const mni = Math.min(200, Math.max(1, Number($('mni').value) || 30));
+  return `seed=${seed}&mni=${mni}`;
+}
+
+async function upload(file) {
+  showError('');
+  $('progress').hidden = false;
+  $('progress').value = 0;
+  $('progress-text').textContent = `Uploading ${file.name}...`;
+  try {
+    const res = await fetch(`/v1/textons?size=${$('size').value}`, {
+      method: 'POST',
+      body: file,
+      headers: { 'Content-Type': file.type || 'application/octet-stream', Prefer: 'respond-async' },
+    });
+    if (!res.ok) throw new Error(await apiError(res));
+    let body = await res.json();
+    if (res.status === 202) body = await waitForAnalysis(body);
+    $('progress-text').textContent = 'Done.';
+    await show(body);
+  } catch (e) {
+    $('progress-text').textContent = '';
+    showError(e.message);
+  } finally {
+    $('progress').hidden = true;
+  }
+}
+
+async function waitForAnalysis(accepted) {
+  for (;;) {
+    const s = await getJson(accepted.links.status);
+    if (s.state === 'failed') throw new Error(s.error ? s.error.message : 'The analysis failed.');
+    if (s.state === 'done') return getJson(`/v1/textons/${s.id}`);
+    const { done, total } = s.progress;
+    $('progress').value = total ? done / total : 0;
+    $('progress-text').textContent =
+      s.state === 'queued' ? 'Waiting for an analysis worker...' : `Analysing: projection ${done} of ${total}`;
+    await new Promise((r) => setTimeout(r, 200));
+  }
+}
+
+async function show(meta) {
+  state.meta = meta;
+  $('result').hidden = false;
+  $('exemplar-img').src = meta.links.exemplar_png;
+  $('texton-img').src = meta.links.texton_png;
+  $('rme').textContent = meta.rme.toFixed(3);
+  const m = meta.mean.length === 1 ? [meta.mean[0], meta.mean[0], meta.mean[0]] : meta.mean;
+  const rgb = m.map((v) => Math.round(255 * Math.min(1, Math.max(0, v))));
+  $('mean-swatch').style.background = `rgb(${rgb.join(',')})`;
+  $('mean').textContent = meta.mean.map((v) => v.toFixed(3)).join(', ');
+  $('analysis-ms').textContent = `${Math.round(meta.analysis_ms)} ms`;
+  $('texton-id').textContent = meta.id;
+  await refreshNoise();
+  refreshList();
+}
+
+// Everything that depends on seed and MNI: the map, downloads, synthesis, spectra, histograms.
+async function refreshNoise() {
+  const meta = state.meta;
+  if (!meta) return;
+  const tj = await getJson(`${meta.links.tilejson}?${noiseQuery()}`);
+  if (!state.map) {
+    state.map = L.map('map', {
+      crs: L.CRS.Simple, minZoom: tj.minzoom, maxZoom: tj.maxzoom, attributionControl: false,
+    });
+    state.map.setView([0, 0], tj.textond.native_zoom);
+  }
+  if (state.layer) state.map.removeLayer(state.layer);
+  state.layer = L.tileLayer(tj.tiles[0], {
+    tileSize: tj.textond.tile_size, minZoom: tj.minzoom, maxZoom: tj.maxzoom, noWrap: true,
+  });
+  state.layer.on('tileload', () => { state.tilesLoaded += 1; });
+  state.layer.on('tileerror', () => {
+    state.tileErrors += 1;
+    showError('Some tiles could not be loaded: is the server still running?');
+  });
+  state.layer.addTo(state.map);
+  $('tile-url').value = tj.tiles[0];
+  updateDownloads();
+  const w = Math.min(meta.exemplar.width, 1024), h = Math.min(meta.exemplar.height, 1024);
+  $('side-exemplar').src = meta.links.exemplar_png;
+  $('side-synthesis').src = `/v1/textons/${meta.id}/region.png?w=${w}&h=${h}&${noiseQuery()}`;
+  $('spectrum-img').src = `${meta.links.spectrum_png}?${noiseQuery()}`;
+  drawHistograms();
+}
+
+function updateDownloads() {
+  const meta = state.meta;
+  if (!meta) return;
+  const w = $('dl-w').value, h = $('dl-h').value, f = $('dl-format').value;
+  const ext = f === 'exr' ? 'exr' : 'png';
+  const q = `w=${w}&h=${h}&${noiseQuery()}`;
+  $('dl-region').href = `/v1/textons/${meta.id}/region.${f}?${q}`;
+  $('dl-region').download = `textond-${meta.id.slice(0, 8)}-${w}x${h}.${ext}`;
+  $('dl-tileable').href = `/v1/textons/${meta.id}/tileable.${f}?${q}`;
+  $('dl-tileable').download = `textond-${meta.id.slice(0, 8)}-tileable-${w}x${h}.${ext}`;
+}
+
+function loadImage(src) {
+  return new Promise((resolve, reject) => {
+    const img = new Image();
+    img.onload = () => resolve(img);
+    img.onerror = () => reject(new Error(`could not load ${src}`));
+    img.src = src;
+  });
+}
+
+function histogram(img, bins) {
+  const c = document.createElement('canvas');
+  c.width = img.naturalWidth;
+  c.height = img.naturalHeight;
+  const ctx = c.getContext('2d');
+  ctx.drawImage(img, 0, 0);
+  const px = ctx.getImageData(0, 0, c.width, c.height).data;
+  const h = [0, 1, 2].map(() => new Float64Array(bins));
+  for (let i = 0; i < px.length; i += 4)
+    for (let ch = 0; ch < 3; ++ch) h[ch][Math.min(bins - 1, (px[i + ch] * bins) >> 8)] += 1;
+  const n = px.length / 4;
+  return h.map((a) => a.map((v) => v / n));
+}
+
+async function drawHistograms() {
+  try {
+    const [ex, syn] = await Promise.all([loadImage($('side-exemplar').src),
+                                         loadImage($('side-synthesis').src)]);
+    const bins = 64, he = histogram(ex, bins), hs = histogram(syn, bins);
+    const canvas = $('histograms'), ctx = canvas.getContext('2d');
+    ctx.clearRect(0, 0, canvas.width, canvas.height);
+    const peak = Math.max(...he.flatMap((a) => [...a]), ...hs.flatMap((a) => [...a]));
+    const colours = state.meta.channels === 1 ? ['#333', '#333', '#333'] : ['#c22', '#2a2', '#22c'];
+    for (const [hist, dash] of [[he, []], [hs, [4, 3]]])
+      for (let ch = 0; ch < 3; ++ch) {
+        ctx.beginPath();
+        ctx.setLineDash(dash);
+        ctx.strokeStyle = colours[ch];
+        for (let b = 0; b < bins; ++b) {
+          const x = (b + 0.5) * canvas.width / bins;
+          const y = canvas.height - 4 - (hist[ch][b] / peak) * (canvas.height - 8);
+          b ? ctx.lineTo(x, y) : ctx.moveTo(x, y);
+        }
+        ctx.stroke();
+      }
+    state.histograms = { exemplar: he, synthesis: hs };
+  } catch (e) {
+    showError(`Could not draw the histograms (${e.message}).`);
+  }
+}
+
+async function refreshList() {
+  try {
+    const page = await getJson('/v1/textons?limit=100');
+    const list = $('texton-list');
+    list.replaceChildren();
+    for (const meta of page.items) {
+      const li = document.createElement('li');
+      const img = document.createElement('img');
+      img.alt = `texton ${meta.id.slice(0, 8)}`;
+      img.loading = 'lazy';
+      img.src = meta.links.exemplar_png;
+      img.onerror = () => { img.onerror = null; img.src = meta.links.texton_png; };
+      li.append(img, `${meta.id.slice(0, 8)} · RME ${meta.rme.toFixed(2)}`);
+      li.onclick = () => show(meta);
+      list.append(li);
+    }
+  } catch (e) {
+    showError(`Could not list the stored textons (${e.message}).`);
+  }
+}
+
+$('file').addEventListener('change', (e) => { if (e.target.files[0]) upload(e.target.files[0]); });
+const drop = $('drop');
+drop.addEventListener('dragover', (e) => { e.preventDefault(); drop.classList.add('over'); });
+drop.addEventListener('dragleave', () => drop.classList.remove('over'));
+drop.addEventListener('drop', (e) => {
+  e.preventDefault();
+  drop.classList.remove('over');
+  if (e.dataTransfer.files[0]) upload(e.dataTransfer.files[0]);
+});
+$('apply').addEventListener('click', () => refreshNoise().catch((e) => showError(e.message)));
+for (const id of ['dl-w', 'dl-h', 'dl-format', 'seed', 'mni'])
+  $(id).addEventListener('input', updateDownloads);
+$('copy-url').addEventListener('click', async () => {
+  $('tile-url').select();
+  try {
+    await navigator.clipboard.writeText($('tile-url').value);
+    $('copy-url').textContent = 'Copied';
+  } catch {
+    $('copy-url').textContent = 'Selected: press Ctrl+C';
+  }
+});
+if (typeof L === 'undefined')
+  showError('The map library (Leaflet) is missing from this installation: run make deps and rebuild.');
+refreshList();

@@ -1,0 +1,217 @@
+// The page at / in a real browser (Debian's Chromium, driven by playwright-core) against a real
+// `textond serve` on 127.0.0.1: upload, texton and RME, the map's tiles (all 200, no console
+// errors, more on pan and zoom), no seam across tile boundaries in a screenshot, a new seed
+// changes the tiles, downloads have the asked size, errors in plain words, the stored list.
+//
+// usage: node page_test.mjs TEXTOND_BINARY EXEMPLAR.png ARTEFACT_DIR
+import { chromium } from 'playwright-core';
+import { spawn } from 'node:child_process';
+import { mkdtempSync, mkdirSync, readFileSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { createInterface } from 'node:readline';
+
+const [binary, exemplar, artefacts] = process.argv.slice(2);
+mkdirSync(artefacts, { recursive: true });
+const failures = [];
+const check = (ok, what) => {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures.push(what);
+};
+
+function startServer(data) {
+  const proc = spawn(binary, ['serve', '--port', '0', '--data', data, '--backend', 'cpu',
+                              '--log-level', 'warn'], { stdio: ['ignore', 'pipe', 'inherit'] });
+  return new Promise((resolve, reject) => {
+    const lines = createInterface({ input: proc.stdout });
+    lines.once('line', (line) => {
+      const m = line.match(/listening on (http:\/\/[^ ]+?)\/?$/);
+      m ? resolve({ proc, url: m[1] }) : reject(new Error(`server said: ${line}`));
+    });
+    proc.once('exit', (code) => reject(new Error(`server exited ${code}`)));
+  });
+}
+
+// Width and height from a PNG's IHDR, and its bit depth.
+function pngSize(buf) {
+  if (buf.readUInt32BE(0) !== 0x89504e47) return null;
+  return { w: buf.readUInt32BE(16), h: buf.readUInt32BE(20), depth: buf[24] };
+}
+
+// Mean absolute jump between neighbouring columns (x, x+1) and rows of a screenshot, decoded by
+// the browser itself; the jumps across tile boundaries against the jumps inside tiles.
+async function seamStats(page, png, boundaries) {
+  return page.evaluate(async ({ b64, boundaries }) => {
+    const img = new Image();
+    img.src = `data:image/png;base64,${b64}`;
+    await img.decode();
+    const c = document.createElement('canvas');
+    c.width = img.width;
+    c.height = img.height;
+    const ctx = c.getContext('2d');
+    ctx.drawImage(img, 0, 0);
+    const { data, width, height } = ctx.getImageData(0, 0, c.width, c.height);
+    const g = (x, y) => { const i = 4 * (y * width + x); return data[i] + data[i + 1] + data[i + 2]; };
+    const col = (x) => { let s = 0; for (let y = 0; y < height; ++y) s += Math.abs(g(x + 1, y) - g(x, y)); return s / height; };
+    const row = (y) => { let s = 0; for (let x = 0; x < width; ++x) s += Math.abs(g(x, y + 1) - g(x, y)); return s / width; };
+    // Columns and rows apart (a texture need not be isotropic); each statistic averages a
+    // whole column or row of the screenshot.
+    const stats = (n, jump, at) => {
+      const inside = [], across = [];
+      for (let i = 0; i + 1 < n; ++i) (at.includes(i + 1) ? across : inside).push(jump(i));
+      const mean = inside.reduce((a, b) => a + b, 0) / inside.length;
+      const sd = Math.sqrt(inside.reduce((a, b) => a + (b - mean) ** 2, 0) / inside.length);
+      return { mean, sd, across };
+    };
+    const sx = stats(width, col, boundaries.x), sy = stats(height, row, boundaries.y);
+    const mean = sx.mean, sd = sx.sd;
+    const across = [...sx.across.map((v) => (v - sx.mean) / sx.sd),
+                    ...sy.across.map((v) => (v - sy.mean) / sy.sd)];
+    // What a seam between unrelated content would look like: columns 48 pixels apart.
+    let far = 0;
+    for (let x = 0; x + 48 < width; ++x) {
+      let s = 0;
+      for (let y = 0; y < height; ++y) s += Math.abs(g(x + 48, y) - g(x, y));
+      far += s / height;
+    }
+    const seamLike = (far / (width - 48) - mean) / sd;
+    return { mean, sd, seamLike, across }; // across and seamLike: sds above the inside mean
+  }, { b64: png.toString('base64'), boundaries });
+}
+
+// Screen positions (in the map element) where one tile ends and the next begins.
+async function tileBoundaries(page) {
+  return page.evaluate(() => {
+    const map = document.getElementById('map').getBoundingClientRect();
+    const xs = new Set(), ys = new Set();
+    for (const t of document.querySelectorAll('#map .leaflet-tile-loaded')) {
+      const r = t.getBoundingClientRect();
+      for (const x of [r.left, r.right]) if (x - map.left > 1 && map.right - x > 1) xs.add(Math.round(x - map.left));
+      for (const y of [r.top, r.bottom]) if (y - map.top > 1 && map.bottom - y > 1) ys.add(Math.round(y - map.top));
+    }
+    return { x: [...xs], y: [...ys] };
+  });
+}
+
+const data = mkdtempSync(join(tmpdir(), 'textond-web-'));
+const { proc, url } = await startServer(data);
+const browser = await chromium.launch({
+  executablePath: '/usr/bin/chromium', headless: true,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking',
+         '--disable-component-update', '--no-first-run'],
+});
+try {
+  const page = await browser.newPage({ viewport: { width: 1200, height: 1000 }, acceptDownloads: true });
+  const consoleErrors = [];
+  page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
+  page.on('pageerror', (e) => consoleErrors.push(e.message));
+  const tileStatus = [];
+  page.on('response', (r) => { if (r.url().includes('/map/')) tileStatus.push(r.status()); });
+
+  await page.goto(url + '/');
+  check(await page.title() === 'textond: an infinite texture from a photo', 'the page loads');
+  await page.selectOption('#size', '32');
+  await page.setInputFiles('#file', exemplar);
+  await page.waitForFunction(() => document.getElementById('rme').textContent !== '', null, { timeout: 120000 });
+  const id = await page.textContent('#texton-id');
+  const rme = Number(await page.textContent('#rme'));
+  check(/^[0-9a-f]{64}$/.test(id), `the texton id appears (${id})`);
+  check(rme > 0 && rme < 1, `the RME appears (${rme})`);
+  check((await page.textContent('#analysis-ms')).endsWith('ms'), 'the analysis time appears');
+  check(await page.locator('#texton-img').evaluate((i) => i.complete && i.naturalWidth === 32),
+        'the texton image shows (32 x 32)');
+
+  await page.waitForFunction(() => window.textond.tilesLoaded >= 6, null, { timeout: 30000 });
+  await page.waitForLoadState('networkidle');
+  const first = tileStatus.length;
+  check(first >= 6 && tileStatus.every((s) => s === 200), `the map loads tiles, all 200 (${first})`);
+
+  // No seam: the jump across a tile boundary is no larger than the jumps inside tiles.
+  const boundaries = await tileBoundaries(page);
+  const controls = await page.addStyleTag({ content: '.leaflet-control-container { display: none }' });
+  const shot = await page.locator('#map').screenshot({ path: join(artefacts, 'map.png') });
+  await controls.evaluate((e) => e.remove());
+  const stats = await seamStats(page, shot, boundaries);
+  check(boundaries.x.length + boundaries.y.length >= 2, `tile boundaries on screen (${JSON.stringify(boundaries)})`);
+  // Each jump averages a whole column or row, so the jumps inside tiles vary little: a boundary
+  // must stay within 4 of their sds, and a seam between unrelated content (the control: columns
+  // 48 pixels apart) would not.
+  const worst = Math.max(...stats.across);
+  check(worst < 4, `no seam: worst boundary jump ${worst.toFixed(2)} sd above the inside mean ` +
+        `(inside columns: mean ${stats.mean.toFixed(2)}, sd ${stats.sd.toFixed(2)})`);
+  check(stats.seamLike > 4, `the seam check can fail: unrelated columns are ${stats.seamLike.toFixed(1)} sd above`);
+
+  // Pan and zoom load more tiles.
+  const box = await page.locator('#map').boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width / 2 - 600, box.y + box.height / 2 - 300, { steps: 8 });
+  await page.mouse.up();
+  await page.waitForLoadState('networkidle');
+  const afterPan = tileStatus.length;
+  check(afterPan > first, `panning loads more tiles (${first} -> ${afterPan})`);
+  await page.click('.leaflet-control-zoom-in');
+  await page.waitForTimeout(400);
+  await page.waitForLoadState('networkidle');
+  await page.click('.leaflet-control-zoom-out');
+  await page.click('.leaflet-control-zoom-out');
+  await page.waitForTimeout(400);
+  await page.waitForLoadState('networkidle');
+  check(tileStatus.length > afterPan, `zooming loads more tiles (${afterPan} -> ${tileStatus.length})`);
+  check(tileStatus.every((s) => s === 200), 'every tile answered 200');
+  await page.screenshot({ path: join(artefacts, 'page.png'), fullPage: true });
+
+  // A new seed changes the tiles.
+  const before = await page.locator('#map').screenshot();
+  await page.fill('#seed', '7');
+  await page.click('#apply');
+  await page.waitForFunction(() => [...document.querySelectorAll('#map .leaflet-tile-loaded')]
+    .some((t) => t.src.includes('seed=7')), null, { timeout: 30000 });
+  await page.waitForLoadState('networkidle');
+  await page.waitForTimeout(300);
+  const after = await page.locator('#map').screenshot({ path: join(artefacts, 'map-seed7.png') });
+  check(!before.equals(after), 'changing the seed changes the tiles');
+
+  // Downloads have the asked size and format.
+  await page.fill('#dl-w', '300');
+  await page.fill('#dl-h', '200');
+  await page.selectOption('#dl-format', 'png');
+  for (const [button, fmt, depth] of [['#dl-region', 'png', 8], ['#dl-tileable', 'png16', 16]]) {
+    await page.selectOption('#dl-format', fmt);
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click(button)]);
+    const size = pngSize(readFileSync(await download.path()));
+    check(size && size.w === 300 && size.h === 200 && size.depth === depth,
+          `${button} downloads a ${fmt} of 300 x 200 (${JSON.stringify(size)})`);
+  }
+  await page.selectOption('#dl-format', 'exr');
+  const [exr] = await Promise.all([page.waitForEvent('download'), page.click('#dl-region')]);
+  check(readFileSync(await exr.path()).readUInt32LE(0) === 20000630, 'the EXR download is an OpenEXR file');
+
+  await page.click('#copy-url');
+  const template = await page.inputValue('#tile-url');
+  check(template.startsWith(url) && template.includes('/map/{z}/{x}/{y}.png?seed=7'),
+        `the tile URL template is absolute, with the seed (${template})`);
+
+  const spectra = await page.locator('#spectrum-img').evaluate((i) => [i.naturalWidth, i.naturalHeight]);
+  check(spectra[0] === 2 * spectra[1] + 4, `the spectra show, side by side (${spectra})`);
+  check(await page.evaluate(() => !!window.textond.histograms), 'the histograms are drawn');
+  check(await page.locator('#texton-list li img').count() >= 1, 'the stored textons are listed with thumbnails');
+
+  // An error in plain words.
+  await page.setInputFiles('#file', { name: 'notes.txt', mimeType: 'text/plain', buffer: Buffer.from('not a picture') });
+  await page.waitForSelector('#error:not([hidden])', { timeout: 10000 });
+  const error = await page.textContent('#error');
+  check(/not an image/.test(error), `a bad upload is explained (${error})`);
+  check(consoleErrors.length === 0 || consoleErrors.every((e) => /415/.test(e)),
+        `no console errors (${JSON.stringify(consoleErrors)})`);
+  await page.screenshot({ path: join(artefacts, 'page-end.png'), fullPage: true });
+} catch (e) {
+  failures.push(String(e.stack || e));
+  console.log('FAIL', e);
+} finally {
+  await browser.close();
+  proc.kill('SIGTERM');
+  rmSync(data, { recursive: true, force: true });
+}
+console.log(failures.length ? `${failures.length} failure(s)` : 'page test: all checks passed');
+process.exit(failures.length ? 1 : 0);
