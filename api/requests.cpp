@@ -110,11 +110,8 @@ std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int6
     return std::nullopt;
 }
 
-std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std::string_view y,
-                                    std::string_view ext, const Query& q, TileRequest& out) {
-    if (auto e = check_texton_id(id)) return e;
-    out.id = std::string(id);
-    if (auto e = format_of(ext, out.format)) return e;
+// seed, mni and size: what every tile URL (and TileJSON) takes.
+std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
     if (auto e = check_fields(q, {"seed", "mni", "size"})) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     if (const std::string* s = field(q, "size")) {
@@ -124,6 +121,15 @@ std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std
                        "size must be 256 or 512, not '" + s->substr(0, 40) + "'");
         out.size = static_cast<int>(*v);
     }
+    return std::nullopt;
+}
+
+std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std::string_view y,
+                                    std::string_view ext, const Query& q, TileRequest& out) {
+    if (auto e = check_texton_id(id)) return e;
+    out.id = std::string(id);
+    if (auto e = format_of(ext, out.format)) return e;
+    if (auto e = tile_fields(q, out)) return e;
     auto tx = parse_i64(x), ty = parse_i64(y);
     if (!tx || !ty)
         return bad("coordinate_out_of_range", "tile indices must be signed 64-bit integers, not '" +
@@ -280,6 +286,18 @@ std::optional<ApiError> parse_list(const Query& q, ListRequest& out) {
         out.after = *s;
     }
     return std::nullopt;
+}
+
+std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out) {
+    if (auto e = check_texton_id(id)) return e;
+    out.id = std::string(id);
+    return tile_fields(q, out);
+}
+
+std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out) {
+    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_fields(q, {"seed", "mni"})) return e;
+    return noise_fields(q, out);
 }
 
 std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out) {

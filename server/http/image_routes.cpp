@@ -160,17 +160,10 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
 // cannot have.
 void Service::spectrum(const httplib::Request& req, const std::string& id, httplib::Response& res) {
     set_route("/v1/textons/{id}/spectrum.png");
-    api::TileRequest probe; // seed and mni, checked as for tiles
-    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    api::Query q = req.params;
-    for (const auto& [k, v] : q)
-        if (k != "seed" && k != "mni")
-            return send_error(res,
-                              {400, "unknown_parameter",
-                               "unknown parameter '" + k + "' (this endpoint takes seed, mni)"});
-    if (auto e = api::parse_tile(id, "0", "0", "0", "png", q, probe)) return send_error(res, *e);
-    const std::string key = "spectrum/" + id + "/s" + std::to_string(probe.noise.seed) + "/m" +
-                            mni_text(probe.noise.mni) + ".png";
+    api::NoiseParams noise;
+    if (auto e = api::parse_spectrum(id, req.params, noise)) return send_error(res, *e);
+    const std::string key =
+        "spectrum/" + id + "/s" + std::to_string(noise.seed) + "/m" + mni_text(noise.mni) + ".png";
     serve_cached(req, res, id, key, api::ImageFormat::png, [&]() -> Result<core::Image> {
         auto png = m_store->exemplar_png(id);
         if (!png) return png.error();
@@ -183,11 +176,11 @@ void Service::spectrum(const httplib::Request& req, const std::string& id, httpl
             for (int y = 0; y < h; ++y)
                 for (int x = 0; x < w; ++x)
                     crop.at(c, x, y) = u.at(c, x + (u.width - w) / 2, y + (u.height - h) / 2);
-        render::NoiseRequest nq = noise_request(0, 0, 0, w, h, probe.noise);
-        auto noise = render_noise(id, nq, true, "spectrum");
-        if (!noise) return noise.error();
+        render::NoiseRequest nq = noise_request(0, 0, 0, w, h, noise);
+        auto window = render_noise(id, nq, true, "spectrum");
+        if (!window) return window.error();
         const core::Image a = core::centred_power_spectrum(core::periodic_component(crop));
-        const core::Image b = core::centred_power_spectrum(noise.value());
+        const core::Image b = core::centred_power_spectrum(window.value());
         const double top = std::max(core::log10_max(a), core::log10_max(b));
         constexpr double kDecades = 5.0;
         const core::Image la = core::log_display(a, top, kDecades);
@@ -228,12 +221,8 @@ std::string Service::base_url(const httplib::Request& req) const {
 
 void Service::tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res) {
     set_route("/v1/textons/{id}/tilejson.json");
-    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    api::Query q = req.params;
-    api::TileRequest probe;
-    // seed, mni and size are checked exactly as the tiles will check them.
-    if (auto e = api::parse_map_tile(id, "0", "0", "0", "png", q, probe))
-        return send_error(res, *e);
+    api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
+    if (auto e = api::parse_tilejson(id, req.params, probe)) return send_error(res, *e);
     auto meta = m_store->meta(id);
     if (!meta) return send_error(res, {404, "not_found", "no texton " + id});
     const std::string query = "?seed=" + std::to_string(probe.noise.seed) +

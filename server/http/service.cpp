@@ -5,13 +5,12 @@
 #include "render/backend_factory.h"
 #include "render/noise_request.h"
 #include "server/http/http_support.h"
+#include "server/io/image_io.h"
 
 #include <OpenImageIO/oiioversion.h>
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <sys/socket.h>
 #include <thread>
 
@@ -283,11 +282,10 @@ void Service::install_web_routes() {
         if (!it->is_regular_file() || m_web.size() >= 256) continue;
         auto type = types.find(it->path().extension().string());
         if (type == types.end()) continue;
-        std::ifstream in(it->path(), std::ios::binary);
-        std::ostringstream body;
-        body << in.rdbuf();
+        auto body = io::read_file(it->path().string());
+        if (!body) continue;
         const std::string rel = fs::relative(it->path(), dir, ec).generic_string();
-        m_web["/static/" + rel] = {body.str(), type->second};
+        m_web["/static/" + rel] = {std::move(body.value()), type->second};
     }
     if (!m_web.count("/static/index.html"))
         spdlog::warn("web: no page in {} (the API works; / answers 404)", dir);

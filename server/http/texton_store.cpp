@@ -11,8 +11,6 @@
 #include <cstring>
 #include <fcntl.h>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <unistd.h>
 
 namespace textond::http {
@@ -169,11 +167,7 @@ Result<io::TextonRecord> TextonStore::record(const std::string& id) {
 Result<std::string> TextonStore::file_bytes(const std::string& id) {
     auto r = load_verified(id);
     if (!r) return r.error();
-    std::ifstream in(path_of(id), std::ios::binary);
-    std::ostringstream out;
-    out << in.rdbuf();
-    if (!in && !in.eof()) return make_error(ErrorCode::io, "cannot read texton " + id);
-    return out.str();
+    return io::read_file(path_of(id));
 }
 
 Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exemplar) {
@@ -217,14 +211,12 @@ Result<bool> TextonStore::remove(const std::string& id) {
 
 Result<std::string> TextonStore::exemplar_png(const std::string& id) const {
     if (!contains(id)) return make_error(ErrorCode::not_found, "no texton " + id);
-    std::ifstream in(exemplar_path_of(id), std::ios::binary);
-    if (!in)
-        return make_error(ErrorCode::not_found,
-                          "texton " + id +
-                              " was stored without its exemplar (before exemplars were kept)");
-    std::ostringstream out;
-    out << in.rdbuf();
-    return out.str();
+    auto png = io::read_file(exemplar_path_of(id));
+    if (!png && png.error().code == ErrorCode::not_found)
+        return make_error(ErrorCode::not_found, "texton " + id +
+                                                    " was stored without its exemplar (before "
+                                                    "exemplars were kept)");
+    return png;
 }
 
 std::vector<api::TextonMeta> TextonStore::list(const std::string& after, int limit) const {

@@ -10,8 +10,10 @@
 #include <cstring>
 #include <fcntl.h>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 #include <sys/stat.h>
 #include <type_traits>
@@ -161,6 +163,15 @@ const char* extension_of(Encoding e) {
         return ".exr";
     }
     return "";
+}
+
+Result<std::string> read_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return make_error(ErrorCode::not_found, "cannot open " + path);
+    std::ostringstream out;
+    out << in.rdbuf();
+    if (in.bad()) return make_error(ErrorCode::io, "cannot read " + path);
+    return out.str();
 }
 
 Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) {

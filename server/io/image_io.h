@@ -52,6 +52,9 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
 Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
                                const Attributes& attributes = {});
 
+// The whole file, or not_found / io.
+Result<std::string> read_file(const std::string& path);
+
 // Atomic write of raw bytes (temp, fsync, rename): no reader ever sees half a file.
 Result<bool> write_file_atomic(const std::string& path, std::string_view bytes);
 

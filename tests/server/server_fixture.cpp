@@ -21,10 +21,9 @@ namespace textond::test {
 namespace fs = std::filesystem;
 
 std::string read_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
+    auto bytes = io::read_file(path);
+    if (!bytes) throw std::runtime_error(bytes.error().message);
+    return std::move(bytes.value());
 }
 
 std::string fresh_dir(const std::string& name) {
