@@ -88,6 +88,61 @@ const ImageSpec& read_config() {
     return config;
 }
 
+// Whether every chunk of a PNG lies inside the bytes, up to IEND. OpenImageIO 2.4's PNG reader
+// leaks its error string when libpng asks its I/O proxy for bytes past the end (the error
+// longjmps over it; found by tests/fuzz), so a truncated PNG is refused before it gets there.
+bool png_chunks_complete(std::string_view b) {
+    std::size_t at = 8; // signature
+    while (at + 12 <= b.size()) {
+        const auto byte = [&](std::size_t i) {
+            return static_cast<std::uint32_t>(static_cast<unsigned char>(b[i]));
+        };
+        const std::uint32_t length =
+            byte(at) << 24 | byte(at + 1) << 16 | byte(at + 2) << 8 | byte(at + 3);
+        if (length > b.size() - at - 12) return false;
+        if (b.substr(at + 4, 4) == "IEND") return true;
+        at += 12 + length;
+    }
+    return false;
+}
+
+// A JPEG without its metadata segments (APP1..APP13, APP15: Exif, XMP, ICC, IPTC...; COM):
+// OpenImageIO 2.4's IPTC parser reads past its buffer on a crafted APP13 segment (a heap overflow
+// found by tests/fuzz), and the analysis needs none of them. The segments are walked, not
+// decoded; everything from the start of scan on is kept as it is. Empty when the segments do not
+// fit the bytes.
+std::string jpeg_without_metadata(std::string_view b) {
+    std::string out(b.substr(0, 2)); // SOI
+    std::size_t at = 2;
+    while (at + 2 <= b.size()) {
+        if (static_cast<unsigned char>(b[at]) != 0xFF) return {};
+        const unsigned char marker = static_cast<unsigned char>(b[at + 1]);
+        if (marker == 0xFF) { // fill byte
+            ++at;
+            continue;
+        }
+        if (marker == 0xDA) { // start of scan: the entropy-coded data and the rest
+            out.append(b.substr(at));
+            return out;
+        }
+        if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD8)) { // no length
+            out.append(b.substr(at, 2));
+            at += 2;
+            continue;
+        }
+        if (at + 4 > b.size()) return {};
+        const std::size_t length = static_cast<std::size_t>(static_cast<unsigned char>(b[at + 2]))
+                                       << 8 |
+                                   static_cast<unsigned char>(b[at + 3]);
+        if (length < 2 || at + 2 + length > b.size()) return {};
+        const bool metadata =
+            (marker >= 0xE1 && marker <= 0xED) || marker == 0xEF || marker == 0xFE;
+        if (!metadata) out.append(b.substr(at, 2 + length));
+        at += 2 + length;
+    }
+    return {};
+}
+
 } // namespace
 
 Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits) {
@@ -128,6 +183,14 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
                           format.empty() ? "not an image in a format we accept (PNG, JPEG, TIFF, "
                                            "OpenEXR, BMP)"
                                          : "image format '" + format + "' is not accepted here");
+    if (format == "png" && !png_chunks_complete(bytes))
+        return unprocessable("PNG is truncated (a chunk runs past the end, or no IEND)");
+    std::string stripped;
+    if (format == "jpeg") {
+        stripped = jpeg_without_metadata(bytes);
+        if (stripped.empty()) return unprocessable("JPEG is truncated or its segments are broken");
+        bytes = stripped;
+    }
     // Decoded straight from memory (every accepted format's reader takes an I/O proxy), so an
     // upload needs no disk: a full disk must not make a good image look bad. Only the sniffed
     // format's reader sees the bytes (OpenImageIO's open() would try every reader it has).

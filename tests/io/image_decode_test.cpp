@@ -206,3 +206,65 @@ TEST(Encode, WritesPng8Png16AndExrAtomically) {
         EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
     EXPECT_FALSE(io::encode_image_file(img, "/nonexistent-dir/x.png", io::Encoding::png8).ok());
 }
+
+// Inputs the fuzzer (tests/fuzz) found crashing or leaking in OpenImageIO 2.4's readers: each is
+// now refused before that reader code runs, or decoded without touching it. (The asan preset
+// turns a regression back into a crash; this build checks the answers.)
+TEST(Decode, FuzzRegressionsAreRefusedCleanly) {
+    const fs::path dir = fs::path(TEXTOND_FUZZ_REGRESSIONS);
+    int seen = 0;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+        std::ifstream in(entry.path(), std::ios::binary);
+        const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+        SCOPED_TRACE(entry.path().filename().string());
+        auto r = io::decode_image_memory(bytes);
+        ++seen;
+        if (!r) {
+            EXPECT_TRUE(r.error().code == ErrorCode::unprocessable ||
+                        r.error().code == ErrorCode::unsupported)
+                << r.error().message;
+        }
+    }
+    EXPECT_GE(seen, 2);
+}
+
+TEST(Decode, TruncatedPngIsRefusedBeforeTheDecoder) {
+    std::ifstream in(test::exemplar_path("etr_sand01.png"), std::ios::binary);
+    const std::string png((std::istreambuf_iterator<char>(in)), {});
+    auto whole = io::decode_image_memory(png);
+    ASSERT_TRUE(whole);
+    for (std::size_t cut : {png.size() - 1, png.size() - 12, png.size() / 2, std::size_t{40}}) {
+        auto r = io::decode_image_memory(png.substr(0, cut));
+        ASSERT_FALSE(r) << cut;
+        EXPECT_EQ(r.error().code, ErrorCode::unprocessable);
+        EXPECT_NE(r.error().message.find("truncated"), std::string::npos) << r.error().message;
+    }
+}
+
+TEST(Decode, JpegMetadataIsStrippedAndThePixelsKept) {
+    // A JPEG with Exif (APP1) and a comment decodes to the same pixels as without them.
+    const core::Image u = test::crop(test::load_exemplar("etr_sand01.png"), 64, 48);
+    const std::string path = test::temp_path("meta.jpg");
+    {
+        auto out = OIIO::ImageOutput::create(path);
+        OIIO::ImageSpec spec(u.width, u.height, 3, OIIO::TypeDesc::UINT8);
+        spec.attribute("ImageDescription", "a comment that lands in a metadata segment");
+        spec.attribute("Exif:UserComment", "more metadata");
+        std::vector<unsigned char> px(u.plane_size() * 3);
+        for (std::size_t k = 0; k < u.plane_size(); ++k)
+            for (int c = 0; c < 3; ++c)
+                px[k * 3 + c] = static_cast<unsigned char>(u.plane(c)[k] * 255.0f + 0.5f);
+        ASSERT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, px.data()) &&
+                    out->close());
+    }
+    std::ifstream in(path, std::ios::binary);
+    const std::string jpeg((std::istreambuf_iterator<char>(in)), {});
+    auto from_memory = io::decode_image_memory(jpeg);
+    auto from_file = io::decode_image_file(path);
+    ASSERT_TRUE(from_memory) << from_memory.error().message;
+    ASSERT_TRUE(from_file);
+    EXPECT_EQ(test::max_abs_diff(from_memory.value(), from_file.value()), 0.0);
+    auto cut = io::decode_image_memory(jpeg.substr(0, 30));
+    ASSERT_FALSE(cut);
+    EXPECT_EQ(cut.error().code, ErrorCode::unprocessable);
+}
