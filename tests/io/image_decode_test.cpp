@@ -268,3 +268,28 @@ TEST(Decode, JpegMetadataIsStrippedAndThePixelsKept) {
     ASSERT_FALSE(cut);
     EXPECT_EQ(cut.error().code, ErrorCode::unprocessable);
 }
+
+TEST(Decode, ExrHeadersAreCheckedBeforeOpenExrAllocates) {
+    core::Image u(64, 48, 3, 0.25f);
+    const std::string exr = io::encode_image_memory(u, io::Encoding::exr).value();
+    auto ok = io::decode_image_memory(exr);
+    ASSERT_TRUE(ok) << ok.error().message;
+    EXPECT_EQ(ok.value().width, 64);
+    // Over the pixel budget: refused from the header (413), before OpenEXR reads on.
+    io::DecodeLimits small;
+    small.max_pixels = 64 * 48 - 1;
+    auto big = io::decode_image_memory(exr, small);
+    ASSERT_FALSE(big);
+    EXPECT_EQ(big.error().code, ErrorCode::too_large);
+    // An attribute declaring more bytes than the file has (the fuzzer's 2 GB string).
+    std::string bomb = exr;
+    const std::size_t name = bomb.find("channels");
+    ASSERT_NE(name, std::string::npos);
+    const std::size_t size_at = bomb.find('\0', name + 9) + 1; // after "chlist\0"
+    for (int k = 0; k < 4; ++k) bomb[size_at + k] = static_cast<char>(k == 3 ? 0x70 : 0xff);
+    auto refused = io::decode_image_memory(bomb);
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().code, ErrorCode::unprocessable);
+    EXPECT_NE(refused.error().message.find("more than the file has"), std::string::npos)
+        << refused.error().message;
+}
