@@ -39,7 +39,8 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
 
   --max-upload-mb N        largest request body, MiB (413 above)               [32]
   --max-pixels N           largest exemplar, pixels, read from the header (413)  [16777216]
-  --formats LIST           upload formats: png,jpeg,tiff,openexr,bmp (415 otherwise)
+  --formats LIST           upload formats, of png,jpeg,tiff,bmp,openexr (415 otherwise)
+                           [png,jpeg,tiff,bmp: EXR is opt-in, see README "Fuzzing"]
   --max-region-pixels N    largest region image                                [8388608]
   --max-tileable-side N    largest tileable texture side                       [4096]
   --read-timeout S, --write-timeout S                                          [30]

@@ -89,6 +89,31 @@ const ImageSpec& read_config() {
     return config;
 }
 
+// An in-memory I/O proxy that never reads outside its bytes. OpenImageIO 2.4's IOMemReader
+// copies past the end of its buffer when a reader asks for an offset beyond it (a heap overflow
+// reached through the EXR reader, found by tests/fuzz).
+class BoundedMemoryReader final : public OIIO::Filesystem::IOProxy {
+public:
+    explicit BoundedMemoryReader(std::string_view bytes) : IOProxy("", Read), m_bytes(bytes) {}
+    const char* proxytype() const override { return "textond-memory"; }
+    size_t size() const override { return m_bytes.size(); }
+    size_t pread(void* buf, size_t n, int64_t offset) override {
+        if (offset < 0 || static_cast<std::uint64_t>(offset) >= m_bytes.size()) return 0;
+        const std::size_t at = static_cast<std::size_t>(offset);
+        const std::size_t count = std::min(n, m_bytes.size() - at);
+        std::memcpy(buf, m_bytes.data() + at, count);
+        return count;
+    }
+    size_t read(void* buf, size_t n) override {
+        const std::size_t count = pread(buf, n, m_pos);
+        m_pos += static_cast<int64_t>(count);
+        return count;
+    }
+
+private:
+    std::string_view m_bytes;
+};
+
 // Whether every chunk of a PNG lies inside the bytes, up to IEND. OpenImageIO 2.4's PNG reader
 // leaks its error string when libpng asks its I/O proxy for bytes past the end (the error
 // longjmps over it; found by tests/fuzz), so a truncated PNG is refused before it gets there.
@@ -252,9 +277,10 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
                                                        format) != limits.formats.end());
     if (!allowed)
         return make_error(ErrorCode::unsupported,
-                          format.empty() ? "not an image in a format we accept (PNG, JPEG, TIFF, "
-                                           "OpenEXR, BMP)"
-                                         : "image format '" + format + "' is not accepted here");
+                          format.empty()
+                              ? "not an image in a format we read (PNG, JPEG, TIFF, BMP, "
+                                "OpenEXR where enabled)"
+                              : "image format '" + format + "' is not accepted here");
     if (format == "png" && !png_chunks_complete(bytes))
         return unprocessable("PNG is truncated (a chunk runs past the end, or no IEND)");
     if (format == "openexr")
@@ -271,8 +297,11 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
     auto in = ImageInput::create(format);
     if (!in || !in->supports("ioproxy"))
         return make_error(ErrorCode::unsupported, "no in-memory reader for " + format);
-    OIIO::Filesystem::IOMemReader memory(const_cast<char*>(bytes.data()), bytes.size());
-    void* proxy = &memory;
+    // OpenImageIO's JPEG reader takes only its own memory reader, whose buffer it hands whole
+    // to libjpeg (which checks bounds itself); every other reader gets the bounded one.
+    BoundedMemoryReader bounded(bytes);
+    OIIO::Filesystem::IOMemReader whole(bytes.data(), bytes.size());
+    void* proxy = format == "jpeg" ? static_cast<void*>(&whole) : static_cast<void*>(&bounded);
     ImageSpec config = read_config();
     config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
     ImageSpec opened;

@@ -6,7 +6,7 @@ window.textond = state; // for people poking around, and for the browser test
 
 // API errors in plain words: the server's message, with what to do for the common cases.
 const advice = {
-  unsupported_media_type: 'That file is not an image in a format we read (PNG, JPEG, TIFF, EXR, BMP).',
+  unsupported_media_type: 'That file is not an image in a format this server accepts (PNG, JPEG, TIFF, BMP).',
   invalid_image: 'That image looks damaged or truncated.',
   image_too_large: 'That image has too many pixels for this server.',
   payload_too_large: 'That file is too large for this server.',

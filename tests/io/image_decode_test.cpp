@@ -81,6 +81,12 @@ TEST_P(DecodeFormats, RoundTripsWithTheDocumentedChannelsAndRange) {
     auto r = io::decode_image_file(path);
     ASSERT_TRUE(r.ok()) << r.error().message;
     const core::Image& img = r.value();
+    // Uploads decode from memory, through the service's own I/O proxy: the same pixels.
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    auto m = io::decode_image_memory(bytes);
+    ASSERT_TRUE(m.ok()) << m.error().message;
+    EXPECT_EQ(test::max_abs_diff(m.value(), img), 0.0);
     ASSERT_EQ(img.width, w);
     ASSERT_EQ(img.height, h);
     ASSERT_EQ(img.channels, fc.expect_channels);
