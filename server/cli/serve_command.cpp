@@ -1,5 +1,6 @@
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
+#include "server/http/http_support.h"
 #include "server/http/service.h"
 
 #include <spdlog/spdlog.h>
@@ -95,21 +96,6 @@ Argv with_environment(const Argv& argv) {
     return merged;
 }
 
-std::vector<std::string> split_list(const std::string& s) {
-    std::vector<std::string> out;
-    std::size_t pos = 0;
-    while (pos <= s.size()) {
-        std::size_t end = s.find(',', pos);
-        if (end == std::string::npos) end = s.size();
-        std::string item = s.substr(pos, end - pos);
-        item.erase(0, item.find_first_not_of(' '));
-        item.erase(item.find_last_not_of(' ') + 1);
-        if (!item.empty()) out.push_back(item);
-        pos = end + 1;
-    }
-    return out;
-}
-
 Result<http::ServeConfig> config_from(const Args& a) {
     http::ServeConfig c;
     auto num = [&](const char* name, long long fallback, long long lo, long long hi,
@@ -154,7 +140,7 @@ Result<http::ServeConfig> config_from(const Args& a) {
     if (!kind) return kind.error();
     c.backend = kind.value();
     if (a.options.count("--formats")) {
-        c.formats = split_list(a.get("--formats"));
+        c.formats = http::split_list(a.get("--formats"));
         const std::vector<std::string> known = {"png", "jpeg", "tiff", "openexr", "bmp"};
         for (const auto& f : c.formats)
             if (std::find(known.begin(), known.end(), f) == known.end())

@@ -107,6 +107,21 @@ bool etag_matches(std::string_view header, std::string_view etag) {
     return false;
 }
 
+std::vector<std::string> split_list(std::string_view s) {
+    std::vector<std::string> out;
+    std::size_t pos = 0;
+    while (pos <= s.size()) {
+        std::size_t end = s.find(',', pos);
+        if (end == std::string_view::npos) end = s.size();
+        std::string item(s.substr(pos, end - pos));
+        item.erase(0, item.find_first_not_of(' '));
+        item.erase(item.find_last_not_of(' ') + 1);
+        if (!item.empty()) out.push_back(item);
+        pos = end + 1;
+    }
+    return out;
+}
+
 std::string rfc3339_now() {
     const std::time_t t = std::time(nullptr);
     std::tm tm{};

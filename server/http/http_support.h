@@ -10,6 +10,7 @@
 #include <chrono>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace textond::http {
 
@@ -40,5 +41,8 @@ api::ApiError to_api_error(const Error& e, std::string code = {});
 bool etag_matches(std::string_view if_none_match, std::string_view etag);
 
 std::string rfc3339_now();
+
+// "a, b,c" -> {"a", "b", "c"}: spaces trimmed, empty items dropped (--formats, --cors-origin).
+std::vector<std::string> split_list(std::string_view s);
 
 } // namespace textond::http

@@ -10,6 +10,7 @@
 #include <OpenImageIO/oiioversion.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <sys/socket.h>
 #include <thread>
@@ -63,26 +64,17 @@ int cores() {
     return n == 0 ? 1 : static_cast<int>(n);
 }
 
-// CORS: "*" or one of a comma-separated list of origins (echoed, with Vary: Origin).
-void apply_cors(const std::string& allowed, const httplib::Request& req, httplib::Response& res) {
-    if (allowed.empty()) return;
-    if (allowed == "*") {
+// CORS: "*", or one of the listed origins (echoed, with Vary: Origin); none when `listed` is
+// empty and `any` is false.
+void apply_cors(bool any, const std::vector<std::string>& listed, const httplib::Request& req,
+                httplib::Response& res) {
+    if (any) {
         res.set_header("Access-Control-Allow-Origin", "*");
     } else {
+        if (listed.empty()) return;
         res.set_header("Vary", "Origin");
         const std::string origin = req.get_header_value("Origin");
-        std::size_t pos = 0;
-        bool ok = false;
-        while (!origin.empty() && pos <= allowed.size()) {
-            std::size_t end = allowed.find(',', pos);
-            if (end == std::string::npos) end = allowed.size();
-            std::string o = allowed.substr(pos, end - pos);
-            while (!o.empty() && o.front() == ' ') o.erase(0, 1);
-            while (!o.empty() && o.back() == ' ') o.pop_back();
-            if (o == origin) ok = true;
-            pos = end + 1;
-        }
-        if (!ok) return;
+        if (std::find(listed.begin(), listed.end(), origin) == listed.end()) return;
         res.set_header("Access-Control-Allow-Origin", origin);
     }
     res.set_header("Access-Control-Expose-Headers",
@@ -93,7 +85,8 @@ void apply_cors(const std::string& allowed, const httplib::Request& req, httplib
 Service::Service(ServeConfig config)
     : m_config(std::move(config)), m_cache(m_config.cache_bytes),
       m_render_slots(m_config.render_slots > 0 ? m_config.render_slots : cores()),
-      m_decode_slots(cores()) {}
+      m_decode_slots(cores()), m_cors_any(m_config.cors_origin == "*"),
+      m_cors_origins(m_cors_any ? std::vector<std::string>{} : split_list(m_config.cors_origin)) {}
 
 Service::~Service() {
     stop();
@@ -186,7 +179,7 @@ void Service::install_hooks() {
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ctx.start)
                 .count();
         res.set_header("X-Request-Id", ctx.id);
-        apply_cors(m_config.cors_origin, req, res);
+        apply_cors(m_cors_any, m_cors_origins, req, res);
     });
     // Errors raised before or outside a route (404, 413 from the body limit, 414...) get the
     // same JSON body as ours; bodies a route already wrote are left alone.
@@ -329,10 +322,6 @@ void Service::run() {
 void Service::stop() {
     if (m_stopping.exchange(true)) return;
     m_http.stop();
-}
-
-bool Service::ready() const {
-    return !m_stopping && m_http.is_running();
 }
 
 } // namespace textond::http

@@ -19,6 +19,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 namespace textond::http {
 
@@ -72,7 +73,6 @@ public:
     void run();
     // Stops accepting, lets in-flight requests finish; safe from any thread.
     void stop();
-    bool ready() const;
 
     int port() const { return m_port; }
     const ServeConfig& config() const { return m_config; }
@@ -132,6 +132,8 @@ private:
     // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
     // so that many simultaneous large uploads cannot exhaust memory.
     RenderSlots m_decode_slots;
+    const bool m_cors_any;                         // --cors-origin "*"
+    const std::vector<std::string> m_cors_origins; // else the listed origins, parsed once
     std::atomic<bool> m_stopping{false};
     int m_port = 0;
 };

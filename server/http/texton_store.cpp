@@ -33,7 +33,7 @@ void fsync_directory(const std::string& dir) {
 } // namespace
 
 TextonStore::TextonStore(std::string dir, std::size_t prepared_cache)
-    : m_root(dir), m_dir((fs::path(dir) / "textons").string()),
+    : m_dir((fs::path(dir) / "textons").string()),
       m_exemplars((fs::path(dir) / "exemplars").string()),
       m_quarantine((fs::path(dir) / "quarantine").string()),
       m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache) {}

@@ -52,8 +52,6 @@ public:
     // Can we create a file in the store right now? (readiness probe)
     bool writable() const;
 
-    const std::string& directory() const { return m_dir; }
-
 private:
     explicit TextonStore(std::string dir, std::size_t prepared_cache);
     std::string path_of(const std::string& id) const;
@@ -61,7 +59,7 @@ private:
     void quarantine_locked(const std::string& id, const std::string& why);
     Result<io::TextonRecord> load_verified(const std::string& id);
 
-    const std::string m_root, m_dir, m_exemplars, m_quarantine;
+    const std::string m_dir, m_exemplars, m_quarantine;
     const std::size_t m_prepared_capacity;
     mutable std::mutex m_mutex;
     std::map<std::string, api::TextonMeta> m_index;

@@ -6,8 +6,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 
 using namespace textond;
 namespace fs = std::filesystem;
@@ -55,11 +53,6 @@ std::string write_bytes(const std::string& name, const std::string& bytes) {
     return path;
 }
 
-std::string read_bytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
 struct FormatCase {
     const char* name;
     OIIO::TypeDesc type;
@@ -82,8 +75,7 @@ TEST_P(DecodeFormats, RoundTripsWithTheDocumentedChannelsAndRange) {
     ASSERT_TRUE(r.ok()) << r.error().message;
     const core::Image& img = r.value();
     // Uploads decode from memory, through the service's own I/O proxy: the same pixels.
-    std::ifstream in(path, std::ios::binary);
-    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    const std::string bytes = io::read_file(path).value();
     auto m = io::decode_image_memory(bytes);
     ASSERT_TRUE(m.ok()) << m.error().message;
     EXPECT_EQ(test::max_abs_diff(m.value(), img), 0.0);
@@ -135,7 +127,7 @@ TEST(Decode, PalettePngBecomesRgbAndGreyPngStaysOneChannel) {
 TEST(Decode, FromMemoryEqualsFromFile) {
     const std::string path = test::exemplar_path("etr_sand01.png");
     auto a = io::decode_image_file(path);
-    auto b = io::decode_image_memory(read_bytes(path));
+    auto b = io::decode_image_memory(io::read_file(path).value());
     ASSERT_TRUE(a.ok() && b.ok());
     EXPECT_EQ(a.value().data, b.value().data);
 }
@@ -162,7 +154,7 @@ TEST(Decode, RefusesNanAndInfinity) {
 }
 
 TEST(Decode, BadFilesGiveClearErrorsNotCrashes) {
-    const std::string png = read_bytes(test::exemplar_path("etr_sand01.png"));
+    const std::string png = io::read_file(test::exemplar_path("etr_sand01.png")).value();
     struct Bad {
         std::string name, bytes;
     };
@@ -220,8 +212,7 @@ TEST(Decode, FuzzRegressionsAreRefusedCleanly) {
     const fs::path dir = fs::path(TEXTOND_FUZZ_REGRESSIONS);
     int seen = 0;
     for (const auto& entry : fs::directory_iterator(dir)) {
-        std::ifstream in(entry.path(), std::ios::binary);
-        const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+        const std::string bytes = io::read_file(entry.path().string()).value();
         SCOPED_TRACE(entry.path().filename().string());
         auto r = io::decode_image_memory(bytes);
         ++seen;
@@ -235,8 +226,7 @@ TEST(Decode, FuzzRegressionsAreRefusedCleanly) {
 }
 
 TEST(Decode, TruncatedPngIsRefusedBeforeTheDecoder) {
-    std::ifstream in(test::exemplar_path("etr_sand01.png"), std::ios::binary);
-    const std::string png((std::istreambuf_iterator<char>(in)), {});
+    const std::string png = io::read_file(test::exemplar_path("etr_sand01.png")).value();
     auto whole = io::decode_image_memory(png);
     ASSERT_TRUE(whole);
     for (std::size_t cut : {png.size() - 1, png.size() - 12, png.size() / 2, std::size_t{40}}) {
@@ -263,8 +253,7 @@ TEST(Decode, JpegMetadataIsStrippedAndThePixelsKept) {
         ASSERT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, px.data()) &&
                     out->close());
     }
-    std::ifstream in(path, std::ios::binary);
-    const std::string jpeg((std::istreambuf_iterator<char>(in)), {});
+    const std::string jpeg = io::read_file(path).value();
     auto from_memory = io::decode_image_memory(jpeg);
     auto from_file = io::decode_image_file(path);
     ASSERT_TRUE(from_memory) << from_memory.error().message;
