@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 using namespace textond;
 namespace fs = std::filesystem;
