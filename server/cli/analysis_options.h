@@ -3,10 +3,12 @@
 #include "core/result.h"
 #include "core/texton_analysis.h"
 #include "server/cli/args.h"
+#include "server/cli/commands.h"
 #include "server/io/image_io.h"
 
 #include <set>
 #include <string>
+#include <variant>
 
 namespace textond::cli {
 
@@ -15,6 +17,15 @@ extern const std::set<std::string> kAnalysisFlags;   // --no-periodic
 extern const char* kAnalysisHelp;
 
 Result<core::AnalysisParams> analysis_params_from(const Args& a);
+
+// What analyze, synth and render share: the analysis options and flags plus the command's own,
+// --help (the command's text, then the analysis options'), exactly one INPUT and, when
+// `needs_output`, an -o OUT.png|OUT.exr. Returns the arguments, or the exit code to return now.
+std::variant<Args, int> parse_input_command(const Argv& argv, const std::string& name,
+                                            const char* help, const char* input_name,
+                                            bool needs_output,
+                                            const std::set<std::string>& own_options,
+                                            const std::set<std::string>& own_flags);
 Result<io::DecodeLimits> decode_limits_from(const Args& a);
 
 // Progress to stderr once an analysis has run for a second, then about once a second.

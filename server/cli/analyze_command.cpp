@@ -47,6 +47,30 @@ Result<core::AnalysisParams> analysis_params_from(const Args& a) {
     return p;
 }
 
+std::variant<Args, int> parse_input_command(const Argv& argv, const std::string& name,
+                                            const char* help, const char* input_name,
+                                            bool needs_output,
+                                            const std::set<std::string>& own_options,
+                                            const std::set<std::string>& own_flags) {
+    std::set<std::string> options = kAnalysisOptions;
+    options.insert(own_options.begin(), own_options.end());
+    std::set<std::string> flags = kAnalysisFlags;
+    flags.insert(own_flags.begin(), own_flags.end());
+    flags.insert("--help");
+    auto args = parse_args(argv, options, flags);
+    if (!args) return fail(2, args.error().message + " (see textond " + name + " --help)");
+    if (args.value().flags.count("--help")) {
+        std::printf("%s\n%s", help, kAnalysisHelp);
+        return 0;
+    }
+    if (args.value().positional.size() != 1)
+        return fail(2, name + " needs exactly one " + input_name + " (see textond " + name +
+                           " --help)");
+    if (needs_output && !args.value().options.count("--output"))
+        return fail(2, name + " needs -o OUT.png or OUT.exr");
+    return std::move(args.value());
+}
+
 Result<io::DecodeLimits> decode_limits_from(const Args& a) {
     io::DecodeLimits limits;
     auto max_pixels =
@@ -81,19 +105,10 @@ alternating projections and prints a JSON summary (id, RME, mean, timings) on st
 } // namespace
 
 int analyze_command(const Argv& argv) {
-    std::set<std::string> options = kAnalysisOptions;
-    options.insert({"--output", "--export-v1"});
-    std::set<std::string> flags = kAnalysisFlags;
-    flags.insert("--help");
-    auto args = parse_args(argv, options, flags);
-    if (!args) return fail(2, args.error().message + " (see textond analyze --help)");
-    const Args& a = args.value();
-    if (a.flags.count("--help")) {
-        std::printf("%s\n%s", kHelp, kAnalysisHelp);
-        return 0;
-    }
-    if (a.positional.size() != 1)
-        return fail(2, "analyze needs exactly one EXEMPLAR (see textond analyze --help)");
+    auto parsed = parse_input_command(argv, "analyze", kHelp, "EXEMPLAR", false,
+                                      {"--output", "--export-v1"}, {});
+    if (auto* code = std::get_if<int>(&parsed)) return *code;
+    const Args& a = std::get<Args>(parsed);
     auto params = analysis_params_from(a);
     if (!params) return fail(2, params.error().message);
     auto limits = decode_limits_from(a);

@@ -33,20 +33,12 @@ summary (backend, timing) on stdout.
 } // namespace
 
 int render_command(const Argv& argv) {
-    std::set<std::string> options = kAnalysisOptions;
-    options.insert({"--output", "--x", "--y", "--w", "--h", "--lod", "--mni", "--period",
-                    "--backend", "--render-threads"});
-    std::set<std::string> flags = kAnalysisFlags;
-    flags.insert({"--help", "--png16"});
-    auto args = parse_args(argv, options, flags);
-    if (!args) return fail(2, args.error().message + " (see textond render --help)");
-    const Args& a = args.value();
-    if (a.flags.count("--help")) {
-        std::printf("%s\n%s", kHelp, kAnalysisHelp);
-        return 0;
-    }
-    if (a.positional.size() != 1) return fail(2, "render needs exactly one INPUT");
-    if (!a.options.count("--output")) return fail(2, "render needs -o OUT.png or OUT.exr");
+    auto parsed = parse_input_command(argv, "render", kHelp, "INPUT", true,
+                                      {"--output", "--x", "--y", "--w", "--h", "--lod", "--mni",
+                                       "--period", "--backend", "--render-threads"},
+                                      {"--png16"});
+    if (auto* code = std::get_if<int>(&parsed)) return *code;
+    const Args& a = std::get<Args>(parsed);
     render::NoiseRequest q;
     {
         auto x = a.get_int("--x", 0, INT64_MIN, INT64_MAX);

@@ -34,20 +34,12 @@ constexpr long long kMaxOutputPixels = 64LL * 1024 * 1024;
 } // namespace
 
 int synth_command(const Argv& argv) {
-    std::set<std::string> options = kAnalysisOptions;
-    options.insert({"--output", "--method", "--width", "--height", "--mni", "--x0", "--y0"});
     // --seed is shared with the analysis options: one seed drives both.
-    std::set<std::string> flags = kAnalysisFlags;
-    flags.insert({"--help", "--png16"});
-    auto args = parse_args(argv, options, flags);
-    if (!args) return fail(2, args.error().message + " (see textond synth --help)");
-    const Args& a = args.value();
-    if (a.flags.count("--help")) {
-        std::printf("%s\n%s", kHelp, kAnalysisHelp);
-        return 0;
-    }
-    if (a.positional.size() != 1) return fail(2, "synth needs exactly one INPUT");
-    if (!a.options.count("--output")) return fail(2, "synth needs -o OUT.png or OUT.exr");
+    auto parsed = parse_input_command(
+        argv, "synth", kHelp, "INPUT", true,
+        {"--output", "--method", "--width", "--height", "--mni", "--x0", "--y0"}, {"--png16"});
+    if (auto* code = std::get_if<int>(&parsed)) return *code;
+    const Args& a = std::get<Args>(parsed);
     const std::string method = a.get("--method", "");
     if (method != "adsn" && method != "rpn" && method != "dsn")
         return fail(2, "--method must be adsn, rpn or dsn");
