@@ -18,6 +18,8 @@ const char* to_string(ErrorCode code) {
         return "io_error";
     case ErrorCode::no_space:
         return "no_space";
+    case ErrorCode::unavailable:
+        return "unavailable";
     case ErrorCode::internal:
         return "internal";
     }

@@ -14,6 +14,7 @@ enum class ErrorCode {
     not_found,        // unknown file or id (404)
     io,               // the filesystem failed us (500)
     no_space,         // the disk (or quota, or file-size limit) is full (507)
+    unavailable,      // a service we depend on (the shared store) cannot be reached (503)
     internal,
 };
 

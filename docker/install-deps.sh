@@ -1,19 +1,49 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages textond builds and tests with; idempotent (does nothing when all
-# are present). Used by the README commands, CI and (later) the Dockerfile.
+# Installs the Debian 12 packages textond needs; idempotent (does nothing when all are present).
+# One list for the README commands, CI and the Dockerfile:
+#   install-deps.sh            build and test (the README's `make test`, CI)
+#   install-deps.sh --build    build only (the Dockerfile's build stage)
+#   install-deps.sh --runtime  run only, no compilers or headers (the Dockerfile's final stage)
 set -euo pipefail
 
-packages=(
-    build-essential cmake pkg-config git
-    libfftw3-dev libopenimageio-dev openimageio-tools nlohmann-json3-dev libspdlog-dev
-    libcpp-httplib-dev libssl-dev libosmesa6-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
-    googletest libgtest-dev
-    # tests: the API schema test (Debian's python, not whatever python3 is first on PATH), load,
-    # the browser test (Debian's Chromium driven by playwright-core)
-    python3 python3-yaml python3-jsonschema wrk curl chromium chromium-driver
+mode=${1:-all}
+case "$mode" in all | --build | --runtime) ;; *)
+    echo "usage: $0 [--build | --runtime]" >&2
+    exit 2
+    ;;
+esac
+
+build=(
+    build-essential cmake pkg-config git ca-certificates
+    libfftw3-dev libopenimageio-dev nlohmann-json3-dev libspdlog-dev libcpp-httplib-dev
+    libssl-dev libhiredis-dev libosmesa6-dev libegl-dev
 )
-# Node.js and npm for the page's Leaflet and the browser test: Debian's unless one is installed.
-command -v npm >/dev/null || packages+=(nodejs npm)
+# What the binary links and loads (dlopen: OSMesa, EGL with Mesa's and, under the NVIDIA
+# runtime, the driver's vendor library). tests/deploy/deploy_test.py checks this list against
+# the binary's NEEDED libraries.
+runtime=(
+    libopenimageio2.4 libfftw3-single3 libspdlog1.10 libfmt9 libcpp-httplib0.11 libssl3
+    libhiredis0.14 libgomp1 libosmesa6 libegl1 libegl-mesa0 libgl1-mesa-dri
+)
+tests=(
+    openimageio-tools googletest libgtest-dev
+    # the API schema and deployment tests (Debian's python, not whatever python3 is first on
+    # PATH), load (wrk, nginx), the browser test (Debian's Chromium driven by playwright-core),
+    # the shared store (redis-server), compose files validated without an engine
+    # (docker-compose)
+    python3 python3-yaml python3-jsonschema wrk curl nginx-light redis-server chromium
+    chromium-driver docker-compose
+)
+
+case "$mode" in
+all) packages=("${build[@]}" "${runtime[@]}" "${tests[@]}") ;;
+--build) packages=("${build[@]}") ;;
+--runtime) packages=("${runtime[@]}") ;;
+esac
+# Node.js and npm for the page's Leaflet (and the browser test): Debian's unless one is installed.
+if [ "$mode" != --runtime ] && ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
+# kubectl renders the kustomize manifests in the tests; some machines have a newer one already.
+if [ "$mode" = all ] && ! command -v kubectl >/dev/null; then packages+=(kubernetes-client); fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -27,11 +57,14 @@ if [ ${#missing[@]} -ne 0 ]; then
     $SUDO apt-get update -qq
     $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+[ "$mode" = --runtime ] && exit 0
 
-# npm packages, from the lock files, only when missing: Leaflet for the page, playwright-core for
-# the browser test.
+# npm packages, from the lock files, only when missing: Leaflet for the page, and (for tests)
+# playwright-core for the browser test.
 root=$(cd "$(dirname "$0")/.." && pwd)
-for dir in server/web tests/web; do
+dirs=(server/web)
+[ "$mode" = all ] && dirs+=(tests/web)
+for dir in "${dirs[@]}"; do
     [ -f "$root/$dir/package-lock.json" ] || continue
     if [ ! -d "$root/$dir/node_modules" ] || [ "$root/$dir/package-lock.json" -nt "$root/$dir/node_modules" ]; then
         echo "install-deps: npm ci in $dir" >&2

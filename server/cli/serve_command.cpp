@@ -2,6 +2,7 @@
 #include "server/cli/commands.h"
 #include "server/http/http_support.h"
 #include "server/http/service.h"
+#include "server/store/redis_store.h"
 
 #include <spdlog/spdlog.h>
 
@@ -24,6 +25,11 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --host ADDR              address to listen on                                [127.0.0.1]
   --port N                 port, 0 = any free port (printed)                   [8080]
   --data DIR               texton store directory                              [./data]
+  --store URL              shared texton store for replicas: redis://[[user]:pass@]host[:port][/db];
+                           the data directory becomes its read-through cache   [none]
+  --store-timeout-ms N     shared store connect and command timeout            [1000]
+  --store-recheck-s N      seconds before a local copy is rechecked against the shared store
+                           (a texton deleted on one replica is gone from all after this) [30]
   --backend B              auto | cpu | osmesa | egl (auto: GPU via EGL, else CPU) [auto]
   --public-url URL         base of the absolute URLs in TileJSON      [from the Host header]
   --api-key KEY            require "Authorization: Bearer KEY" for POST and DELETE  [none]
@@ -55,6 +61,9 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
 const std::vector<std::string> kValueOptions = {"--host",
                                                 "--port",
                                                 "--data",
+                                                "--store",
+                                                "--store-timeout-ms",
+                                                "--store-recheck-s",
                                                 "--backend",
                                                 "--public-url",
                                                 "--api-key",
@@ -109,6 +118,8 @@ Result<http::ServeConfig> config_from(const Args& a) {
     for (auto err :
          {num("--port", c.port, 0, 65535, c.port),
           num("--http-threads", c.http_threads, 1, 4096, c.http_threads),
+          num("--store-timeout-ms", c.store_timeout_ms, 10, 60000, c.store_timeout_ms),
+          num("--store-recheck-s", c.store_recheck_s, 0, 86400, c.store_recheck_s),
           num("--render-slots", c.render_slots, 0, 1024, c.render_slots),
           num("--analysis-workers", c.analysis_workers, 1, 64, c.analysis_workers),
           num("--analysis-queue", c.analysis_queue, 0, 10000, c.analysis_queue),
@@ -130,6 +141,9 @@ Result<http::ServeConfig> config_from(const Args& a) {
     c.max_pixels = static_cast<std::uint64_t>(max_pixels);
     c.host = a.get("--host", c.host);
     c.data_dir = a.get("--data", c.data_dir);
+    c.store_url = a.get("--store", c.store_url);
+    if (!c.store_url.empty())
+        if (auto url = store::parse_redis_url(c.store_url); !url) return url.error();
     c.public_url = a.get("--public-url", c.public_url);
     c.api_key = a.get("--api-key", c.api_key);
     c.cors_origin = a.get("--cors-origin", c.cors_origin);

@@ -16,6 +16,11 @@ struct ServeConfig {
     std::string host = "127.0.0.1";
     int port = 8080; // 0 = any free port (tests)
     std::string data_dir = "./data";
+    // Shared texton store for replicas (redis://...); empty = the data directory alone. With
+    // one, the data directory is a read-through cache of it (server/http/texton_store.h).
+    std::string store_url;
+    int store_timeout_ms = 1000; // connect and command timeout
+    int store_recheck_s = 30;    // how stale a local copy may get (deletes reach other replicas)
     render::BackendKind backend = render::BackendKind::automatic;
     std::string public_url; // base of TileJSON URLs; empty = from the request's Host header
 

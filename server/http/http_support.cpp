@@ -52,6 +52,8 @@ void send_error(httplib::Response& res, const api::ApiError& e) {
                                  {"request_id", ctx.id}};
     res.status = e.status;
     res.set_header("Cache-Control", "no-store");
+    // The shared store fails fast for a second after it is found down (server/store).
+    if (e.status == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "1");
     res.set_content(body.dump(), "application/json");
 }
 
@@ -79,6 +81,8 @@ api::ApiError to_api_error(const Error& e, std::string code) {
         return pick(404, "not_found");
     case ErrorCode::no_space:
         return pick(507, "insufficient_storage");
+    case ErrorCode::unavailable:
+        return pick(503, "store_unavailable");
     case ErrorCode::io:
         return pick(500, "storage_error");
     case ErrorCode::internal:

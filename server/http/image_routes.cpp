@@ -98,7 +98,7 @@ std::string Service::etag_for(const std::string& key) const {
 void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
                            const std::string& id, const std::string& key, api::ImageFormat format,
                            const std::function<Result<core::Image>()>& produce) {
-    if (!m_store->contains(id)) return send_error(res, {404, "not_found", "no texton " + id});
+    if (auto found = m_store->find(id); !found) return send_error(res, to_api_error(found.error()));
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
     const std::string etag = cached ? cached->etag : etag_for(key);
@@ -223,8 +223,8 @@ void Service::tilejson(const httplib::Request& req, const std::string& id, httpl
     set_route("/v1/textons/{id}/tilejson.json");
     api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
     if (auto e = api::parse_tilejson(id, req.params, probe)) return send_error(res, *e);
-    auto meta = m_store->meta(id);
-    if (!meta) return send_error(res, {404, "not_found", "no texton " + id});
+    auto meta = m_store->find(id);
+    if (!meta) return send_error(res, to_api_error(meta.error()));
     const std::string query = "?seed=" + std::to_string(probe.noise.seed) +
                               "&mni=" + mni_text(probe.noise.mni) +
                               (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "");
@@ -294,11 +294,11 @@ void Service::install_image_routes() {
         if (auto e = api::parse_tileable(req.matches[1].str(), req.matches[2].str(), req.params,
                                          m_config.limits, t))
             return send_error(res, *e);
-        auto meta = m_store->meta(t.id);
-        if (!meta) return send_error(res, {404, "not_found", "no texton " + t.id});
+        auto meta = m_store->find(t.id);
+        if (!meta) return send_error(res, to_api_error(meta.error()));
         // The noise repeats every P cells of side a; the nearest whole number of cells is
         // rendered and resampled by its Fourier series to exactly w x h (still periodic).
-        const int a = core::noise::cell_size(meta->size);
+        const int a = core::noise::cell_size(meta.value().size);
         const auto cells = [a](int n) { return std::max(1, (n + a / 2) / a); };
         render::NoiseRequest q =
             noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);

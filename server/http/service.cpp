@@ -95,7 +95,17 @@ Service::~Service() {
 
 Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     std::unique_ptr<Service> s(new Service(std::move(config)));
-    auto store = TextonStore::open(s->m_config.data_dir);
+    std::unique_ptr<store::RedisStore> shared;
+    if (!s->m_config.store_url.empty()) {
+        auto address = store::parse_redis_url(s->m_config.store_url);
+        if (!address) return address.error();
+        shared = std::make_unique<store::RedisStore>(
+            address.value(), std::chrono::milliseconds(s->m_config.store_timeout_ms));
+        if (auto ping = shared->ping(); !ping) // not fatal: local copies can still be served
+            spdlog::warn("{}; starting anyway", ping.error().message);
+    }
+    auto store = TextonStore::open(s->m_config.data_dir, 64, std::move(shared),
+                                   std::chrono::milliseconds(1000LL * s->m_config.store_recheck_s));
     if (!store) return store.error();
     s->m_store = std::move(store.value());
 
@@ -126,7 +136,10 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
             [self] { return static_cast<double>(self->m_pool->queued()); });
     m.gauge("textond_analysis_running", "Analyses running now.",
             [self] { return static_cast<double>(self->m_pool->running()); });
-    m.gauge("textond_store_textons", "Textons in the store.",
+    if (self->m_store->shared())
+        m.gauge("textond_shared_store_up", "1 when the shared texton store answers a PING.",
+                [self] { return self->m_store->shared()->ping() ? 1.0 : 0.0; });
+    m.gauge("textond_store_textons", "Textons held in the local store (or cache).",
             [self] { return static_cast<double>(self->m_store->count()); });
     m.gauge("textond_store_bytes", "Bytes of texton files in the store.",
             [self] { return static_cast<double>(self->m_store->bytes()); });
@@ -233,8 +246,21 @@ void Service::install_ops_routes() {
         set_route("/readyz");
         const bool writable = m_store->writable();
         const bool ready = !m_stopping && writable && m_tile_backend != nullptr;
+        // A replica whose shared store is down still serves the textons it holds, so it stays
+        // in the load balancer (were it to leave, every replica would leave at once) and says
+        // it is degraded; uploads answer 503 meanwhile.
+        nlohmann::json shared = nullptr;
+        bool degraded = false;
+        if (store::RedisStore* r = m_store->shared()) {
+            auto ping = r->ping();
+            degraded = !ping;
+            shared = {{"url", r->describe()}, {"up", ping.ok()}};
+            if (!ping) shared["error"] = ping.error().message;
+        }
         send_json(res, ready ? 200 : 503,
                   {{"ready", ready},
+                   {"degraded", degraded},
+                   {"shared_store", shared},
                    {"stopping", m_stopping.load()},
                    {"backend",
                     {{"name", m_region_backend->name()},

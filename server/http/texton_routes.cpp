@@ -155,7 +155,12 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
         return send_error(res, {422, "exemplar_too_small", err->message});
 
     const std::string id = io::texton_id(u, params);
-    if (auto meta = m_store->meta(id)) return send_json(res, 200, texton_json(*meta));
+    // Known here or to another replica (shared store): no analysis. With the shared store down,
+    // nothing could be stored, so fail now rather than after the analysis.
+    if (auto meta = m_store->find(id))
+        return send_json(res, 200, texton_json(meta.value()));
+    else if (meta.error().code != ErrorCode::not_found)
+        return send_error(res, to_api_error(meta.error()));
 
     auto exemplar = std::make_shared<core::Image>(std::move(image.value()));
     TextonStore* store = m_store.get();
@@ -164,7 +169,7 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
         id,
         [exemplar, params, store, metrics,
          id](const core::ProgressFn& progress) -> Result<AnalysisOutcome> {
-            if (auto meta = store->meta(id)) return AnalysisOutcome{*meta, false};
+            if (auto meta = store->find(id)) return AnalysisOutcome{meta.value(), false};
             const auto t0 = std::chrono::steady_clock::now();
             auto result = core::analyze_texton(*exemplar, params, progress);
             const double ms =
@@ -175,12 +180,13 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
             auto put =
                 store->put(io::make_record(*exemplar, params, result.value()), exemplar.get());
             if (!put) return put.error();
-            auto meta = store->meta(id);
-            if (!meta) return make_error(ErrorCode::internal, "stored texton vanished");
-            spdlog::info("analysed {}: {}x{}x{}, r = {}, RME {:.4f}, {:.0f} ms", id,
+            auto meta = store->find(id);
+            if (!meta) return meta.error();
+            spdlog::info("analysed {}: {}x{}x{}, r = {}, RME {:.4f}, {:.0f} ms{}", id,
                          exemplar->width, exemplar->height, exemplar->channels, params.size,
-                         meta->rme, ms);
-            return AnalysisOutcome{*meta, true};
+                         meta.value().rme, ms,
+                         put.value() ? "" : " (another replica stored it first)");
+            return AnalysisOutcome{meta.value(), put.value()};
         });
     if (!submitted.job) {
         const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
@@ -217,21 +223,22 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
 void Service::get_texton(const std::string& id, httplib::Response& res) {
     set_route("/v1/textons/{id}");
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    auto meta = m_store->meta(id);
-    if (!meta) return send_error(res, {404, "not_found", "no texton " + id});
-    send_json(res, 200, texton_json(*meta), "public, max-age=60");
+    auto meta = m_store->find(id);
+    if (!meta) return send_error(res, to_api_error(meta.error()));
+    send_json(res, 200, texton_json(meta.value()), "public, max-age=60");
 }
 
 void Service::texton_status(const std::string& id, httplib::Response& res) {
     set_route("/v1/textons/{id}/status");
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
     const std::string self = "/v1/textons/" + id;
-    if (auto meta = m_store->meta(id))
-        return send_json(res, 200,
-                         {{"id", id},
-                          {"state", "done"},
-                          {"progress", {{"done", meta->iterations}, {"total", meta->iterations}}},
-                          {"links", {{"self", self}}}});
+    if (auto meta = m_store->find(id))
+        return send_json(
+            res, 200,
+            {{"id", id},
+             {"state", "done"},
+             {"progress", {{"done", meta.value().iterations}, {"total", meta.value().iterations}}},
+             {"links", {{"self", self}}}});
     auto job = m_pool->find(id);
     if (!job) return send_error(res, {404, "not_found", "no texton or analysis " + id});
     const auto [done, total] = job->progress();
@@ -249,7 +256,7 @@ void Service::texton_status(const std::string& id, httplib::Response& res) {
 void Service::texton_file(const std::string& id, const std::string& ext, httplib::Response& res) {
     set_route("/v1/textons/{id}/texton.{ext}");
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    if (!m_store->contains(id)) return send_error(res, {404, "not_found", "no texton " + id});
+    if (auto found = m_store->find(id); !found) return send_error(res, to_api_error(found.error()));
     if (ext == "exr") {
         auto bytes = m_store->file_bytes(id);
         if (!bytes) return send_error(res, to_api_error(bytes.error()));
@@ -287,11 +294,15 @@ void Service::list_textons(const httplib::Request& req, httplib::Response& res) 
     set_route("/v1/textons");
     api::ListRequest q;
     if (auto e = api::parse_list(req.params, q)) return send_error(res, *e);
-    const auto page = m_store->list(q.after, q.limit + 1);
+    const auto listed = m_store->list(q.after, q.limit + 1);
+    if (!listed) return send_error(res, to_api_error(listed.error()));
+    const auto total = m_store->total();
+    if (!total) return send_error(res, to_api_error(total.error()));
+    const std::vector<api::TextonMeta>& page = listed.value();
     nlohmann::json items = nlohmann::json::array();
     for (std::size_t i = 0; i < page.size() && static_cast<int>(i) < q.limit; ++i)
         items.push_back(texton_json(page[i]));
-    nlohmann::json body = {{"items", items}, {"total", m_store->count()}};
+    nlohmann::json body = {{"items", items}, {"total", total.value()}};
     if (static_cast<int>(page.size()) > q.limit) {
         const std::string& last = page[static_cast<std::size_t>(q.limit) - 1].id;
         body["next"] = "/v1/textons?limit=" + std::to_string(q.limit) + "&after=" + last;

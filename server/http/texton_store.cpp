@@ -32,11 +32,14 @@ void fsync_directory(const std::string& dir) {
 
 } // namespace
 
-TextonStore::TextonStore(std::string dir, std::size_t prepared_cache)
+TextonStore::TextonStore(std::string dir, std::size_t prepared_cache,
+                         std::unique_ptr<store::RedisStore> shared,
+                         std::chrono::milliseconds recheck)
     : m_dir((fs::path(dir) / "textons").string()),
       m_exemplars((fs::path(dir) / "exemplars").string()),
       m_quarantine((fs::path(dir) / "quarantine").string()),
-      m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache) {}
+      m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache), m_shared(std::move(shared)),
+      m_recheck(recheck) {}
 
 std::string TextonStore::path_of(const std::string& id) const {
     if (!api::is_texton_id(id)) throw std::logic_error("TextonStore: unchecked id");
@@ -49,8 +52,11 @@ std::string TextonStore::exemplar_path_of(const std::string& id) const {
 }
 
 Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_dir,
-                                                       std::size_t prepared_cache) {
-    std::unique_ptr<TextonStore> s(new TextonStore(data_dir, prepared_cache));
+                                                       std::size_t prepared_cache,
+                                                       std::unique_ptr<store::RedisStore> shared,
+                                                       std::chrono::milliseconds recheck) {
+    std::unique_ptr<TextonStore> s(
+        new TextonStore(data_dir, prepared_cache, std::move(shared), recheck));
     std::error_code ec;
     for (const std::string& d : {s->m_dir, s->m_exemplars, s->m_quarantine}) {
         fs::create_directories(d, ec);
@@ -90,7 +96,8 @@ Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_d
         const std::string stem = entry.path().stem().string();
         if ((!name.empty() && name[0] == '.') || !s->m_index.count(stem)) fs::remove(entry, ec);
     }
-    spdlog::info("store: {} textons in {}{}", s->m_index.size(), s->m_dir,
+    spdlog::info("store: {} textons in {}{}{}", s->m_index.size(), s->m_dir,
+                 s->m_shared ? " (a cache of " + s->m_shared->describe() + ")" : "",
                  s->m_quarantined.empty()
                      ? ""
                      : ", " + std::to_string(s->m_quarantined.size()) + " quarantined");
@@ -106,15 +113,21 @@ void TextonStore::quarantine_locked(const std::string& id, const std::string& wh
     fs::rename(from, fs::path(m_quarantine) / name, ec);
     if (ec) fs::remove(from, ec); // never leave it where it could be served
     fs::remove(exemplar_path_of(id), ec);
-    m_index.erase(id);
-    m_sizes.erase(id);
-    m_prepared.remove_if([&](const auto& p) { return p.first == id; });
+    drop_local_locked(id);
     m_quarantined.push_back(name);
     spdlog::error("store: texton {} is damaged ({}); moved to {}/{}", id, why, m_quarantine, name);
 }
 
+void TextonStore::drop_local_locked(const std::string& id) {
+    m_index.erase(id);
+    m_sizes.erase(id);
+    m_checked.erase(id);
+    m_prepared.remove_if([&](const auto& p) { return p.first == id; });
+}
+
 Result<io::TextonRecord> TextonStore::load_verified(const std::string& id) {
-    if (!contains(id)) return make_error(ErrorCode::not_found, "no texton " + id);
+    if (!contains(id))
+        if (auto found = find(id); !found) return found.error();
     auto r = io::read_texton_file(path_of(id));
     if (!r || r.value().meta.id != id) {
         std::lock_guard lock(m_mutex);
@@ -126,11 +139,96 @@ Result<io::TextonRecord> TextonStore::load_verified(const std::string& id) {
     return r;
 }
 
-std::optional<api::TextonMeta> TextonStore::meta(const std::string& id) const {
+Result<api::TextonMeta> TextonStore::find(const std::string& id) {
+    api::TextonMeta local;
+    {
+        std::lock_guard lock(m_mutex);
+        auto it = m_index.find(id);
+        if (it == m_index.end()) {
+            if (!m_shared) return make_error(ErrorCode::not_found, "no texton " + id);
+        } else {
+            const auto now = std::chrono::steady_clock::now();
+            if (!m_shared || now < m_checked[id] + m_recheck) return it->second;
+            m_checked[id] = now; // one request per interval makes the round trip
+            local = it->second;
+        }
+    }
+    if (local.id.empty()) return fetch_shared(id);
+    return recheck(id, std::move(local));
+}
+
+Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonMeta local) {
+    auto presence = m_shared->presence(id);
+    if (!presence) return local; // the shared store is down: serve what we hold
+    switch (presence.value()) {
+    case store::RedisStore::Presence::present:
+        return local;
+    case store::RedisStore::Presence::deleted: {
+        std::lock_guard lock(m_mutex);
+        std::error_code ec;
+        fs::remove(path_of(id), ec);
+        fs::remove(exemplar_path_of(id), ec);
+        drop_local_locked(id);
+        spdlog::info("store: texton {} was deleted from the shared store; dropped here", id);
+        return make_error(ErrorCode::not_found, "no texton " + id + " (deleted)");
+    }
+    case store::RedisStore::Presence::unknown:
+        break;
+    }
+    // Held here but absent there (a flushed Redis, or stored before the shared store was
+    // configured): write it back so the other replicas find it.
+    auto file = io::read_file(path_of(id));
+    auto exemplar = io::read_file(exemplar_path_of(id));
+    if (file) {
+        const nlohmann::json meta = local;
+        auto put = m_shared->put(id, file.value(), meta.dump(), exemplar ? exemplar.value() : "");
+        if (put && put.value())
+            spdlog::warn("store: texton {} was missing from the shared store; written back", id);
+    }
+    return local;
+}
+
+Result<api::TextonMeta> TextonStore::fetch_shared(const std::string& id) {
+    auto got = m_shared->get(id);
+    if (!got) {
+        if (got.error().code != ErrorCode::unavailable)
+            spdlog::error("store: {}", got.error().message);
+        return got.error();
+    }
+    if (!got.value()) return make_error(ErrorCode::not_found, "no texton " + id);
+    auto w = write_local(id, got.value()->file, &got.value()->exemplar_png);
+    if (!w) return w.error();
     std::lock_guard lock(m_mutex);
     auto it = m_index.find(id);
-    if (it == m_index.end()) return std::nullopt;
+    if (it == m_index.end()) return make_error(ErrorCode::not_found, "no texton " + id);
     return it->second;
+}
+
+// Writes a texton file (and its exemplar) here, verifies it like every load, then indexes it.
+Result<bool> TextonStore::write_local(const std::string& id, const std::string& file,
+                                      const std::string* exemplar_png) {
+    if (exemplar_png && !exemplar_png->empty()) {
+        auto w = io::write_file_atomic(exemplar_path_of(id), *exemplar_png);
+        if (!w) return w.error();
+    }
+    const std::string path = path_of(id);
+    auto w = io::write_file_atomic(path, file);
+    if (w) fsync_directory(m_dir);
+    auto r = w ? io::read_texton_file(path) : Result<io::TextonRecord>(w.error());
+    std::error_code ec;
+    if (!r || r.value().meta.id != id) {
+        fs::remove(path, ec);
+        fs::remove(exemplar_path_of(id), ec);
+        if (!r && (r.error().code == ErrorCode::no_space || !w)) return r.error();
+        spdlog::error("store: texton {} from the shared store fails verification: {}", id,
+                      r ? "its metadata names another id" : r.error().message);
+        return make_error(ErrorCode::io, "texton " + id + " fails verification; it is not served");
+    }
+    std::lock_guard lock(m_mutex);
+    m_sizes[id] = fs::file_size(path, ec);
+    m_index[id] = r.value().meta;
+    m_checked[id] = std::chrono::steady_clock::now();
+    return true;
 }
 
 bool TextonStore::contains(const std::string& id) const {
@@ -172,45 +270,56 @@ Result<std::string> TextonStore::file_bytes(const std::string& id) {
 
 Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exemplar) {
     const std::string id = record.meta.id;
-    if (contains(id)) return false;
+    if (auto found = find(id))
+        return false;
+    else if (found.error().code != ErrorCode::not_found)
+        return found.error();
     record.meta.created = rfc3339_now();
+    std::string png;
     if (exemplar) {
-        auto png = io::encode_image_memory(*exemplar, io::Encoding::png8, {}, 6);
-        if (!png) return png.error();
-        auto w = io::write_file_atomic(exemplar_path_of(id), png.value());
-        if (!w) return w.error();
+        auto p = io::encode_image_memory(*exemplar, io::Encoding::png8, {}, 6);
+        if (!p) return p.error();
+        png = std::move(p.value());
     }
-    const std::string path = path_of(id);
-    auto w = io::write_texton_file(path, record);
-    if (!w) {
-        std::error_code ec;
-        fs::remove(exemplar_path_of(id), ec);
-        return w.error();
+    auto file = io::texton_file_bytes(record);
+    if (!file) return file.error();
+    if (m_shared) {
+        const nlohmann::json meta = record.meta;
+        auto stored = m_shared->put(id, file.value(), meta.dump(), png);
+        if (!stored) return stored.error();
+        if (!stored.value()) { // another replica stored it first: adopt that one
+            auto adopted = fetch_shared(id);
+            if (!adopted) return adopted.error();
+            return false;
+        }
     }
-    fsync_directory(m_dir);
-    std::error_code ec;
-    std::lock_guard lock(m_mutex);
-    m_sizes[id] = fs::file_size(path, ec);
-    m_index[id] = record.meta;
+    auto w = write_local(id, file.value(), &png);
+    if (!w) return w.error();
     return true;
 }
 
 Result<bool> TextonStore::remove(const std::string& id) {
+    if (m_shared) {
+        auto r = m_shared->remove(id);
+        if (!r) return r.error();
+        if (!r.value() && !contains(id)) return make_error(ErrorCode::not_found, "no texton " + id);
+    }
     std::lock_guard lock(m_mutex);
-    if (!m_index.count(id)) return make_error(ErrorCode::not_found, "no texton " + id);
+    if (!m_index.count(id)) {
+        if (m_shared) return true; // deleted there; never fetched here
+        return make_error(ErrorCode::not_found, "no texton " + id);
+    }
     std::error_code ec;
     fs::remove(path_of(id), ec);
     if (ec) return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
     fs::remove(exemplar_path_of(id), ec);
     fsync_directory(m_dir);
-    m_index.erase(id);
-    m_sizes.erase(id);
-    m_prepared.remove_if([&](const auto& p) { return p.first == id; });
+    drop_local_locked(id);
     return true;
 }
 
-Result<std::string> TextonStore::exemplar_png(const std::string& id) const {
-    if (!contains(id)) return make_error(ErrorCode::not_found, "no texton " + id);
+Result<std::string> TextonStore::exemplar_png(const std::string& id) {
+    if (auto found = find(id); !found) return found.error();
     auto png = io::read_file(exemplar_path_of(id));
     if (!png && png.error().code == ErrorCode::not_found)
         return make_error(ErrorCode::not_found, "texton " + id +
@@ -219,13 +328,28 @@ Result<std::string> TextonStore::exemplar_png(const std::string& id) const {
     return png;
 }
 
-std::vector<api::TextonMeta> TextonStore::list(const std::string& after, int limit) const {
+Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after, int limit) {
     std::vector<api::TextonMeta> out;
+    if (m_shared) {
+        auto metas = m_shared->list_meta(after, limit);
+        if (!metas) return metas.error();
+        for (const auto& text : metas.value()) try {
+                out.push_back(nlohmann::json::parse(text).get<api::TextonMeta>());
+            } catch (const std::exception& e) {
+                spdlog::error("store: unreadable metadata in the shared store: {}", e.what());
+            }
+        return out;
+    }
     std::lock_guard lock(m_mutex);
     for (auto it = after.empty() ? m_index.begin() : m_index.upper_bound(after);
          it != m_index.end() && static_cast<int>(out.size()) < limit; ++it)
         out.push_back(it->second);
     return out;
+}
+
+Result<std::uint64_t> TextonStore::total() {
+    if (m_shared) return m_shared->count();
+    return static_cast<std::uint64_t>(count());
 }
 
 std::size_t TextonStore::count() const {

@@ -7,11 +7,21 @@
 // coefficient checksum, id = file name) when the store opens and again whenever it is loaded; a
 // file that fails is moved to <data>/quarantine/ and reported, never served. Ids are checked
 // against ^[0-9a-f]{64}$ before they are joined to a path.
+//
+// With a shared store (`--store redis://...`, server/store/redis_store.h) the directory is a
+// read-through cache of it: a texton this replica lacks is fetched, verified and kept; a texton
+// analysed here is written there first (write-once: when another replica stored the same id
+// first, that one is adopted). A local copy is rechecked against the shared store at most every
+// `recheck` (deleted elsewhere: dropped here; missing there, e.g. a flushed Redis: written back).
+// While the shared store is down, local copies keep being served and writes fail with
+// ErrorCode::unavailable.
 #include "api/texton_meta.h"
 #include "core/result.h"
 #include "render/prepared_texton.h"
 #include "server/io/texton_file.h"
+#include "server/store/redis_store.h"
 
+#include <chrono>
 #include <cstdint>
 #include <list>
 #include <map>
@@ -26,10 +36,15 @@ namespace textond::http {
 class TextonStore {
 public:
     // Creates the directories, removes temporary files left by a crash and loads the index.
-    static Result<std::unique_ptr<TextonStore>> open(const std::string& data_dir,
-                                                     std::size_t prepared_cache = 64);
+    static Result<std::unique_ptr<TextonStore>>
+    open(const std::string& data_dir, std::size_t prepared_cache = 64,
+         std::unique_ptr<store::RedisStore> shared = nullptr,
+         std::chrono::milliseconds recheck = std::chrono::seconds(30));
 
-    std::optional<api::TextonMeta> meta(const std::string& id) const;
+    // The texton's metadata: local, else fetched from the shared store. not_found, or
+    // unavailable when only the (unreachable) shared store could tell.
+    Result<api::TextonMeta> find(const std::string& id);
+    // Held locally (no shared store lookup).
     bool contains(const std::string& id) const;
     // Verified and ready to render; kept in a small LRU of prepared textons.
     Result<std::shared_ptr<const render::PreparedTexton>> prepared(const std::string& id);
@@ -41,19 +56,28 @@ public:
     // when it already existed.
     Result<bool> put(io::TextonRecord record, const core::Image* exemplar = nullptr);
     // The stored exemplar PNG, or not_found.
-    Result<std::string> exemplar_png(const std::string& id) const;
+    Result<std::string> exemplar_png(const std::string& id);
     Result<bool> remove(const std::string& id);
 
-    // Ids in ascending order after `after` (exclusive), at most `limit`.
-    std::vector<api::TextonMeta> list(const std::string& after, int limit) const;
-    std::size_t count() const;
+    // Ids in ascending order after `after` (exclusive), at most `limit`: the shared store's when
+    // there is one.
+    Result<std::vector<api::TextonMeta>> list(const std::string& after, int limit);
+    Result<std::uint64_t> total();
+    std::size_t count() const; // held locally
     std::uint64_t bytes() const;
     std::vector<std::string> quarantined() const; // file names moved aside since start
     // Can we create a file in the store right now? (readiness probe)
     bool writable() const;
+    store::RedisStore* shared() const { return m_shared.get(); }
 
 private:
-    explicit TextonStore(std::string dir, std::size_t prepared_cache);
+    TextonStore(std::string dir, std::size_t prepared_cache,
+                std::unique_ptr<store::RedisStore> shared, std::chrono::milliseconds recheck);
+    Result<api::TextonMeta> fetch_shared(const std::string& id);
+    Result<api::TextonMeta> recheck(const std::string& id, api::TextonMeta local);
+    Result<bool> write_local(const std::string& id, const std::string& file,
+                             const std::string* exemplar_png);
+    void drop_local_locked(const std::string& id);
     std::string path_of(const std::string& id) const;
     std::string exemplar_path_of(const std::string& id) const;
     void quarantine_locked(const std::string& id, const std::string& why);
@@ -61,9 +85,12 @@ private:
 
     const std::string m_dir, m_exemplars, m_quarantine;
     const std::size_t m_prepared_capacity;
+    const std::unique_ptr<store::RedisStore> m_shared;
+    const std::chrono::milliseconds m_recheck;
     mutable std::mutex m_mutex;
     std::map<std::string, api::TextonMeta> m_index;
     std::map<std::string, std::uint64_t> m_sizes;
+    std::map<std::string, std::chrono::steady_clock::time_point> m_checked; // against m_shared
     std::vector<std::string> m_quarantined;
     // Most recently used first.
     std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;

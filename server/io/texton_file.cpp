@@ -70,12 +70,15 @@ TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams
     return r;
 }
 
+Result<std::string> texton_file_bytes(const TextonRecord& record) {
+    const nlohmann::json meta = record.meta;
+    return encode_image_memory(record.texton.alpha, Encoding::exr, {{kMetaAttribute, meta.dump()}});
+}
+
 Result<bool> write_texton_file(const std::string& path, const TextonRecord& record) {
     // Encoded in memory, then written by our own atomic write, which knows why a write failed
     // (a full disk is ErrorCode::no_space; OpenEXR's own writer only says "failed").
-    const nlohmann::json meta = record.meta;
-    auto bytes =
-        encode_image_memory(record.texton.alpha, Encoding::exr, {{kMetaAttribute, meta.dump()}});
+    auto bytes = texton_file_bytes(record);
     if (!bytes) return bytes.error();
     return write_file_atomic(path, bytes.value());
 }

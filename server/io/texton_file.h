@@ -29,6 +29,8 @@ std::string coefficients_sha256(const core::Texton& t);
 TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams& params,
                          const core::AnalysisResult& result);
 
+// The file's bytes, as write_texton_file writes them (the shared store keeps these).
+Result<std::string> texton_file_bytes(const TextonRecord& record);
 Result<bool> write_texton_file(const std::string& path, const TextonRecord& record);
 Result<TextonRecord> read_texton_file(const std::string& path);
 

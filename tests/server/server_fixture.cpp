@@ -6,13 +6,17 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <arpa/inet.h>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
+#include <netinet/in.h>
 #include <sstream>
 #include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -151,6 +155,78 @@ int ServerProcess::terminate(int timeout_ms) {
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     return -1;
+}
+
+namespace {
+int free_port() {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0)
+        throw std::runtime_error("no free port");
+    ::close(fd);
+    return ntohs(a.sin_port);
+}
+} // namespace
+
+RedisProcess::RedisProcess(const std::string& dir) : m_dir(dir), m_port(free_port()) {
+    start();
+}
+
+RedisProcess::~RedisProcess() {
+    stop();
+}
+
+void RedisProcess::start() {
+    if (m_pid > 0) return;
+    m_pid = ::fork();
+    if (m_pid == 0) {
+        const int null = ::open("/dev/null", O_WRONLY);
+        ::dup2(null, 1);
+        const std::string port = std::to_string(m_port);
+        ::execlp("redis-server", "redis-server", "--port", port.c_str(), "--bind", "127.0.0.1",
+                 "--dir", m_dir.c_str(), "--save", "", "--appendonly", "yes", "--appendfsync",
+                 "always", static_cast<char*>(nullptr));
+        std::fprintf(stderr, "cannot run redis-server (docker/install-deps.sh installs it)\n");
+        std::_Exit(127);
+    }
+    for (int waited = 0; waited < 10000; waited += 20) {
+        if (cli({"PING"}).find("PONG") != std::string::npos) return;
+        int status = 0;
+        if (::waitpid(m_pid, &status, WNOHANG) == m_pid) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    throw std::runtime_error("redis-server did not start on port " + std::to_string(m_port));
+}
+
+void RedisProcess::stop() {
+    if (m_pid <= 0) return;
+    ::kill(m_pid, SIGTERM);
+    ::waitpid(m_pid, nullptr, 0);
+    m_pid = -1;
+}
+
+std::string RedisProcess::cli(const std::vector<std::string>& args,
+                              const std::string& input) const {
+    const std::string in_file = m_dir + "/cli-input";
+    {
+        std::ofstream f(in_file, std::ios::binary);
+        f << input;
+    }
+    std::string cmd = "redis-cli -p " + std::to_string(m_port);
+    for (const auto& a : args) cmd += " '" + a + "'";
+    cmd += " < " + in_file + " 2>&1";
+    std::string out;
+    if (FILE* p = ::popen(cmd.c_str(), "r")) {
+        char buf[4096];
+        std::size_t n;
+        while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+        ::pclose(p);
+    }
+    return out;
 }
 
 } // namespace textond::test

@@ -51,6 +51,25 @@ private:
     int m_port = 0;
 };
 
+// A real redis-server (Debian's) on a free loopback port, persisting to `dir` with an fsync per
+// write, so stop() and start() are a Redis outage that loses nothing.
+class RedisProcess {
+public:
+    explicit RedisProcess(const std::string& dir);
+    ~RedisProcess();
+    void start();
+    void stop(); // SIGTERM, waits for the exit
+    int port() const { return m_port; }
+    std::string url() const { return "redis://127.0.0.1:" + std::to_string(m_port); }
+    // redis-cli with these arguments (and `input` on stdin for -x); returns its output.
+    std::string cli(const std::vector<std::string>& args, const std::string& input = "") const;
+
+private:
+    std::string m_dir;
+    int m_port = 0;
+    int m_pid = -1;
+};
+
 std::string read_file(const std::string& path);
 std::string fresh_dir(const std::string& name);
 // Decodes PNG/EXR response bytes (any format the server writes).

@@ -1,0 +1,350 @@
+#include "server/store/redis_store.h"
+
+#include "server/io/sha256.h"
+
+#include <hiredis/hiredis.h>
+#include <spdlog/spdlog.h>
+
+#include <charconv>
+#include <sys/time.h>
+
+namespace textond::store {
+
+namespace {
+
+constexpr const char* kPrefix = "textond:v1:";
+constexpr std::size_t kMaxIdle = 16;
+constexpr auto kRetryAfterFailure = std::chrono::seconds(1);
+
+std::string texton_key(const std::string& id) {
+    return std::string(kPrefix) + "texton:" + id;
+}
+std::string tombstone_key(const std::string& id) {
+    return std::string(kPrefix) + "deleted:" + id;
+}
+std::string ids_key() {
+    return std::string(kPrefix) + "ids";
+}
+
+// Write-once: a texton is stored only when absent, all fields at once, with its id indexed.
+constexpr const char* kPutScript = R"lua(
+if redis.call('EXISTS', KEYS[1]) == 1 then return 0 end
+redis.call('HSET', KEYS[1], 'file', ARGV[1], 'sha256', ARGV[2], 'meta', ARGV[3],
+           'exemplar', ARGV[4], 'exemplar_sha256', ARGV[5])
+redis.call('ZADD', KEYS[2], 0, ARGV[6])
+redis.call('DEL', KEYS[3])
+return 1
+)lua";
+
+constexpr const char* kRemoveScript = R"lua(
+local n = redis.call('DEL', KEYS[1])
+redis.call('ZREM', KEYS[2], ARGV[1])
+redis.call('SET', KEYS[3], '1')
+return n
+)lua";
+
+bool parse_int(std::string_view s, int lo, int hi, int& out) {
+    int v = 0;
+    auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec != std::errc() || p != s.data() + s.size() || v < lo || v > hi) return false;
+    out = v;
+    return true;
+}
+
+timeval to_timeval(std::chrono::milliseconds ms) {
+    timeval tv{};
+    tv.tv_sec = static_cast<time_t>(ms.count() / 1000);
+    tv.tv_usec = static_cast<suseconds_t>((ms.count() % 1000) * 1000);
+    return tv;
+}
+
+} // namespace
+
+Result<RedisAddress> parse_redis_url(const std::string& url) {
+    auto bad = [&](const std::string& why) {
+        return make_error(ErrorCode::invalid_argument,
+                          "--store: " + why +
+                              " (expected redis://[[user]:password@]host[:port][/db])");
+    };
+    const std::string scheme = "redis://";
+    if (url.rfind(scheme, 0) != 0) return bad("not a redis:// URL");
+    std::string rest = url.substr(scheme.size());
+    RedisAddress a;
+    if (const auto at = rest.rfind('@'); at != std::string::npos) {
+        const std::string auth = rest.substr(0, at);
+        rest = rest.substr(at + 1);
+        const auto colon = auth.find(':');
+        if (colon == std::string::npos) return bad("credentials must be [user]:password");
+        a.user = auth.substr(0, colon);
+        a.password = auth.substr(colon + 1);
+    }
+    if (const auto slash = rest.find('/'); slash != std::string::npos) {
+        const std::string db = rest.substr(slash + 1);
+        rest = rest.substr(0, slash);
+        if (!db.empty() && !parse_int(db, 0, 1 << 20, a.db)) return bad("bad database number");
+    }
+    if (!rest.empty() && rest.front() == '[') { // [::1]:6379
+        const auto close = rest.find(']');
+        if (close == std::string::npos) return bad("unclosed [");
+        a.host = rest.substr(1, close - 1);
+        rest = rest.substr(close + 1);
+        if (!rest.empty() && (rest.front() != ':' || !parse_int(rest.substr(1), 1, 65535, a.port)))
+            return bad("bad port");
+    } else if (const auto colon = rest.find(':'); colon != std::string::npos) {
+        a.host = rest.substr(0, colon);
+        if (!parse_int(rest.substr(colon + 1), 1, 65535, a.port)) return bad("bad port");
+    } else {
+        a.host = rest;
+    }
+    if (a.host.empty()) return bad("no host");
+    return a;
+}
+
+struct RedisStore::Reply {
+    redisReply* r;
+    explicit Reply(redisReply* p) : r(p) {}
+    ~Reply() { freeReplyObject(r); }
+    Reply(const Reply&) = delete;
+    Reply& operator=(const Reply&) = delete;
+    bool nil() const { return r->type == REDIS_REPLY_NIL; }
+    long long integer() const { return r->type == REDIS_REPLY_INTEGER ? r->integer : -1; }
+    static std::optional<std::string> string(const redisReply* e) {
+        if (e->type != REDIS_REPLY_STRING) return std::nullopt;
+        return std::string(e->str, e->len);
+    }
+};
+
+class RedisStore::Connection {
+public:
+    static Result<std::unique_ptr<Connection>> open(const RedisAddress& a,
+                                                    std::chrono::milliseconds timeout) {
+        redisContext* c = redisConnectWithTimeout(a.host.c_str(), a.port, to_timeval(timeout));
+        if (!c) return make_error(ErrorCode::unavailable, "cannot allocate a Redis connection");
+        std::unique_ptr<Connection> conn(new Connection(c));
+        if (c->err) return make_error(ErrorCode::unavailable, c->errstr);
+        redisSetTimeout(c, to_timeval(timeout));
+        redisEnableKeepAlive(c);
+        std::vector<std::vector<std::string>> setup;
+        if (!a.password.empty())
+            setup.push_back(a.user.empty() ? std::vector<std::string>{"AUTH", a.password}
+                                           : std::vector<std::string>{"AUTH", a.user, a.password});
+        if (a.db != 0) setup.push_back({"SELECT", std::to_string(a.db)});
+        for (const auto& argv : setup) {
+            auto r = conn->run({argv});
+            if (!r) return r.error();
+            if (r.value()[0]->r->type == REDIS_REPLY_ERROR)
+                return make_error(ErrorCode::unavailable,
+                                  argv[0] + " failed: " + std::string(r.value()[0]->r->str));
+        }
+        return conn;
+    }
+    ~Connection() { redisFree(m_c); }
+
+    // Sends every command, then reads every reply (one round trip). An error here means the
+    // connection is broken and must be dropped.
+    Result<std::vector<std::shared_ptr<Reply>>>
+    run(const std::vector<std::vector<std::string>>& commands) {
+        for (const auto& argv : commands) {
+            std::vector<const char*> ptrs;
+            std::vector<std::size_t> lens;
+            for (const auto& s : argv) {
+                ptrs.push_back(s.data());
+                lens.push_back(s.size());
+            }
+            if (redisAppendCommandArgv(m_c, static_cast<int>(argv.size()), ptrs.data(),
+                                       lens.data()) != REDIS_OK)
+                return make_error(ErrorCode::unavailable, m_c->errstr);
+        }
+        std::vector<std::shared_ptr<Reply>> out;
+        for (std::size_t i = 0; i < commands.size(); ++i) {
+            void* r = nullptr;
+            if (redisGetReply(m_c, &r) != REDIS_OK || !r)
+                return make_error(ErrorCode::unavailable, m_c->err ? m_c->errstr : "no reply");
+            out.push_back(std::make_shared<Reply>(static_cast<redisReply*>(r)));
+        }
+        return out;
+    }
+
+private:
+    explicit Connection(redisContext* c) : m_c(c) {}
+    redisContext* m_c;
+};
+
+RedisStore::RedisStore(RedisAddress address, std::chrono::milliseconds timeout)
+    : m_address(std::move(address)), m_timeout(timeout) {}
+
+RedisStore::~RedisStore() = default;
+
+std::string RedisStore::describe() const {
+    const bool v6 = m_address.host.find(':') != std::string::npos;
+    return "redis://" + (v6 ? "[" + m_address.host + "]" : m_address.host) + ":" +
+           std::to_string(m_address.port) + "/" + std::to_string(m_address.db);
+}
+
+void RedisStore::mark(bool up, const std::string& error) {
+    std::lock_guard lock(m_mutex);
+    if (up != m_up || !m_seen) {
+        if (up)
+            spdlog::info("shared store {} is up", describe());
+        else
+            spdlog::error("shared store {} is unavailable: {}", describe(), error);
+    }
+    m_seen = true;
+    m_up = up;
+    if (!up) {
+        m_last_error = error;
+        m_retry_at = std::chrono::steady_clock::now() + kRetryAfterFailure;
+        m_idle.clear(); // the other pooled connections went down with it
+    }
+}
+
+Error RedisStore::unavailable(const std::string& why) {
+    return make_error(ErrorCode::unavailable,
+                      "the shared texton store (" + describe() + ") is unavailable: " + why);
+}
+
+bool RedisStore::up() const {
+    std::lock_guard lock(m_mutex);
+    return m_up;
+}
+
+std::string RedisStore::last_error() const {
+    std::lock_guard lock(m_mutex);
+    return m_up ? std::string() : m_last_error;
+}
+
+Result<std::unique_ptr<RedisStore::Connection>> RedisStore::acquire() {
+    {
+        std::lock_guard lock(m_mutex);
+        if (!m_idle.empty()) {
+            auto c = std::move(m_idle.back());
+            m_idle.pop_back();
+            return c;
+        }
+        if (std::chrono::steady_clock::now() < m_retry_at) return unavailable(m_last_error);
+    }
+    auto c = Connection::open(m_address, m_timeout);
+    if (!c) {
+        mark(false, c.error().message);
+        return unavailable(c.error().message);
+    }
+    return c;
+}
+
+void RedisStore::release(std::unique_ptr<Connection> c) {
+    std::lock_guard lock(m_mutex);
+    if (m_idle.size() < kMaxIdle) m_idle.push_back(std::move(c));
+}
+
+Result<std::vector<std::shared_ptr<RedisStore::Reply>>>
+RedisStore::pipeline(const std::vector<std::vector<std::string>>& commands) {
+    for (int attempt = 0;; ++attempt) {
+        auto conn = acquire();
+        if (!conn) return conn.error();
+        auto replies = conn.value()->run(commands);
+        if (!replies) {
+            // A pooled connection may have died with an earlier Redis (restart, timeout): one
+            // retry on a fresh connection before calling the store down.
+            if (attempt == 0) {
+                std::lock_guard lock(m_mutex);
+                m_idle.clear();
+                continue;
+            }
+            mark(false, replies.error().message);
+            return unavailable(replies.error().message);
+        }
+        release(std::move(conn.value()));
+        mark(true);
+        for (const auto& r : replies.value())
+            if (r->r->type == REDIS_REPLY_ERROR) // OOM, READONLY, NOAUTH...: cannot serve this
+                return unavailable(std::string(r->r->str, r->r->len));
+        return replies;
+    }
+}
+
+Result<std::shared_ptr<RedisStore::Reply>>
+RedisStore::command(const std::vector<std::string>& argv) {
+    auto r = pipeline({argv});
+    if (!r) return r.error();
+    return r.value()[0];
+}
+
+Result<bool> RedisStore::put(const std::string& id, const std::string& file,
+                             const std::string& meta_json, const std::string& exemplar_png) {
+    auto r =
+        command({"EVAL", kPutScript, "3", texton_key(id), ids_key(), tombstone_key(id), file,
+                 io::sha256_hex(file), meta_json, exemplar_png, io::sha256_hex(exemplar_png), id});
+    if (!r) return r.error();
+    return r.value()->integer() == 1;
+}
+
+Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
+    auto r = command({"HMGET", texton_key(id), "file", "sha256", "exemplar", "exemplar_sha256"});
+    if (!r) return r.error();
+    const redisReply* a = r.value()->r;
+    if (a->type != REDIS_REPLY_ARRAY || a->elements != 4)
+        return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
+    std::optional<std::string> fields[4];
+    bool any = false;
+    for (std::size_t i = 0; i < 4; ++i) {
+        fields[i] = Reply::string(a->element[i]);
+        any = any || fields[i];
+    }
+    if (!any) return std::optional<Texton>{};
+    auto damaged = [&](const char* what) {
+        return make_error(ErrorCode::io, "texton " + id + " in the shared store fails its " + what +
+                                             " checksum (damaged or half-written); it is not "
+                                             "served");
+    };
+    if (!fields[0] || !fields[1] || io::sha256_hex(*fields[0]) != *fields[1])
+        return damaged("file");
+    if (!fields[2] || !fields[3] || io::sha256_hex(*fields[2]) != *fields[3])
+        return damaged("exemplar");
+    return std::optional<Texton>{Texton{std::move(*fields[0]), std::move(*fields[2])}};
+}
+
+Result<RedisStore::Presence> RedisStore::presence(const std::string& id) {
+    auto r = pipeline({{"EXISTS", texton_key(id)}, {"EXISTS", tombstone_key(id)}});
+    if (!r) return r.error();
+    if (r.value()[0]->integer() == 1) return Presence::present;
+    return r.value()[1]->integer() == 1 ? Presence::deleted : Presence::unknown;
+}
+
+Result<bool> RedisStore::remove(const std::string& id) {
+    auto r =
+        command({"EVAL", kRemoveScript, "3", texton_key(id), ids_key(), tombstone_key(id), id});
+    if (!r) return r.error();
+    return r.value()->integer() == 1;
+}
+
+Result<std::vector<std::string>> RedisStore::list_meta(const std::string& after, int limit) {
+    auto ids = command({"ZRANGEBYLEX", ids_key(), after.empty() ? "-" : "(" + after, "+", "LIMIT",
+                        "0", std::to_string(limit)});
+    if (!ids) return ids.error();
+    const redisReply* a = ids.value()->r;
+    std::vector<std::vector<std::string>> gets;
+    for (std::size_t i = 0; a->type == REDIS_REPLY_ARRAY && i < a->elements; ++i)
+        if (auto id = Reply::string(a->element[i]))
+            gets.push_back({"HGET", texton_key(*id), "meta"});
+    std::vector<std::string> out;
+    if (gets.empty()) return out;
+    auto metas = pipeline(gets);
+    if (!metas) return metas.error();
+    for (const auto& m : metas.value())
+        if (auto s = Reply::string(m->r)) out.push_back(std::move(*s)); // deleted meanwhile: skip
+    return out;
+}
+
+Result<std::uint64_t> RedisStore::count() {
+    auto r = command({"ZCARD", ids_key()});
+    if (!r) return r.error();
+    return static_cast<std::uint64_t>(std::max(0LL, r.value()->integer()));
+}
+
+Result<bool> RedisStore::ping() {
+    auto r = command({"PING"});
+    if (!r) return r.error();
+    return true;
+}
+
+} // namespace textond::store

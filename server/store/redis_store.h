@@ -1,0 +1,98 @@
+#pragma once
+// The shared texton store on Redis (`serve --store redis://...`): every replica writes the
+// textons it analyses here and reads the ones it lacks from here, keeping a local copy (the
+// data directory becomes a read-through cache, server/http/texton_store).
+//
+// Layout, under the prefix "textond:v1:":
+//   texton:<id>   hash {file: the texton file bytes (api/TEXTON_FORMAT.md), sha256: of file,
+//                 meta: the metadata JSON, exemplar: the exemplar PNG, exemplar_sha256}
+//   ids           sorted set of ids (score 0, ordered by id: cursor pages with ZRANGEBYLEX)
+//   deleted:<id>  a tombstone, so replicas drop their local copies of deleted textons
+// A texton is written once, by one Lua script (atomic: readers see all of it or nothing), and
+// only when absent: of two replicas that analyse the same exemplar at once, one stores it and
+// the other adopts that one. The file's sha256 is checked on every read, so a value damaged in
+// Redis is refused, never cached or served. Not for Redis Cluster (the keys span slots).
+#include "core/result.h"
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+struct redisContext;
+
+namespace textond::store {
+
+struct RedisAddress {
+    std::string host;
+    int port = 6379;
+    int db = 0;
+    std::string user;     // Redis 6 ACL user; empty = AUTH with the password alone
+    std::string password; // empty = no AUTH
+};
+
+// redis://[[user]:password@]host[:port][/db]
+Result<RedisAddress> parse_redis_url(const std::string& url);
+
+class RedisStore {
+public:
+    // Does not connect: a replica starts (and serves its local copies) while Redis is down.
+    RedisStore(RedisAddress address, std::chrono::milliseconds timeout);
+    ~RedisStore();
+    RedisStore(const RedisStore&) = delete;
+    RedisStore& operator=(const RedisStore&) = delete;
+
+    // "redis://host:port/db" (no password), for logs and /readyz.
+    std::string describe() const;
+
+    // True when this call stored it, false when it was there already. Clears a tombstone.
+    Result<bool> put(const std::string& id, const std::string& file, const std::string& meta_json,
+                     const std::string& exemplar_png);
+    struct Texton {
+        std::string file;
+        std::string exemplar_png; // empty when stored without one
+    };
+    // Both checked against their sha256; nullopt when absent.
+    Result<std::optional<Texton>> get(const std::string& id);
+    // Present, deleted (tombstone) or neither (unknown: a copy held only locally).
+    enum class Presence { present, deleted, unknown };
+    Result<Presence> presence(const std::string& id);
+    // False when it was not there.
+    Result<bool> remove(const std::string& id);
+    // Metadata JSON of the ids after `after` (exclusive), ascending, at most `limit`.
+    Result<std::vector<std::string>> list_meta(const std::string& after, int limit);
+    Result<std::uint64_t> count();
+    Result<bool> ping();
+
+    // The state seen by the last command (for /readyz and /metrics without a round trip).
+    bool up() const;
+    std::string last_error() const;
+
+private:
+    struct Reply;
+    class Connection;
+    // Runs one command (argv) on a pooled connection; on a broken connection, retries once on a
+    // fresh one (every command here is idempotent), then reports the store unavailable and
+    // fails fast for a second so a dead Redis does not slow every request.
+    Result<std::shared_ptr<Reply>> command(const std::vector<std::string>& argv);
+    Result<std::vector<std::shared_ptr<Reply>>>
+    pipeline(const std::vector<std::vector<std::string>>& commands);
+    Result<std::unique_ptr<Connection>> acquire();
+    void release(std::unique_ptr<Connection> c);
+    Error unavailable(const std::string& why);
+    void mark(bool up, const std::string& error = {});
+
+    const RedisAddress m_address;
+    const std::chrono::milliseconds m_timeout;
+    mutable std::mutex m_mutex;
+    std::vector<std::unique_ptr<Connection>> m_idle;
+    std::chrono::steady_clock::time_point m_retry_at{};
+    bool m_up = false;
+    bool m_seen = false;
+    std::string m_last_error = "not connected yet";
+};
+
+} // namespace textond::store

@@ -1,0 +1,289 @@
+// Replicas sharing one Redis (`serve --store redis://...`), on real processes: a texton uploaded
+// to one is served by the other with the same bytes; concurrent uploads of one exemplar store it
+// once; Redis stopped mid-run costs uploads (503) but not the tiles of textons held locally, and
+// coming back needs no restart; a damaged value in Redis is never served; deletes reach every
+// replica; a flushed Redis is refilled by the replicas.
+#include "server/io/sha256.h"
+#include "server/store/redis_store.h"
+#include "tests/server/server_fixture.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <future>
+#include <thread>
+
+namespace textond::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::vector<std::string> replica_args(const RedisProcess& redis) {
+    return {"--store", redis.url(), "--store-recheck-s", "1", "--store-timeout-ms", "500"};
+}
+
+httplib::Result get(const ServerProcess& s, const std::string& path) {
+    auto c = s.client();
+    return c.Get(path.c_str());
+}
+
+int status_of(const ServerProcess& s, const std::string& path) {
+    auto r = get(s, path);
+    return r ? r->status : -1;
+}
+
+std::string texton_key(const std::string& id) {
+    return "textond:v1:texton:" + id;
+}
+
+// Polls until `check` holds or `seconds` pass.
+template <class F> bool eventually(F check, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) {
+        if (check()) return true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return check();
+}
+
+double metric(const ServerProcess& s, const std::string& series) {
+    const std::string text = get(s, "/metrics")->body;
+    const auto at = text.find("\n" + series + " ");
+    if (at == std::string::npos) return -1;
+    return std::stod(text.substr(at + series.size() + 2));
+}
+
+TEST(RedisUrl, ParsesTheFormsWeDocument) {
+    auto a = store::parse_redis_url("redis://cache.internal");
+    ASSERT_TRUE(a);
+    EXPECT_EQ(a.value().host, "cache.internal");
+    EXPECT_EQ(a.value().port, 6379);
+    EXPECT_EQ(a.value().db, 0);
+    auto b = store::parse_redis_url("redis://user:s3cr@t@10.0.0.5:6380/2");
+    ASSERT_TRUE(b);
+    EXPECT_EQ(b.value().user, "user");
+    EXPECT_EQ(b.value().password, "s3cr@t");
+    EXPECT_EQ(b.value().host, "10.0.0.5");
+    EXPECT_EQ(b.value().port, 6380);
+    EXPECT_EQ(b.value().db, 2);
+    auto c = store::parse_redis_url("redis://:pw@[::1]:7000/");
+    ASSERT_TRUE(c);
+    EXPECT_EQ(c.value().host, "::1");
+    EXPECT_EQ(c.value().port, 7000);
+    EXPECT_EQ(c.value().password, "pw");
+    EXPECT_TRUE(c.value().user.empty());
+    for (const char* bad :
+         {"http://x:6379", "redis://", "redis://:6379", "redis://h:0", "redis://h:65536",
+          "redis://h:12ab", "redis://h/db", "redis://h/-1", "redis://pw@h", "redis://[::1"}) {
+        SCOPED_TRACE(bad);
+        auto r = store::parse_redis_url(bad);
+        ASSERT_FALSE(r);
+        EXPECT_NE(r.error().message.find("redis://"), std::string::npos) << r.error().message;
+    }
+}
+
+TEST(SharedStore, ATextonUploadedToOneReplicaIsServedByTheOtherWithTheSameBytes) {
+    RedisProcess redis(fresh_dir("shared-a-redis"));
+    const std::string dir_b = fresh_dir("shared-a-2");
+    ServerProcess a(fresh_dir("shared-a-1"), replica_args(redis));
+    ServerProcess b(dir_b, replica_args(redis));
+    auto ca = a.client();
+    int status = 0;
+    const std::string id = upload(ca, "etr_sand01.png", "?size=32", &status);
+    EXPECT_EQ(status, 201);
+
+    const json ma = json::parse(get(a, "/v1/textons/" + id)->body);
+    const json mb = json::parse(get(b, "/v1/textons/" + id)->body);
+    EXPECT_EQ(ma, mb);
+    for (const std::string tile : {"tiles/0/0/0.png", "tiles/2/-3/7.png16", "tiles/-1/5/5.exr",
+                                   "tiles/0/-9007199254740992/12.png"}) {
+        SCOPED_TRACE(tile);
+        auto ta = get(a, "/v1/textons/" + id + "/" + tile);
+        auto tb = get(b, "/v1/textons/" + id + "/" + tile);
+        ASSERT_EQ(ta->status, 200);
+        ASSERT_EQ(tb->status, 200);
+        EXPECT_TRUE(ta->body == tb->body);
+        EXPECT_EQ(ta->get_header_value("ETag"), tb->get_header_value("ETag"));
+    }
+    for (const std::string file : {"texton.exr", "exemplar.png"})
+        EXPECT_TRUE(get(a, "/v1/textons/" + id + "/" + file)->body ==
+                    get(b, "/v1/textons/" + id + "/" + file)->body)
+            << file;
+    // Kept by b: its data directory is a read-through cache.
+    EXPECT_TRUE(fs::exists(fs::path(dir_b) / "textons" / (id + ".exr")));
+    // The same exemplar uploaded to b is known at once: 200, and b runs no analysis.
+    auto cb = b.client();
+    upload(cb, "etr_sand01.png", "?size=32", &status);
+    EXPECT_EQ(status, 200);
+    EXPECT_EQ(metric(b, "textond_analyses_total{result=\"ok\"}"), 0);
+    const json list = json::parse(get(b, "/v1/textons")->body);
+    ASSERT_EQ(list["items"].size(), 1u);
+    EXPECT_EQ(list["total"], 1);
+    EXPECT_EQ(metric(a, "textond_shared_store_up"), 1);
+}
+
+TEST(SharedStore, ConcurrentUploadsOfOneExemplarToTwoReplicasStoreOneTexton) {
+    RedisProcess redis(fresh_dir("shared-b-redis"));
+    ServerProcess a(fresh_dir("shared-b-1"), replica_args(redis));
+    ServerProcess b(fresh_dir("shared-b-2"), replica_args(redis));
+    const std::string body = read_file(exemplar_path("skimage_grass.png"));
+    for (int seed = 1; seed <= 4; ++seed) {
+        SCOPED_TRACE(seed);
+        const std::string path = "/v1/textons?size=32&seed=" + std::to_string(seed);
+        std::promise<void> go;
+        std::shared_future<void> start = go.get_future().share();
+        auto post = [&](const ServerProcess& s) {
+            return std::async(std::launch::async, [&, start] {
+                auto c = s.client();
+                start.wait();
+                auto r = c.Post(path.c_str(), body, "image/png");
+                return r ? std::make_pair(r->status, r->body) : std::make_pair(-1, std::string());
+            });
+        };
+        auto fa = post(a);
+        auto fb = post(b);
+        go.set_value();
+        const auto [sa, ba] = fa.get();
+        const auto [sb, bb] = fb.get();
+        ASSERT_TRUE((sa == 201 && sb == 200) || (sa == 200 && sb == 201)) << sa << " " << sb;
+        const std::string id = json::parse(ba)["id"];
+        EXPECT_EQ(json::parse(bb)["id"], id);
+        // One stored texton: the same metadata (creation time included) and file on both.
+        EXPECT_EQ(json::parse(ba), json::parse(bb));
+        EXPECT_TRUE(get(a, "/v1/textons/" + id + "/texton.exr")->body ==
+                    get(b, "/v1/textons/" + id + "/texton.exr")->body);
+        EXPECT_EQ(redis.cli({"ZCARD", "textond:v1:ids"}), std::to_string(seed) + "\n");
+    }
+}
+
+TEST(SharedStore, RedisDownCostsUploadsNotCachedTilesAndComingBackNeedsNoRestart) {
+    RedisProcess redis(fresh_dir("shared-c-redis"));
+    const std::string dir_b = fresh_dir("shared-c-2");
+    ServerProcess a(fresh_dir("shared-c-1"), replica_args(redis));
+    auto b = std::make_unique<ServerProcess>(dir_b, replica_args(redis));
+    auto ca = a.client();
+    const std::string id = upload(ca, "etr_sand01.png", "?size=32");
+    ASSERT_EQ(status_of(*b, "/v1/textons/" + id), 200); // b holds it now
+
+    redis.stop();
+    // Uploads: 503 with a clear error, before any analysis is spent.
+    const std::string body = read_file(exemplar_path("etr_pave02.png"));
+    auto up = ca.Post("/v1/textons?size=32", body, "image/png");
+    ASSERT_TRUE(up);
+    EXPECT_EQ(up->status, 503);
+    EXPECT_EQ(json::parse(up->body)["error"]["code"], "store_unavailable");
+    EXPECT_NE(up->body.find(redis.url()), std::string::npos) << up->body;
+    EXPECT_EQ(up->get_header_value("Retry-After"), "1");
+    EXPECT_EQ(metric(a, "textond_analyses_total{result=\"ok\"}"), 1); // the first upload only
+    // Tiles of textons held locally keep coming, freshly rendered ones included, also after the
+    // recheck interval and from a replica restarted while Redis is down.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+    for (int x = 0; x < 4; ++x) {
+        EXPECT_EQ(status_of(a, "/v1/textons/" + id + "/tiles/0/" + std::to_string(x) + "/1.png"),
+                  200);
+        EXPECT_EQ(status_of(*b, "/v1/textons/" + id + "/tiles/1/" + std::to_string(x) + "/1.png"),
+                  200);
+    }
+    b.reset();
+    b = std::make_unique<ServerProcess>(dir_b, replica_args(redis));
+    EXPECT_EQ(status_of(*b, "/v1/textons/" + id + "/tiles/3/3/3.png"), 200);
+    EXPECT_EQ(status_of(*b, "/v1/textons/" + id), 200);
+    // What only Redis could answer is 503, not a false 404.
+    EXPECT_EQ(status_of(*b, "/v1/textons/" + std::string(64, 'a')), 503);
+    EXPECT_EQ(status_of(*b, "/v1/textons"), 503);
+    // Readiness: still ready (it serves what it holds), degraded, and says why.
+    auto ready = get(a, "/readyz");
+    EXPECT_EQ(ready->status, 200);
+    const json rj = json::parse(ready->body);
+    EXPECT_TRUE(rj["degraded"].get<bool>());
+    EXPECT_FALSE(rj["shared_store"]["up"].get<bool>());
+    EXPECT_NE(rj["shared_store"]["error"].get<std::string>().find("unavailable"),
+              std::string::npos);
+    EXPECT_EQ(metric(a, "textond_shared_store_up"), 0);
+
+    redis.start(); // same port and data
+    EXPECT_TRUE(eventually(
+        [&] {
+            auto r = ca.Post("/v1/textons?size=32", body, "image/png");
+            return r && r->status == 201;
+        },
+        10.0));
+    EXPECT_FALSE(json::parse(get(a, "/readyz")->body)["degraded"].get<bool>());
+    // b fails fast for a second after its last failure, then finds Redis again by itself.
+    EXPECT_TRUE(eventually([&] { return status_of(*b, "/v1/textons") == 200; }, 3.0));
+    EXPECT_EQ(json::parse(get(*b, "/v1/textons")->body)["total"], 2);
+    EXPECT_EQ(metric(*b, "textond_shared_store_up"), 1);
+}
+
+TEST(SharedStore, ADamagedValueInRedisIsNeverServed) {
+    RedisProcess redis(fresh_dir("shared-d-redis"));
+    ServerProcess a(fresh_dir("shared-d-1"), replica_args(redis));
+    const std::string dir_b = fresh_dir("shared-d-2");
+    ServerProcess b(dir_b, replica_args(redis));
+    auto ca = a.client();
+    const std::string id1 = upload(ca, "etr_sand01.png", "?size=32");
+    const std::string id2 = upload(ca, "etr_pave02.png", "?size=32");
+    const std::string file = get(a, "/v1/textons/" + id1 + "/texton.exr")->body;
+    ASSERT_GT(file.size(), 1000u);
+
+    // id1: a half-written file (its checksum field names the whole one).
+    redis.cli({"-x", "HSET", texton_key(id1), "file"}, file.substr(0, file.size() / 2));
+    // id2: another texton's file under its name, with a matching checksum: the metadata check
+    // (id = key) refuses it.
+    redis.cli({"-x", "HSET", texton_key(id2), "file"}, file);
+    redis.cli({"HSET", texton_key(id2), "sha256", io::sha256_hex(file)});
+    for (const std::string& id : {id1, id2}) {
+        SCOPED_TRACE(id);
+        auto meta = get(b, "/v1/textons/" + id);
+        EXPECT_EQ(meta->status, 500);
+        EXPECT_EQ(json::parse(meta->body)["error"]["code"], "storage_error");
+        EXPECT_EQ(status_of(b, "/v1/textons/" + id + "/tiles/0/0/0.png"), 500);
+        EXPECT_FALSE(fs::exists(fs::path(dir_b) / "textons" / (id + ".exr")));
+    }
+    // a, which holds good copies, keeps serving them.
+    EXPECT_EQ(status_of(a, "/v1/textons/" + id1 + "/tiles/0/0/0.png"), 200);
+}
+
+TEST(SharedStore, DeletesReachEveryReplicaAndAFlushedRedisIsRefilled) {
+    RedisProcess redis(fresh_dir("shared-e-redis"));
+    ServerProcess a(fresh_dir("shared-e-1"), replica_args(redis));
+    ServerProcess b(fresh_dir("shared-e-2"), replica_args(redis));
+    auto ca = a.client();
+    auto cb = b.client();
+    const std::string id = upload(ca, "etr_sand01.png", "?size=32");
+    ASSERT_EQ(status_of(b, "/v1/textons/" + id + "/tiles/0/0/0.png"), 200);
+    ASSERT_EQ(ca.Delete(("/v1/textons/" + id).c_str())->status, 204);
+    EXPECT_EQ(status_of(a, "/v1/textons/" + id), 404);
+    // b drops its copy at its next recheck (1 s here).
+    EXPECT_TRUE(eventually([&] { return status_of(b, "/v1/textons/" + id) == 404; }, 3.0));
+    EXPECT_EQ(status_of(b, "/v1/textons/" + id + "/tiles/0/0/0.png"), 404);
+    // Uploaded again (to b): stored again, and a finds it.
+    int status = 0;
+    upload(cb, "etr_sand01.png", "?size=32", &status);
+    EXPECT_EQ(status, 201);
+    EXPECT_EQ(status_of(a, "/v1/textons/" + id), 200);
+
+    // Redis loses everything; the replicas write back what they hold when they recheck it.
+    redis.cli({"FLUSHALL"});
+    EXPECT_EQ(redis.cli({"EXISTS", texton_key(id)}), "0\n");
+    EXPECT_TRUE(eventually(
+        [&] {
+            status_of(a, "/v1/textons/" + id);
+            return redis.cli({"EXISTS", texton_key(id)}) == "1\n";
+        },
+        3.0));
+    ServerProcess c(fresh_dir("shared-e-3"), replica_args(redis));
+    EXPECT_EQ(status_of(c, "/v1/textons/" + id + "/tiles/0/0/0.png"), 200);
+    auto ea = get(a, "/v1/textons/" + id + "/exemplar.png");
+    auto ec = get(c, "/v1/textons/" + id + "/exemplar.png");
+    EXPECT_EQ(ea->status, 200);
+    EXPECT_EQ(ec->status, 200);
+    EXPECT_TRUE(ea->body == ec->body);
+}
+
+} // namespace
+} // namespace textond::test
