@@ -14,6 +14,7 @@ int bench_command(const Argv& args);
 int bench_render_command(const Argv& args);
 int render_command(const Argv& args);
 int serve_command(const Argv& args);
+int probe_command(const Argv& args);
 
 // Prints "textond: <message>" to stderr and returns `code`.
 int fail(int code, const std::string& message);

@@ -21,6 +21,7 @@ commands:
   render    evaluate a window of texton noise (any position, level, seed) on a backend
   serve     run the HTTP service (textond serve --help; README "HTTP API")
   bench     benchmarks (textond bench analyze | render)
+  probe     GET a URL, exit 0 on 2xx (the container HEALTHCHECK)
 
   textond <command> --help   options of one command
   textond --version
@@ -73,6 +74,7 @@ int main(int argc, char** argv) {
         if (cmd == "render") return textond::cli::render_command(rest);
         if (cmd == "bench") return textond::cli::bench_command(rest);
         if (cmd == "serve") return textond::cli::serve_command(rest);
+        if (cmd == "probe") return textond::cli::probe_command(rest);
         std::fputs(kUsage, stderr);
         return textond::cli::fail(2, "unknown command '" + cmd + "'");
     } catch (const std::exception& e) {
