@@ -6,8 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <set>
+#include <sstream>
 #include <sys/wait.h>
 
 using namespace textond;
@@ -166,6 +169,33 @@ TEST(Cli, ServeHelpShowsEveryFlagWithItsEnvironmentVariable) {
     EXPECT_NE(r.out.find("[./data]"), std::string::npos);
     EXPECT_NE(r.out.find("[127.0.0.1]"), std::string::npos);
     EXPECT_NE(r.out.find("[8080]"), std::string::npos);
+}
+
+// Every flag the help documents is one the parser takes (--web-dir and --listen-backlog were
+// documented and refused until the image's chroot build served no page).
+TEST(Cli, ServeAcceptsEveryFlagItsHelpDocuments) {
+    const RunResult help = run("serve --help");
+    ASSERT_EQ(help.code, 0);
+    std::set<std::string> flags;
+    std::istringstream lines(help.out);
+    for (std::string line; std::getline(lines, line);)
+        for (std::size_t at = line.find("--"); at != std::string::npos;
+             at = line.find("--", at + 2)) {
+            std::size_t end = at + 2;
+            while (end < line.size() &&
+                   (std::isalnum(static_cast<unsigned char>(line[end])) || line[end] == '-'))
+                ++end;
+            if (end > at + 2 && (at == 0 || line[at - 1] == ' '))
+                flags.insert(line.substr(at, end - at));
+        }
+    EXPECT_GE(flags.size(), 25u);
+    for (const std::string& flag : flags) {
+        if (flag == "--help") continue;
+        // A value flag without its value says so; a switch goes on to serve, so give it a bad
+        // port to stop at. Neither may be an unknown option.
+        const RunResult r = run("serve --port 70000 " + flag);
+        EXPECT_EQ(r.err.find("unknown option"), std::string::npos) << flag << ": " << r.err;
+    }
 }
 
 TEST(Cli, ServeRefusesBadConfigurationFromFlagsAndEnvironment) {
