@@ -4,7 +4,7 @@ BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 ARGS   ?= serve
 
-.PHONY: deps build run test bench load format clean
+.PHONY: deps build run test bench load load-replicas image-check format clean
 
 deps:
 	bash docker/install-deps.sh
@@ -27,6 +27,14 @@ bench: build
 # Tile throughput with wrk against a fresh server (tests/load/load_test.sh; not part of `test`).
 load: build
 	tests/load/load_test.sh
+
+# Two replicas sharing Redis behind the nginx edge, with a 60-second soak (README "Run at scale").
+load-replicas: build
+	tests/load/load_test.sh --replicas
+
+# The Dockerfile's two stages in debootstrapped chroots (root, network, 10-20 minutes).
+image-check:
+	docker/chroot_build_test.sh
 
 format:
 	clang-format -i $$(git ls-files '*.h' '*.cpp')

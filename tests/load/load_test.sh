@@ -6,10 +6,13 @@
 #   tests/load/load_test.sh                    # starts its own server on a free port
 #   URL=http://127.0.0.1:8080 tests/load/load_test.sh   # against a running one (same machine
 #                                                         for the CPU column)
+#   tests/load/load_test.sh --replicas       # two replicas sharing Redis behind nginx, with a
+#                                             # soak (tests/load/replicas_test.sh)
 # Environment: DURATION (20s), CONNECTIONS (64), THREADS (2), EXEMPLAR, BIN, ACCESS_LOG=1 (keep
 # the per-request log line, to a file), SERVER_ARGS (more `serve` flags).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
+[ "${1:-}" = --replicas ] && exec "$here/replicas_test.sh"
 root=$(cd "$here/../.." && pwd)
 DURATION=${DURATION:-20s}
 CONNECTIONS=${CONNECTIONS:-64}

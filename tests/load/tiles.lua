@@ -1,6 +1,8 @@
--- wrk script: 256x256 PNG tiles of one texton. mode "cold": every request a distinct tile (a
--- per-thread walk over a huge grid), mode "warm": the same WARM_SET tiles over and over.
--- Environment: TEXTON (id), MODE (cold|warm), WARM_SET (default 64), SEED.
+-- wrk script: 256x256 PNG tiles of one texton (or several, taken in turn). mode "cold": every
+-- request a distinct tile (a per-thread walk over a huge grid), mode "warm": the same WARM_SET
+-- tiles over and over.
+-- Environment: TEXTON (id, or ids separated by commas), MODE (cold|warm), WARM_SET (default 64),
+-- SEED, HEADER ("Name: value" added to every request).
 local threads = {}
 local counter = 0
 
@@ -10,7 +12,13 @@ function setup(thread)
 end
 
 function init(args)
-  texton = os.getenv("TEXTON")
+  textons = {}
+  for id in string.gmatch(os.getenv("TEXTON") or "", "[^,]+") do table.insert(textons, id) end
+  local header = os.getenv("HEADER")
+  if header and header ~= "" then
+    local name, value = string.match(header, "^([^:]+):%s*(.*)$")
+    wrk.headers[name] = value
+  end
   mode = os.getenv("MODE") or "cold"
   warm_set = tonumber(os.getenv("WARM_SET") or "64")
   seed = os.getenv("SEED") or "0"
@@ -27,6 +35,7 @@ request = function()
     -- distinct per thread and per request: rows far apart per thread
     x, y = counter, tid * 1000003 + 17
   end
+  local texton = textons[counter % #textons + 1]
   return wrk.format("GET", "/v1/textons/" .. texton .. "/tiles/0/" .. x .. "/" .. y .. ".png?seed=" .. seed)
 end
 
