@@ -27,6 +27,8 @@ std::variant<Args, int> parse_input_command(const Argv& argv, const std::string&
                                             const std::set<std::string>& own_options,
                                             const std::set<std::string>& own_flags);
 Result<io::DecodeLimits> decode_limits_from(const Args& a);
+// The encoding of -o OUT (by extension), 16-bit with --png16 (which needs a .png).
+Result<io::Encoding> output_encoding_from(const Args& a);
 
 // Progress to stderr once an analysis has run for a second, then about once a second.
 core::ProgressFn progress_reporter(const std::string& label);

@@ -80,6 +80,14 @@ Result<io::DecodeLimits> decode_limits_from(const Args& a) {
     return limits;
 }
 
+Result<io::Encoding> output_encoding_from(const Args& a) {
+    auto encoding = io::encoding_for_path(a.get("--output"));
+    if (!encoding || !a.flags.count("--png16")) return encoding;
+    if (encoding.value() != io::Encoding::png8)
+        return make_error(ErrorCode::invalid_argument, "--png16 needs a .png output");
+    return io::Encoding::png16;
+}
+
 core::ProgressFn progress_reporter(const std::string& label) {
     using clock = std::chrono::steady_clock;
     auto state = std::make_shared<std::pair<clock::time_point, clock::time_point>>(clock::now(),

@@ -67,13 +67,9 @@ int render_command(const Argv& argv) {
     if (!kind) return fail(2, kind.error().message);
     auto threads = a.get_int("--render-threads", 0, 0, 256);
     if (!threads) return fail(2, threads.error().message);
-    auto encoding = io::encoding_for_path(a.get("--output"));
+    auto encoding = output_encoding_from(a);
     if (!encoding) return fail(2, encoding.error().message);
-    io::Encoding enc = encoding.value();
-    if (a.flags.count("--png16")) {
-        if (enc != io::Encoding::png8) return fail(2, "--png16 needs a .png output");
-        enc = io::Encoding::png16;
-    }
+    const io::Encoding enc = encoding.value();
 
     auto texton = load_or_analyze(a.positional[0], a);
     if (!texton) return fail(1, texton.error().message);

@@ -8,9 +8,9 @@
 
 #include <algorithm>
 #include <csignal>
-#include <malloc.h>
 #include <cstdio>
 #include <cstdlib>
+#include <malloc.h>
 #include <pthread.h>
 #include <thread>
 

@@ -59,13 +59,9 @@ int synth_command(const Argv& argv) {
     if (!params) return fail(2, params.error().message);
     auto limits = decode_limits_from(a);
     if (!limits) return fail(2, limits.error().message);
-    auto encoding = io::encoding_for_path(a.get("--output"));
+    auto encoding = output_encoding_from(a);
     if (!encoding) return fail(2, encoding.error().message);
-    io::Encoding enc = encoding.value();
-    if (a.flags.count("--png16")) {
-        if (enc != io::Encoding::png8) return fail(2, "--png16 needs a .png output");
-        enc = io::Encoding::png16;
-    }
+    const io::Encoding enc = encoding.value();
 
     // A texton file is an EXR with our metadata; anything else is an exemplar.
     const std::string& input = a.positional[0];
