@@ -212,15 +212,18 @@ Result<bool> TextonStore::write_local(const std::string& id, const std::string& 
         if (!w) return w.error();
     }
     const std::string path = path_of(id);
-    auto w = io::write_file_atomic(path, file);
-    if (w) fsync_directory(m_dir);
-    auto r = w ? io::read_texton_file(path) : Result<io::TextonRecord>(w.error());
     std::error_code ec;
+    auto w = io::write_file_atomic(path, file);
+    if (!w) {
+        fs::remove(exemplar_path_of(id), ec);
+        return w.error();
+    }
+    fsync_directory(m_dir);
+    auto r = io::read_texton_file(path);
     if (!r || r.value().meta.id != id) {
         fs::remove(path, ec);
         fs::remove(exemplar_path_of(id), ec);
-        if (!r && (r.error().code == ErrorCode::no_space || !w)) return r.error();
-        spdlog::error("store: texton {} from the shared store fails verification: {}", id,
+        spdlog::error("store: texton {} fails verification: {}", id,
                       r ? "its metadata names another id" : r.error().message);
         return make_error(ErrorCode::io, "texton " + id + " fails verification; it is not served");
     }
@@ -270,10 +273,8 @@ Result<std::string> TextonStore::file_bytes(const std::string& id) {
 
 Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exemplar) {
     const std::string id = record.meta.id;
-    if (auto found = find(id))
-        return false;
-    else if (found.error().code != ErrorCode::not_found)
-        return found.error();
+    // Held here; a copy only the shared store holds is found by its write-if-absent below.
+    if (contains(id)) return false;
     record.meta.created = rfc3339_now();
     std::string png;
     if (exemplar) {

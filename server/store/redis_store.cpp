@@ -183,13 +183,12 @@ std::string RedisStore::describe() const {
 
 void RedisStore::mark(bool up, const std::string& error) {
     std::lock_guard lock(m_mutex);
-    if (up != m_up || !m_seen) {
+    if (m_up != up) {
         if (up)
             spdlog::info("shared store {} is up", describe());
         else
             spdlog::error("shared store {} is unavailable: {}", describe(), error);
     }
-    m_seen = true;
     m_up = up;
     if (!up) {
         m_last_error = error;
@@ -201,16 +200,6 @@ void RedisStore::mark(bool up, const std::string& error) {
 Error RedisStore::unavailable(const std::string& why) {
     return make_error(ErrorCode::unavailable,
                       "the shared texton store (" + describe() + ") is unavailable: " + why);
-}
-
-bool RedisStore::up() const {
-    std::lock_guard lock(m_mutex);
-    return m_up;
-}
-
-std::string RedisStore::last_error() const {
-    std::lock_guard lock(m_mutex);
-    return m_up ? std::string() : m_last_error;
 }
 
 Result<std::unique_ptr<RedisStore::Connection>> RedisStore::acquire() {

@@ -67,10 +67,6 @@ public:
     Result<std::uint64_t> count();
     Result<bool> ping();
 
-    // The state seen by the last command (for /readyz and /metrics without a round trip).
-    bool up() const;
-    std::string last_error() const;
-
 private:
     struct Reply;
     class Connection;
@@ -90,8 +86,7 @@ private:
     mutable std::mutex m_mutex;
     std::vector<std::unique_ptr<Connection>> m_idle;
     std::chrono::steady_clock::time_point m_retry_at{};
-    bool m_up = false;
-    bool m_seen = false;
+    std::optional<bool> m_up; // as the last command found it; unset before the first
     std::string m_last_error = "not connected yet";
 };
 
