@@ -40,6 +40,17 @@ function pngSize(buf) {
 
 // Mean absolute jump between neighbouring columns (x, x+1) and rows of a screenshot, decoded by
 // the browser itself; the jumps across tile boundaries against the jumps inside tiles.
+// [naturalWidth, naturalHeight] once the <img> has loaded (an image set by the page just before
+// may still be on its way, under a loaded CI machine), or [0, 0] after 15 s.
+async function loadedImageSize(page, selector) {
+  const loaded = await page.waitForFunction((sel) => {
+    const i = document.querySelector(sel);
+    return i && i.complete && i.naturalWidth > 0;
+  }, selector, { timeout: 15000 }).then(() => true, () => false);
+  if (!loaded) return [0, 0];
+  return page.locator(selector).evaluate((i) => [i.naturalWidth, i.naturalHeight]);
+}
+
 async function seamStats(page, png, boundaries) {
   return page.evaluate(async ({ b64, boundaries }) => {
     const img = new Image();
@@ -118,8 +129,8 @@ try {
   check(/^[0-9a-f]{64}$/.test(id), `the texton id appears (${id})`);
   check(rme > 0 && rme < 1, `the RME appears (${rme})`);
   check((await page.textContent('#analysis-ms')).endsWith('ms'), 'the analysis time appears');
-  check(await page.locator('#texton-img').evaluate((i) => i.complete && i.naturalWidth === 32),
-        'the texton image shows (32 x 32)');
+  const texton = await loadedImageSize(page, '#texton-img');
+  check(texton[0] === 32 && texton[1] === 32, `the texton image shows (32 x 32: ${texton})`);
 
   await page.waitForFunction(() => window.textond.tilesLoaded >= 6, null, { timeout: 30000 });
   await page.waitForLoadState('networkidle');
@@ -192,7 +203,7 @@ try {
   check(template.startsWith(url) && template.includes('/map/{z}/{x}/{y}.png?seed=7'),
         `the tile URL template is absolute, with the seed (${template})`);
 
-  const spectra = await page.locator('#spectrum-img').evaluate((i) => [i.naturalWidth, i.naturalHeight]);
+  const spectra = await loadedImageSize(page, '#spectrum-img');
   check(spectra[0] === 2 * spectra[1] + 4, `the spectra show, side by side (${spectra})`);
   check(await page.evaluate(() => !!window.textond.histograms), 'the histograms are drawn');
   check(await page.locator('#texton-list li img').count() >= 1, 'the stored textons are listed with thumbnails');
