@@ -304,9 +304,8 @@ std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out
     if (auto e = check_fields(q, {"size", "order", "iterations", "seed", "periodic"})) return e;
     std::int64_t size = out.size, order = out.order, iterations = out.iterations;
     if (auto e = int_field(q, "size", 8, 256, size)) return e;
-    // Order 3 is analysed by `textond analyze` but not rendered yet, and every stored texton
-    // must be renderable (tiles never fail for a valid request).
-    if (auto e = int_field(q, "order", 0, 1, order)) return e;
+    if (auto e = int_field(q, "order", 0, 3, order)) return e;
+    if (order == 2) return bad("invalid_parameter", "order must be 0, 1 or 3");
     if (auto e = int_field(q, "iterations", 1, 1000, iterations)) return e;
     out.size = static_cast<int>(size);
     out.order = static_cast<int>(order);

@@ -18,12 +18,13 @@ using core::noise::GridPoisson;
 namespace {
 
 // One axis of one point's footprint inside a block: for output index i (from `first`), the
-// table index t[i] and the weights of G[t + 1] and G[t] (NOISE_SPEC.md section 7).
+// table index t[i] and the weights of G[t + 1] and G[t] (orders 0, 1), or of G[t + 4 - m],
+// m = 0..3 (order 3, in w0..w3) (NOISE_SPEC.md section 7).
 struct AxisTaps {
     std::int64_t first = 0; // first output coordinate covered
     int count = 0;
     std::vector<int> t;
-    std::vector<float> w0, w1;
+    std::vector<float> w0, w1, w2, w3;
 };
 
 struct LevelGeometry {
@@ -32,6 +33,7 @@ struct LevelGeometry {
     std::int64_t sub = 1; // pixels per texel (k < 0)
     int length = 0;       // L
     int order = 1;
+    int reach = 0; // order 3 reaches one texel further on each side: t in [-1, L + 1]
 };
 
 inline void weights(int order, std::uint32_t f, float& w0, float& w1) {
@@ -42,6 +44,19 @@ inline void weights(int order, std::uint32_t f, float& w0, float& w1) {
     w0 = 1.0f - w1;
 }
 
+// Cubic B-spline weights of G[t + 4 - m], m = 0..3, at fraction u = F' 2^-24 (NOISE_SPEC.md
+// section 7; texton-noise section 10, order 3).
+inline void cubic_weights(std::uint32_t f, float w[4]) {
+    const float u = static_cast<float>(f) * (1.0f / 16777216.0f);
+    const float s = 1.0f - u;
+    const float u2 = u * u, s2 = s * s;
+    const float u3 = u2 * u, s3 = s2 * s;
+    w[0] = s3 / 6.0f;
+    w[1] = ((3.0f * u3 - 6.0f * u2) + 4.0f) / 6.0f;
+    w[2] = ((3.0f * s3 - 6.0f * s2) + 4.0f) / 6.0f;
+    w[3] = u3 / 6.0f;
+}
+
 // Output coordinates [p0, p1) of the block, base b and fraction f of the point on this axis.
 void axis_taps(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::int64_t b,
                std::uint32_t f, AxisTaps& out) {
@@ -49,14 +64,16 @@ void axis_taps(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::in
     out.t.clear();
     out.w0.clear();
     out.w1.clear();
+    out.w2.clear();
+    out.w3.clear();
     std::int64_t lo, hi; // candidate output range, inclusive
     if (g.level >= 0) {
-        // t = st P - b + st - 1 in [0, L]  <=>  st P in [b - st + 1, b + r]
-        lo = -floor_div(-(b - g.st + 1), g.st); // ceil
-        hi = floor_div(b + g.length - g.st + 1, g.st);
+        // t = st P - b + st - 1 in [-reach, L + reach]
+        lo = -floor_div(-(b - g.st + 1 - g.reach), g.st); // ceil
+        hi = floor_div(b + g.length - g.st + 1 + g.reach, g.st);
     } else {
-        lo = g.sub * (b - 1);
-        hi = g.sub * (b + g.length + 1);
+        lo = g.sub * (b - 1 - g.reach);
+        hi = g.sub * (b + g.length + 1 + g.reach);
     }
     lo = std::max(lo, p0);
     hi = std::min(hi, p1 - 1);
@@ -79,18 +96,27 @@ void axis_taps(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::in
                 fp = static_cast<std::uint32_t>(-m);
             }
         }
-        if (t < 0 || t > g.length) {
+        if (t < -g.reach || t > g.length + g.reach) {
             if (out.count == 0) {
                 out.first = p + 1;
                 continue;
             }
             break; // t is monotone in p: nothing further on this side
         }
-        float w0, w1;
-        weights(g.order, fp, w0, w1);
         out.t.push_back(static_cast<int>(t));
-        out.w0.push_back(w0);
-        out.w1.push_back(w1);
+        if (g.order == 3) {
+            float w[4];
+            cubic_weights(fp, w);
+            out.w0.push_back(w[0]);
+            out.w1.push_back(w[1]);
+            out.w2.push_back(w[2]);
+            out.w3.push_back(w[3]);
+        } else {
+            float w0, w1;
+            weights(g.order, fp, w0, w1);
+            out.w0.push_back(w0);
+            out.w1.push_back(w1);
+        }
         ++out.count;
     }
 }
@@ -125,6 +151,52 @@ splat_contiguous(const ContiguousSplat& s) {
     }
 }
 
+// Level 0, order 3: the same contiguous runs with 4 x 4 taps; g = G[ty0 + 4][tx0 + 4] (the
+// weight-0 tap of the first pixel) and c[my * 4 + mx] = (eps wy[my]) wx[mx].
+struct ContiguousCubic {
+    float* acc;
+    std::size_t acc_stride;
+    const float* g;
+    std::size_t g_stride;
+    int rows, cols;
+    float c[16];
+};
+
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+splat_contiguous_cubic(const ContiguousCubic& s) {
+    const int n = (s.cols + kRunQuantum - 1) / kRunQuantum * kRunQuantum;
+    float c[16];
+    for (int i = 0; i < 16; ++i) c[i] = s.c[i];
+    for (int i = 0; i < s.rows; ++i) {
+        float* __restrict acc = s.acc + s.acc_stride * i;
+        const float* __restrict g0 = s.g + s.g_stride * i; // G[ty + 4]
+        const float* __restrict g1 = g0 - s.g_stride;
+        const float* __restrict g2 = g1 - s.g_stride;
+        const float* __restrict g3 = g2 - s.g_stride;
+#pragma GCC ivdep
+        for (int j = 0; j < n; ++j) {
+            float v = 0.0f;
+            v += c[0] * g0[j];
+            v += c[1] * g0[j - 1];
+            v += c[2] * g0[j - 2];
+            v += c[3] * g0[j - 3];
+            v += c[4] * g1[j];
+            v += c[5] * g1[j - 1];
+            v += c[6] * g1[j - 2];
+            v += c[7] * g1[j - 3];
+            v += c[8] * g2[j];
+            v += c[9] * g2[j - 1];
+            v += c[10] * g2[j - 2];
+            v += c[11] * g2[j - 3];
+            v += c[12] * g3[j];
+            v += c[13] * g3[j - 1];
+            v += c[14] * g3[j - 2];
+            v += c[15] * g3[j - 3];
+            acc[j] += v;
+        }
+    }
+}
+
 void splat_row_general(float* __restrict acc, const float* __restrict g1,
                        const float* __restrict g0, const AxisTaps& x, float cy0, float cy1) {
     for (int j = 0; j < x.count; ++j) {
@@ -133,6 +205,21 @@ void splat_row_general(float* __restrict acc, const float* __restrict g1,
                     wx1 = x.w1[static_cast<std::size_t>(j)];
         const float c00 = cy0 * wx0, c01 = cy0 * wx1, c10 = cy1 * wx0, c11 = cy1 * wx1;
         acc[j] += ((c00 * g1[t + 1] + c01 * g1[t]) + c10 * g0[t + 1]) + c11 * g0[t];
+    }
+}
+
+// Order 3: g[m] = G[ty + 4 - m] for the row's table index ty, cy[m] = eps wy_m. The 16 products
+// are summed in the order of NOISE_SPEC.md section 7 (m_y major, then m_x).
+void splat_row_cubic(float* __restrict acc, const float* const g[4], const AxisTaps& x,
+                     const float cy[4]) {
+    for (int j = 0; j < x.count; ++j) {
+        const auto js = static_cast<std::size_t>(j);
+        const int t = x.t[js];
+        const float wx[4] = {x.w0[js], x.w1[js], x.w2[js], x.w3[js]};
+        float v = 0.0f;
+        for (int my = 0; my < 4; ++my)
+            for (int mx = 0; mx < 4; ++mx) v += (cy[my] * wx[mx]) * g[my][t + 4 - mx];
+        acc[j] += v;
     }
 }
 
@@ -158,11 +245,11 @@ void cell_range(const LevelGeometry& g, int a, std::int64_t p0, std::int64_t p1,
     const int r = g.level > 0 ? g.length - static_cast<int>(g.st) + 1 : g.length;
     std::int64_t b_lo, b_hi; // bases b that can reach the range
     if (g.level >= 0) {
-        b_lo = g.st * p0 - r;
-        b_hi = g.st * (p1 - 1) + g.st - 1;
+        b_lo = g.st * p0 - r - g.reach;
+        b_hi = g.st * (p1 - 1) + g.st - 1 + g.reach;
     } else {
-        b_lo = floor_div(p0, g.sub) - r - 1;
-        b_hi = floor_div(p1 - 1, g.sub) + 1;
+        b_lo = floor_div(p0, g.sub) - r - 1 - g.reach;
+        b_hi = floor_div(p1 - 1, g.sub) + 1 + g.reach;
     }
     c0 = floor_div(b_lo, a);
     c1 = floor_div(b_hi, a);
@@ -190,6 +277,33 @@ void render_block(const PreparedTexton& tex, const LevelTable& table, const Grid
     AxisTaps tx, ty;
     for (int c = 0; c < nc; ++c)
         for (const CellPoint& p : pts) {
+            if (geo.level == 0 && geo.order == 3) {
+                // t = P - b in [-1, L + 1]: contiguous, constant weights.
+                const std::int64_t xa = std::max(blk.x0, p.bx - 1),
+                                   xb = std::min(blk.x0 + blk.w - 1, p.bx + geo.length + 1);
+                const std::int64_t ya = std::max(blk.y0, p.by - 1),
+                                   yb = std::min(blk.y0 + blk.h - 1, p.by + geo.length + 1);
+                if (xa > xb || ya > yb) continue;
+                float wx[4], wy[4];
+                cubic_weights(p.fx, wx);
+                cubic_weights(p.fy, wy);
+                ContiguousCubic sp;
+                for (int my = 0; my < 4; ++my) {
+                    const float cyw = p.eps * wy[my];
+                    for (int mx = 0; mx < 4; ++mx) sp.c[my * 4 + mx] = cyw * wx[mx];
+                }
+                sp.acc_stride = stride;
+                sp.acc = acc.data() + plane * c +
+                         static_cast<std::size_t>(ya - blk.y0) * sp.acc_stride +
+                         static_cast<std::size_t>(xa - blk.x0);
+                sp.g_stride = table.stride;
+                sp.g = table.row(c, static_cast<int>(ya - p.by) + 4) + (xa - p.bx) + 4;
+                sp.rows = static_cast<int>(yb - ya + 1);
+                sp.cols = static_cast<int>(xb - xa + 1);
+                splat_contiguous_cubic(sp);
+                if (c == 0) evaluations += static_cast<std::uint64_t>(sp.rows) * sp.cols;
+                continue;
+            }
             if (geo.level == 0) {
                 // t = P - b in [0, L]: a contiguous run of pixels, constant weights.
                 const std::int64_t xa = std::max(blk.x0, p.bx),
@@ -225,6 +339,20 @@ void render_block(const PreparedTexton& tex, const LevelTable& table, const Grid
             if (c == 0) evaluations += static_cast<std::uint64_t>(tx.count) * ty.count;
             const int col = static_cast<int>(tx.first - blk.x0);
             const int row0 = static_cast<int>(ty.first - blk.y0);
+            if (geo.order == 3) {
+                for (int i = 0; i < ty.count; ++i) {
+                    const auto is = static_cast<std::size_t>(i);
+                    const int t = ty.t[is];
+                    const float cyw[4] = {p.eps * ty.w0[is], p.eps * ty.w1[is], p.eps * ty.w2[is],
+                                          p.eps * ty.w3[is]};
+                    const float* rows[4] = {table.row(c, t + 4), table.row(c, t + 3),
+                                            table.row(c, t + 2), table.row(c, t + 1)};
+                    float* a =
+                        acc.data() + plane * c + static_cast<std::size_t>(row0 + i) * stride + col;
+                    splat_row_cubic(a, rows, tx, cyw);
+                }
+                continue;
+            }
             for (int i = 0; i < ty.count; ++i) {
                 const int t = ty.t[static_cast<std::size_t>(i)];
                 const float cyw0 = p.eps * ty.w0[static_cast<std::size_t>(i)];
@@ -329,6 +457,7 @@ Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseReq
     geo.sub = q.level < 0 ? std::int64_t{1} << -q.level : 1;
     geo.length = table->length;
     geo.order = tex.order();
+    geo.reach = tex.order() == 3 ? 1 : 0;
 
     const int bs = m_block;
     const int nbx = (q.width + bs - 1) / bs, nby = (q.height + bs - 1) / bs;

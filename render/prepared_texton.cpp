@@ -16,9 +16,9 @@ Result<std::shared_ptr<const PreparedTexton>> PreparedTexton::make(core::Texton 
                           "texton size " + std::to_string(t.size) + " outside [8, 256]");
     if (t.channels != 1 && t.channels != 3)
         return make_error(ErrorCode::invalid_argument, "texton must have 1 or 3 channels");
-    if (t.order != 0 && t.order != 1)
-        return make_error(ErrorCode::unsupported, "interpolation order " + std::to_string(t.order) +
-                                                      " is not evaluated yet (orders 0 and 1 are)");
+    if (t.order != 0 && t.order != 1 && t.order != 3)
+        return make_error(ErrorCode::invalid_argument,
+                          "interpolation order " + std::to_string(t.order) + " is not 0, 1 or 3");
     if (t.alpha.width != t.size || t.alpha.height != t.size || t.alpha.channels != t.channels)
         return make_error(ErrorCode::invalid_argument, "texton coefficients have the wrong shape");
     for (float v : t.alpha.data)
@@ -70,13 +70,14 @@ std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
     auto t = std::make_shared<LevelTable>();
     t->level = key;
     t->length = g.width;
+    t->pad = table_pad(m_texton.order);
     t->channels = g.channels;
     // 16 zero floats of slack after every row: the CPU backend runs whole vectors past the end.
-    t->stride = (static_cast<std::size_t>(g.width) + 2 + 16 + 15) / 16 * 16;
-    t->data.assign(static_cast<std::size_t>(g.channels) * (g.width + 2) * t->stride, 0.0f);
+    t->stride = (static_cast<std::size_t>(t->side()) + 16 + 15) / 16 * 16;
+    t->data.assign(static_cast<std::size_t>(g.channels) * t->side() * t->stride, 0.0f);
     for (int c = 0; c < g.channels; ++c)
         for (int y = 0; y < g.height; ++y) {
-            float* dst = t->row(c, y + 1) + 1;
+            float* dst = t->row(c, y + t->pad) + t->pad;
             for (int x = 0; x < g.width; ++x) dst[x] = g.at(c, x, y);
         }
     m_tables.emplace(key, t);

@@ -15,22 +15,30 @@
 
 namespace textond::render {
 
-// Coefficients of one level (alpha for k <= 0, g_k for k > 0), length L per side, stored with one
-// zero on every side: row(c, i)[j] = G[i][j] = g(i - 1, j - 1), i, j in [0, L + 2).
+// Coefficients of one level (alpha for k <= 0, g_k for k > 0), length L per side, stored with
+// `pad` zeros on every side (1 for orders 0 and 1, 3 for order 3: NOISE_SPEC.md section 7):
+// row(c, i)[j] = G[i][j] = g(i - pad, j - pad), i, j in [0, L + 2 pad).
 struct LevelTable {
     int level = 0;
-    int length = 0;         // L
-    std::size_t stride = 0; // floats per row (>= L + 2 + 16 zeros, a multiple of 16)
+    int length = 0; // L
+    int pad = 1;
+    std::size_t stride = 0; // floats per row (>= L + 2 pad + 16 zeros, a multiple of 16)
     int channels = 0;
     std::vector<float> data;
 
+    int side() const { return length + 2 * pad; }
     const float* row(int c, int i) const {
-        return data.data() + (static_cast<std::size_t>(c) * (length + 2) + i) * stride;
+        return data.data() + (static_cast<std::size_t>(c) * side() + i) * stride;
     }
     float* row(int c, int i) {
-        return data.data() + (static_cast<std::size_t>(c) * (length + 2) + i) * stride;
+        return data.data() + (static_cast<std::size_t>(c) * side() + i) * stride;
     }
 };
+
+// Zeros on each side of a level table for interpolation order `order`.
+inline int table_pad(int order) {
+    return order == 3 ? 3 : 1;
+}
 
 class PreparedTexton {
 public:

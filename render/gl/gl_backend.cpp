@@ -148,7 +148,7 @@ unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
         m_gl->DeleteTextures(1, &m_tables.begin()->second.texture);
         m_tables.erase(m_tables.begin());
     }
-    const int n = t->length + 2;
+    const int n = t->side();
     std::vector<float> texels(static_cast<std::size_t>(n) * n * 3, 0.0f);
     for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x)
@@ -214,12 +214,13 @@ Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequ
         const std::int64_t st = q.level > 0 ? std::int64_t{1} << q.level : 1;
         const int sub_log2 = q.level < 0 ? -q.level : 0;
         // The base cell makes every relative cell and position in the shader non-negative.
+        const int reach = tex.order() == 3 ? 1 : 0;
         auto base = [&](std::int64_t p0, std::int64_t& cell, int& origin) {
             if (q.level >= 0) {
-                cell = floor_div(st * p0 - r, a);
+                cell = floor_div(st * p0 - r - reach, a);
                 origin = static_cast<int>(st * p0 - cell * a);
             } else {
-                cell = floor_div(floor_div(p0, std::int64_t{1} << sub_log2) - r - 1, a);
+                cell = floor_div(floor_div(p0, std::int64_t{1} << sub_log2) - r - 1 - reach, a);
                 origin = static_cast<int>(p0 - (cell * a << sub_log2));
             }
         };

@@ -5,7 +5,7 @@
 
 layout(location = 0) out vec4 o_color;
 
-uniform sampler2D u_table; // G, (L + 2)^2 texels, read with texelFetch only
+uniform sampler2D u_table; // G, (L + 2 pad)^2 texels (pad 1, or 3 for order 3), texelFetch only
 uniform int u_mode;        // 0 exact levels, 1 limit model
 uniform int u_level;
 uniform int u_st;          // texels per pixel (level >= 0)
@@ -30,9 +30,9 @@ uniform float u_kappa[25];
 uniform mat3 u_A;
 uniform int u_channels;
 
-// Table index t and weights (w0 for G[t + 1], w1 for G[t]) of one axis; false if out of reach.
-bool axis(int x, int b, uint f, out int t, out float w0, out float w1) {
-    uint fp;
+// Table index t and fraction F' of one axis; false if out of reach (t in [0, L], or [-1, L + 1]
+// for order 3).
+bool axis_t(int x, int b, uint f, out int t, out uint fp) {
     if (u_level >= 0) {
         t = x - b + u_st - 1;
         fp = f;
@@ -49,7 +49,14 @@ bool axis(int x, int b, uint f, out int t, out float w0, out float w1) {
             fp = uint(-m);
         }
     }
-    if (t < 0 || t > u_L) return false;
+    int reach = u_order == 3 ? 1 : 0;
+    return t >= -reach && t <= u_L + reach;
+}
+
+// Weights of G[t + 1] (w0) and G[t] (w1), orders 0 and 1.
+bool axis(int x, int b, uint f, out int t, out float w0, out float w1) {
+    uint fp;
+    if (!axis_t(x, b, f, t, fp)) return false;
     if (u_order == 0)
         w1 = fp > 0u ? 1.0 : 0.0;
     else
@@ -58,12 +65,42 @@ bool axis(int x, int b, uint f, out int t, out float w0, out float w1) {
     return true;
 }
 
+// Cubic B-spline weights of G[t + 4 - m], m = 0..3 (order 3; same operations as the CPU).
+vec4 cubic_weights(uint fp) {
+    precise float u = float(fp) * (1.0 / 16777216.0);
+    precise float s = 1.0 - u;
+    precise float u2 = u * u;
+    precise float s2 = s * s;
+    precise float u3 = u2 * u;
+    precise float s3 = s2 * s;
+    precise vec4 w;
+    w.x = s3 / 6.0;
+    w.y = ((3.0 * u3 - 6.0 * u2) + 4.0) / 6.0;
+    w.z = ((3.0 * s3 - 6.0 * s2) + 4.0) / 6.0;
+    w.w = u3 / 6.0;
+    return w;
+}
+
+vec3 cubic_point(float eps, int tx, uint fx, int ty, uint fy) {
+    vec4 wx = cubic_weights(fx), wy = cubic_weights(fy);
+    precise vec3 v = vec3(0.0);
+    for (int my = 0; my < 4; ++my) {
+        precise float cy = eps * wy[my];
+        for (int mx = 0; mx < 4; ++mx) {
+            precise float c = cy * wx[mx];
+            v = v + c * texelFetch(u_table, ivec2(tx + 4 - mx, ty + 4 - my), 0).rgb;
+        }
+    }
+    return v;
+}
+
 vec3 exact_pixel(ivec2 pix) {
     // Position relative to the base cell's origin: texels (level >= 0) or pixels (level < 0).
     ivec2 x = u_level >= 0 ? u_origin + pix * u_st : u_origin + pix;
     ivec2 xt = u_level >= 0 ? x : (x >> u_sub_log2);
-    ivec2 blo = u_level >= 0 ? x - u_r : xt - u_r - 1;
-    ivec2 bhi = u_level >= 0 ? x + u_st - 1 : xt + 1;
+    int reach = u_order == 3 ? 1 : 0;
+    ivec2 blo = (u_level >= 0 ? x - u_r : xt - u_r - 1) - reach;
+    ivec2 bhi = (u_level >= 0 ? x + u_st - 1 : xt + 1) + reach;
     ivec2 clo = blo / u_a, chi = bhi / u_a; // non-negative by the choice of the base cell
     precise vec3 acc = vec3(0.0);
     for (int cy = clo.y; cy <= chi.y; ++cy) {
@@ -85,6 +122,13 @@ vec3 exact_pixel(ivec2 pix) {
                 point_offset(next_draw(state), uint(u_a), qy, fy);
                 float eps = (next_draw(state) >> 31u) == 0u ? 1.0 : -1.0;
                 int tx, ty;
+                if (u_order == 3) {
+                    uint fpx, fpy;
+                    if (!axis_t(x.x, cx * u_a + qx, fx, tx, fpx)) continue;
+                    if (!axis_t(x.y, cy * u_a + qy, fy, ty, fpy)) continue;
+                    acc = acc + cubic_point(eps, tx, fpx, ty, fpy);
+                    continue;
+                }
                 float wx0, wx1, wy0, wy1;
                 if (!axis(x.x, cx * u_a + qx, fx, tx, wx0, wx1)) continue;
                 if (!axis(x.y, cy * u_a + qy, fy, ty, wy0, wy1)) continue;

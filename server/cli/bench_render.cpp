@@ -21,7 +21,7 @@ const char* kHelp =
 Milliseconds per frame of texton noise (MNI 30, level 0) for each backend at 256x256, 1024x1024,
 1920x1080 and 3840x2160, with textons of r = 64 and r = 256 (the paper's Table 1), next to an
 FFTW ADSN of the same size measured in the same run (ratio = ADSN ms / backend ms). Also one
-256x256 tile at levels 0, 3 and 24. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
+256x256 tile at levels 0, 3 and 24, and one 1024x1024 frame at interpolation orders 0, 1, 3. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
   --exemplars DIR   texture photos                              [../shared/data/exemplars]
   --repeat N        frames per row; the table shows the median    [5]
   --backends LIST   comma-separated: cpu, osmesa, egl (skipped when absent)   [cpu,egl]
@@ -143,6 +143,35 @@ int bench_render_command(const Argv& argv) {
             });
             if (level == 0) base = ms;
             std::printf("| %s | %d | %.2f | %.2fx |\n", b->name().c_str(), level, ms, ms / base);
+        }
+    }
+
+    std::printf("\nOne 1024x1024 frame by interpolation order (r = 64, MNI 30, level 0)\n");
+    std::printf("| backend | order | ms/frame | ratio to order 1 |\n|---|---|---|---|\n");
+    std::shared_ptr<const render::PreparedTexton> by_order[4] = {nullptr, r64, nullptr, nullptr};
+    for (int order : {0, 3}) {
+        core::AnalysisParams p;
+        p.size = 64;
+        p.order = order;
+        auto analysed = core::analyze_texton(sand.value(), p);
+        if (!analysed) return fail(1, analysed.error().message);
+        auto prepared = render::PreparedTexton::make(analysed.value().texton);
+        if (!prepared) return fail(1, prepared.error().message);
+        by_order[order] = prepared.value();
+    }
+    for (const auto& b : backends) {
+        double base = 0.0;
+        for (int order : {1, 0, 3}) {
+            render::NoiseRequest q;
+            q.width = q.height = std::min(1024, static_cast<int>(max_side.value()));
+            auto warm = b->render(*by_order[order], q);
+            if (!warm) return fail(1, warm.error().message);
+            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
+                ++q.seed;
+                auto img = b->render(*by_order[order], q);
+            });
+            if (order == 1) base = ms;
+            std::printf("| %s | %d | %.2f | %.2fx |\n", b->name().c_str(), order, ms, ms / base);
         }
     }
     return 0;

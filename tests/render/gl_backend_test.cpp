@@ -118,8 +118,8 @@ void check_probe(GlBackend& gl) {
 // GPUs may still fuse or reorder vector arithmetic, texel fetch paths), each about 1 ulp of the
 // accumulator, over ~MNI x 4 terms: far below 1e-5 of the field's std. The limit model draws its
 // normals through log, cos and sin, whose GLSL precision is not IEEE: 1e-3 of the std.
-void check_against_cpu(render::Backend& gl) {
-    const auto tex = analysed_texton("etr_sand01.png", 64);
+void check_against_cpu(render::Backend& gl, int order = 1) {
+    const auto tex = analysed_texton("etr_sand01.png", order == 3 ? 32 : 64, order);
     render::CpuBackend cpu;
     struct Case {
         int level;
@@ -170,6 +170,21 @@ TEST(OsmesaBackend, AgreesWithCpu) {
     auto gl = osmesa();
     if (!gl) GTEST_SKIP() << "no OSMesa";
     check_against_cpu(*gl);
+}
+
+// Cubic B-spline textons: 16 taps per point, tables padded by 3 (NOISE_SPEC.md section 7).
+TEST(OsmesaBackend, AgreesWithCpuAtOrders0And3) {
+    auto gl = osmesa();
+    if (!gl) GTEST_SKIP() << "no OSMesa";
+    check_against_cpu(*gl, 0);
+    check_against_cpu(*gl, 3);
+}
+
+TEST(EglBackend, GpuAgreesWithCpuAtOrders0And3) {
+    auto gl = egl_gpu();
+    if (!gl) GTEST_SKIP() << "no GPU";
+    check_against_cpu(*gl, 0);
+    check_against_cpu(*gl, 3);
 }
 
 TEST(EglBackend, CodePathAgreesWithCpuOnAnyRenderer) {

@@ -104,7 +104,7 @@ TEST(BadRequests, EachGetsItsStatusAndCodeAndNothingBreaks) {
          "exemplar_too_small"},
         {"size 0", "POST", "/v1/textons?size=0", png, 400, "invalid_parameter"},
         {"order 7", "POST", "/v1/textons?order=7", png, 400, "invalid_parameter"},
-        {"order 3 (not rendered yet)", "POST", "/v1/textons?order=3", png, 400,
+        {"order 2 (no such B-spline order)", "POST", "/v1/textons?order=2", png, 400,
          "invalid_parameter"},
         {"iterations not a number", "POST", "/v1/textons?iterations=ten", png, 400,
          "invalid_parameter"},
