@@ -300,6 +300,12 @@ std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, Nois
     return noise_fields(q, out);
 }
 
+std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out) {
+    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_fields(q, {"mni"})) return e;
+    return noise_fields(q, out);
+}
+
 std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out) {
     if (auto e = check_fields(q, {"size", "order", "iterations", "seed", "periodic"})) return e;
     std::int64_t size = out.size, order = out.order, iterations = out.iterations;

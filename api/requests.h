@@ -92,6 +92,8 @@ std::optional<ApiError> parse_list(const Query& q, ListRequest& out);
 // TileJSON: seed, mni and the tile size it will write into its template.
 std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out);
 // The spectra: seed and mni of the noise window.
+// GET /v1/textons/{id}/kit.tar[?mni=M]
+std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out);
 std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out);
 // Analysis parameters of POST /v1/textons (query or form fields): size, order, iterations, seed,
 // periodic. Unknown fields are refused so that a typo never silently analyses with defaults.

@@ -79,10 +79,10 @@ private:
 
 } // namespace
 
-Result<std::shared_ptr<GlBackend>> make_osmesa_backend() {
+Result<std::shared_ptr<GlBackend>> make_osmesa_backend(const GlslSources& sources) {
     auto ctx = OsmesaContext::open();
     if (!ctx) return ctx.error();
-    return GlBackend::create("osmesa", std::move(ctx.value()), /*allow_software=*/true);
+    return GlBackend::create("osmesa", std::move(ctx.value()), /*allow_software=*/true, sources);
 }
 
 } // namespace textond::render

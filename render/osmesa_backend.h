@@ -5,6 +5,7 @@
 
 namespace textond::render {
 
-Result<std::shared_ptr<GlBackend>> make_osmesa_backend();
+Result<std::shared_ptr<GlBackend>>
+make_osmesa_backend(const GlslSources& sources = GlslSources::embedded());
 
 } // namespace textond::render

@@ -92,15 +92,21 @@ GlBackend::~GlBackend() {
     if (m_vao) m_gl->DeleteVertexArrays(1, &m_vao);
 }
 
-Result<std::shared_ptr<GlBackend>>
-GlBackend::create(std::string name, std::unique_ptr<GlContext> context, bool allow_software) {
+GlslSources GlslSources::embedded() {
+    return {glsl::kFullscreenVert, glsl::kNoiseLib, glsl::kTextonNoiseFrag};
+}
+
+Result<std::shared_ptr<GlBackend>> GlBackend::create(std::string name,
+                                                     std::unique_ptr<GlContext> context,
+                                                     bool allow_software,
+                                                     const GlslSources& sources) {
     std::shared_ptr<GlBackend> b(new GlBackend(std::move(name), std::move(context)));
-    auto ok = b->init(allow_software);
+    auto ok = b->init(allow_software, sources);
     if (!ok) return ok.error();
     return b;
 }
 
-Result<bool> GlBackend::init(bool allow_software) {
+Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
     std::lock_guard<std::mutex> lock(m_mutex);
     CurrentScope scope(*m_context);
     if (!scope.ok)
@@ -117,9 +123,8 @@ Result<bool> GlBackend::init(bool allow_software) {
         return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
                                                       m_renderer + "), not a GPU");
     const std::string head = "#version 450 core\n";
-    auto prog =
-        link(*m_gl, {{GL_VERTEX_SHADER, head + glsl::kFullscreenVert},
-                     {GL_FRAGMENT_SHADER, head + glsl::kNoiseLib + glsl::kTextonNoiseFrag}});
+    auto prog = link(*m_gl, {{GL_VERTEX_SHADER, head + sources.vert},
+                             {GL_FRAGMENT_SHADER, head + sources.lib + sources.frag}});
     if (!prog)
         return make_error(ErrorCode::unsupported,
                           m_name + " (" + m_renderer + "): " + prog.error().message);

@@ -27,12 +27,19 @@ public:
     virtual std::string platform() const = 0; // e.g. "EGL device 0 (EGL_EXT_platform_device)"
 };
 
+// The noise program's GLSL: render/glsl/ by default; the engine kit's copy in its test.
+struct GlslSources {
+    std::string vert, lib, frag;
+    static GlslSources embedded();
+};
+
 class GlBackend final : public Backend {
 public:
     // Loads GL 4.5 functions, checks GL_RENDERER and compiles the noise program. A software
     // renderer (llvmpipe, softpipe, swrast) is refused unless `allow_software`.
     static Result<std::shared_ptr<GlBackend>>
-    create(std::string name, std::unique_ptr<GlContext> context, bool allow_software);
+    create(std::string name, std::unique_ptr<GlContext> context, bool allow_software,
+           const GlslSources& sources = GlslSources::embedded());
     ~GlBackend() override;
 
     std::string name() const override { return m_name; }
@@ -48,7 +55,7 @@ public:
 
 private:
     GlBackend(std::string name, std::unique_ptr<GlContext> context);
-    Result<bool> init(bool allow_software);
+    Result<bool> init(bool allow_software, const GlslSources& sources);
     unsigned table_texture(const std::shared_ptr<const LevelTable>& table);
     int uniform(const char* name);
 

@@ -1,8 +1,11 @@
 #pragma once
-// The GLSL files of render/glsl/, embedded at build time (see render/CMakeLists.txt).
+// The shaders of render/glsl/ and render/hlsl/ and render/NOISE_SPEC.md, embedded at build time
+// (see render/CMakeLists.txt).
 namespace textond::render::glsl {
 extern const char* const kNoiseLib;
 extern const char* const kFullscreenVert;
 extern const char* const kTextonNoiseFrag;
 extern const char* const kSpecProbeComp;
+extern const char* const kTextonNoiseHlsl;
+extern const char* const kNoiseSpec;
 } // namespace textond::render::glsl

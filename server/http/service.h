@@ -93,6 +93,7 @@ private:
     void get_texton(const std::string& id, httplib::Response& res);
     void texton_status(const std::string& id, httplib::Response& res);
     void texton_file(const std::string& id, const std::string& ext, httplib::Response& res);
+    void texton_kit(const httplib::Request& req, const std::string& id, httplib::Response& res);
     void delete_texton(const httplib::Request& req, const std::string& id, httplib::Response& res);
     void list_textons(const httplib::Request& req, httplib::Response& res);
     nlohmann::json texton_json(const api::TextonMeta& meta) const;

@@ -2,6 +2,7 @@
 // texton's files, listing.
 #include "api/requests.h"
 #include "core/texton_analysis.h"
+#include "server/http/engine_kit.h"
 #include "server/http/http_support.h"
 #include "server/http/service.h"
 #include "server/io/image_io.h"
@@ -279,6 +280,23 @@ void Service::texton_file(const std::string& id, const std::string& ext, httplib
     res.set_content(png.value(), "image/png");
 }
 
+void Service::texton_kit(const httplib::Request& req, const std::string& id,
+                         httplib::Response& res) {
+    set_route("/v1/textons/{id}/kit.tar");
+    api::NoiseParams p;
+    if (auto e = api::parse_kit(id, req.params, p)) return send_error(res, *e);
+    auto record = m_store->record(id);
+    if (!record) return send_error(res, to_api_error(record.error()));
+    auto exr = m_store->file_bytes(id);
+    if (!exr) return send_error(res, to_api_error(exr.error()));
+    auto tar = engine_kit_tar(record.value(), exr.value(), p.mni, "");
+    if (!tar) return send_error(res, to_api_error(tar.error()));
+    res.set_header("Cache-Control", "public, max-age=86400");
+    res.set_header("Content-Disposition",
+                   "attachment; filename=\"" + engine_kit_directory(id) + ".tar\"");
+    res.set_content(std::move(tar.value()), "application/x-tar");
+}
+
 void Service::delete_texton(const httplib::Request& req, const std::string& id,
                             httplib::Response& res) {
     set_route("/v1/textons/{id}");
@@ -325,6 +343,8 @@ void Service::install_texton_routes() {
                   [this](Req req, Res res) { delete_texton(req, req.matches[1], res); });
     m_http.Get(R"(/v1/textons/([^/]+)/status)",
                [this](Req req, Res res) { texton_status(req.matches[1], res); });
+    m_http.Get(R"(/v1/textons/([^/]+)/kit\.tar)",
+               [this](Req req, Res res) { texton_kit(req, req.matches[1], res); });
     m_http.Get(R"(/v1/textons/([^/]+)/texton\.([a-z0-9]+))",
                [this](Req req, Res res) { texton_file(req.matches[1], req.matches[2], res); });
     // Anything else under /v1/textons/: a bad id is a 400 (never a path), a good one a 404.

@@ -1,0 +1,145 @@
+#include "server/http/engine_kit.h"
+
+#include "core/grid_poisson.h"
+#include "render/gl/glsl_sources.h"
+#include "render/noise_request.h"
+#include "render/prepared_texton.h"
+#include "server/io/image_io.h"
+#include "server/io/tar_archive.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace textond::http {
+
+namespace {
+
+const char* kReadme = R"(# textond engine kit: texton %ID%
+
+Texton noise (the "Texton Noise" paper, Computer Graphics Forum 2017: a sparse convolution of a
+small bilinear texton over a Poisson process) of one texton, ready to evaluate on your own GPU
+with no server round trip. What the server's tiles
+show is what this shader computes: same seed, same position, same colour (to float rounding).
+
+| file | what |
+|---|---|
+| `textond_kit.json` | every parameter: r, order, mean, MNI, cell size a, lambda, scale, the Poisson threshold table, the seed rule |
+| `texton.exr` | the coefficients alpha, float32, r x r (Y or R,G,B): what the shader samples |
+| `texton16.png` | the same as 16-bit PNG for engines without EXR: alpha = offset + scale * v / 65535 (`png16_decode` in the JSON; quantised to 2^-16 of the range, so not bit-exact) |
+| `glsl/noise_lib.glsl`, `glsl/texton_noise.frag`, `glsl/fullscreen.vert` | the exact GLSL the server's OpenGL backends run (GLSL 4.50) |
+| `hlsl/texton_noise.hlsl` | its HLSL (SM 5) translation, same uniforms (arrays packed by four) |
+| `NOISE_SPEC.md` | the function itself, step by step, with every rounding fixed |
+
+## Use (GLSL)
+
+Compile `#version 450 core` + `noise_lib.glsl` + `texton_noise.frag` as one fragment shader.
+Upload the table once: an `RGB32F` texture of side `r + 2 pad` (`table_pad` in the JSON: 1, or 3
+for order 3), zeros except texel `(x + pad, y + pad)` = alpha(x, y) from `texton.exr` (row 0 =
+the file's first row), `GL_NEAREST`; the shader reads it with `texelFetch` only.
+
+To draw the level-0 window of texels `[X0, X0 + w) x [Y0, Y0 + h)` (X0, Y0 signed 64-bit, as in
+the tile URLs: tile (x, y) of size 256 at level 0 starts at X0 = 256 x):
+
+```c
+int reach = order == 3 ? 1 : 0;
+int64_t bcx = floor_div(X0 - r - reach, a), bcy = floor_div(Y0 - r - reach, a); /* base cell */
+glUniform1i(u_mode, 0);  glUniform1i(u_level, 0);  glUniform1i(u_st, 1);  glUniform1i(u_sub_log2, 0);
+glUniform1i(u_L, r);  glUniform1i(u_r, r);  glUniform1i(u_order, order);  glUniform1i(u_a, a);
+glUniform2ui(u_seed, (uint32_t)seed, (uint32_t)(seed >> 32));
+glUniform2ui(u_base_cx, (uint32_t)bcx, (uint32_t)((uint64_t)bcx >> 32));   /* same for y */
+glUniform2i(u_origin, (int)(X0 - bcx * a), (int)(Y0 - bcy * a));
+glUniform2i(u_offset, 0, 0);             /* pixel (i, j) of the viewport is texel (X0 + i, Y0 + j) */
+glUniform2i(u_period, 0, 0);  glUniform2i(u_base_mod, 0, 0);
+glUniform1f(u_scale, scale);  glUniform3f(u_mean, m0, m1, m2);   /* grey: m0, m0, m0 */
+glUniform1uiv(u_thresholds, n, thresholds);  glUniform1i(u_nthresholds, n);
+```
+
+then draw one full-screen triangle (`fullscreen.vert`, 3 vertices, no buffers). The output is
+the field's value (the exemplar's colour values as decoded, before any clamping; the server's PNG
+tiles clamp to [0, 1]). In a game, pick the base cell near the camera once per frame and feed each
+fragment its texel position relative to it; positions stay exact at any distance because only
+the 64-bit base cell is large. Other zoom levels, magnification and tileable mode use the other
+uniforms as NOISE_SPEC.md sections 6-7 say; another MNI needs its own threshold table (section 3,
+or ask the server: `kit.tar?mni=M`).
+
+## Checking it
+
+The server's tile `%BASE%/v1/textons/%ID%/tiles/0/X/Y.exr?seed=S&mni=%MNI%` (256 x 256, float32)
+is the window X0 = 256 X, Y0 = 256 Y of the same function: compare it with your render.
+)";
+
+void replace_all(std::string& s, const std::string& from, const std::string& to) {
+    for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size()))
+        s.replace(p, from.size(), to);
+}
+
+} // namespace
+
+std::string engine_kit_directory(const std::string& id) {
+    return "textond-kit-" + id.substr(0, 12);
+}
+
+Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::string& texton_exr,
+                                   double mni, const std::string& base_url) {
+    const core::Texton& t = record.texton;
+    const std::string& id = record.meta.id;
+    const core::noise::GridPoisson grid(t.size, mni);
+
+    // 16-bit PNG: one offset and scale for every channel, so relative values are kept.
+    float lo = 0.0f, hi = 0.0f;
+    if (!t.alpha.data.empty()) {
+        const auto [mn, mx] = std::minmax_element(t.alpha.data.begin(), t.alpha.data.end());
+        lo = *mn;
+        hi = *mx;
+    }
+    const double range = hi > lo ? double(hi) - lo : 1.0;
+    core::Image png = t.alpha;
+    for (float& v : png.data) v = static_cast<float>((double(v) - lo) / range);
+    auto png16 = io::encode_image_memory(png, io::Encoding::png16);
+    if (!png16) return png16.error();
+
+    nlohmann::json mean = nlohmann::json::array();
+    for (int c = 0; c < t.channels; ++c) mean.push_back(t.mean[static_cast<std::size_t>(c)]);
+    const nlohmann::json params = {
+        {"id", id},
+        {"noise_version", render::kNoiseVersion},
+        {"channels", t.channels},
+        {"order", t.order},
+        {"r", t.size},
+        {"mean", mean},
+        {"mni", mni},
+        {"cell_size", grid.a},
+        {"lambda", grid.lambda},
+        {"points_per_cell", grid.mu},
+        {"scale", static_cast<float>(1.0 / std::sqrt(grid.lambda))},
+        {"table_pad", render::table_pad(t.order)},
+        {"poisson_thresholds", grid.thresholds},
+        {"png16_decode", {{"offset", lo}, {"scale", range}}},
+        {"rme", record.meta.rme},
+        {"seed_rule",
+         "any unsigned 64-bit seed; cell (cx, cy) draws from cell_key(seed, cx, cy) (NOISE_SPEC.md "
+         "section 2): the kit with seed S equals the server's tiles with ?seed=S"},
+        {"tile_template",
+         base_url + "/v1/textons/" + id +
+             "/tiles/{z}/{x}/{y}.exr?seed={seed}&mni=" + nlohmann::json(mni).dump()}};
+
+    std::string readme = kReadme;
+    replace_all(readme, "%ID%", id);
+    replace_all(readme, "%BASE%", base_url);
+    replace_all(readme, "%MNI%", nlohmann::json(mni).dump());
+
+    const std::string dir = engine_kit_directory(id) + "/";
+    return io::tar_archive({{dir + "README.md", readme},
+                            {dir + "textond_kit.json", params.dump(2) + "\n"},
+                            {dir + "texton.exr", texton_exr},
+                            {dir + "texton16.png", png16.value()},
+                            {dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
+                            {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},
+                            {dir + "glsl/fullscreen.vert", render::glsl::kFullscreenVert},
+                            {dir + "hlsl/texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
+                            {dir + "NOISE_SPEC.md", render::glsl::kNoiseSpec}});
+}
+
+} // namespace textond::http

@@ -1,0 +1,157 @@
+// The engine kit: unpacked with tar(1), its GLSL compiled under OSMesa from the kit's files alone
+// and fed the kit's coefficients and parameters, reproduces the server's tiles; its HLSL passes
+// glslang's HLSL front end.
+#include "core/grid_poisson.h"
+#include "render/osmesa_backend.h"
+#include "server/io/image_io.h"
+#include "tests/server/server_fixture.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+namespace textond::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Kit {
+    fs::path dir;
+    nlohmann::json params;
+};
+
+Kit unpack(httplib::Client& c, const std::string& id, const std::string& query,
+           const std::string& name) {
+    auto res = c.Get("/v1/textons/" + id + "/kit.tar" + query);
+    EXPECT_TRUE(res && res->status == 200) << (res ? res->body : "no answer");
+    if (!res || res->status != 200) return {};
+    EXPECT_EQ(res->get_header_value("Content-Type"), "application/x-tar");
+    const fs::path root = fresh_dir(name);
+    const fs::path tarball = root / "kit.tar";
+    {
+        std::ofstream f(tarball, std::ios::binary);
+        f << res->body;
+    }
+    // GNU tar checks every header checksum; a bad one fails here.
+    const std::string cmd = "tar -xf '" + tarball.string() + "' -C '" + root.string() + "'";
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    Kit kit;
+    kit.dir = root / ("textond-kit-" + id.substr(0, 12));
+    kit.params = nlohmann::json::parse(read_file((kit.dir / "textond_kit.json").string()));
+    return kit;
+}
+
+TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
+    TestServer server;
+    auto c = server.client();
+    const std::string id = upload(c, "etr_sand01.png", "?size=32&iterations=20");
+    const Kit kit = unpack(c, id, "", "kit_files");
+    for (const char* f : {"README.md", "textond_kit.json", "texton.exr", "texton16.png",
+                          "glsl/noise_lib.glsl", "glsl/texton_noise.frag", "glsl/fullscreen.vert",
+                          "hlsl/texton_noise.hlsl", "NOISE_SPEC.md"}) {
+        EXPECT_TRUE(fs::exists(kit.dir / f)) << f;
+        EXPECT_NE(read_file((kit.dir / f).string()).find(f == std::string("README.md") ? id : ""),
+                  std::string::npos);
+    }
+    // The parameters are the texton's and the threshold table is the spec's for that MNI.
+    EXPECT_EQ(kit.params["id"], id);
+    EXPECT_EQ(kit.params["r"], 32);
+    const core::noise::GridPoisson grid(32, 30.0);
+    EXPECT_EQ(kit.params["cell_size"], grid.a);
+    EXPECT_EQ(kit.params["poisson_thresholds"].get<std::vector<std::uint32_t>>(), grid.thresholds);
+    // Another MNI, another table; a bad one is a clear 400; an unknown id a 404.
+    const Kit five = unpack(c, id, "?mni=5", "kit_mni5");
+    EXPECT_EQ(five.params["poisson_thresholds"].get<std::vector<std::uint32_t>>(),
+              core::noise::GridPoisson(32, 5.0).thresholds);
+    EXPECT_EQ(c.Get("/v1/textons/" + id + "/kit.tar?mni=0")->status, 400);
+    EXPECT_EQ(c.Get("/v1/textons/" + id + "/kit.tar?lod=2")->status, 400);
+    EXPECT_EQ(c.Get("/v1/textons/" + std::string(64, 'a') + "/kit.tar")->status, 404);
+    // Same kit, same bytes (so it caches like a tile).
+    EXPECT_EQ(c.Get("/v1/textons/" + id + "/kit.tar")->body,
+              c.Get("/v1/textons/" + id + "/kit.tar")->body);
+    // The 16-bit PNG decodes to the coefficients within its quantisation step.
+    const core::Image exr = io::decode_image_file((kit.dir / "texton.exr").string()).value();
+    const core::Image png = io::decode_image_file((kit.dir / "texton16.png").string()).value();
+    const double offset = kit.params["png16_decode"]["offset"],
+                 scale = kit.params["png16_decode"]["scale"];
+    ASSERT_EQ(exr.data.size(), png.data.size());
+    double worst = 0;
+    for (std::size_t i = 0; i < exr.data.size(); ++i)
+        worst = std::max(worst, std::fabs(offset + scale * png.data[i] - exr.data[i]));
+    EXPECT_LE(worst, scale / 65535.0);
+}
+
+// What a game client does: the kit's shader files, the kit's texton.exr and JSON, nothing else
+// from the server; the result is the server's tile to the cross-backend tolerance.
+TEST(EngineKit, KitGlslUnderOsmesaReproducesTheServersTiles) {
+    TestServer server;
+    auto c = server.client();
+    for (int order : {1, 3}) {
+        const std::string id =
+            upload(c, "etr_pebbles04.png", "?size=32&iterations=20&order=" + std::to_string(order));
+        const Kit kit = unpack(c, id, "", "kit_gl_" + std::to_string(order));
+        render::GlslSources sources;
+        sources.vert = read_file((kit.dir / "glsl/fullscreen.vert").string());
+        sources.lib = read_file((kit.dir / "glsl/noise_lib.glsl").string());
+        sources.frag = read_file((kit.dir / "glsl/texton_noise.frag").string());
+        auto gl = render::make_osmesa_backend(sources);
+        if (!gl) GTEST_SKIP() << "no OSMesa: " << gl.error().message;
+
+        core::Texton t;
+        t.alpha = io::decode_image_file((kit.dir / "texton.exr").string()).value();
+        t.size = kit.params["r"];
+        t.channels = kit.params["channels"];
+        t.order = kit.params["order"];
+        ASSERT_EQ(t.order, order);
+        for (int ch = 0; ch < t.channels; ++ch)
+            t.mean[static_cast<std::size_t>(ch)] = kit.params["mean"][static_cast<std::size_t>(ch)];
+        auto prepared = render::PreparedTexton::make(t);
+        ASSERT_TRUE(prepared.ok());
+        double var = 0;
+        for (int ch = 0; ch < 3; ++ch)
+            var = std::max(var, prepared.value()->covariance().at(ch, ch, 0, 0));
+
+        struct Tile {
+            std::int64_t x, y;
+            std::uint64_t seed;
+        };
+        for (const Tile& tile : {Tile{0, 0, 0}, Tile{-3, 7, 12345},
+                                 Tile{std::int64_t{1} << 30, -(std::int64_t{1} << 30), 9}}) {
+            auto res = c.Get("/v1/textons/" + id + "/tiles/0/" + std::to_string(tile.x) + "/" +
+                             std::to_string(tile.y) + ".exr?seed=" + std::to_string(tile.seed));
+            ASSERT_TRUE(res && res->status == 200);
+            const core::Image want = decode(res->body);
+            render::NoiseRequest q;
+            q.seed = tile.seed;
+            q.mni = kit.params["mni"];
+            q.x0 = 256 * tile.x;
+            q.y0 = 256 * tile.y;
+            auto got = gl.value()->render(*prepared.value(), q);
+            ASSERT_TRUE(got.ok()) << got.error().message;
+            EXPECT_LE(max_abs_diff(got.value(), want), 1e-5 * std::sqrt(var))
+                << "order " << order << " tile " << tile.x << "," << tile.y;
+        }
+    }
+}
+
+TEST(EngineKit, HlslCompilesWithGlslangsHlslFrontEnd) {
+    if (std::system("command -v glslangValidator >/dev/null 2>&1") != 0)
+        GTEST_SKIP() << "glslangValidator not installed (docker/install-deps.sh installs it)";
+    TestServer server;
+    auto c = server.client();
+    const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    const Kit kit = unpack(c, id, "", "kit_hlsl");
+    const fs::path hlsl = kit.dir / "hlsl/texton_noise.hlsl";
+    const std::string cmd = "glslangValidator -D -S frag -e main -V '" + hlsl.string() + "' -o '" +
+                            (kit.dir / "texton_noise.spv").string() + "' >/dev/null";
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    EXPECT_GT(fs::file_size(kit.dir / "texton_noise.spv"), 1000u);
+}
+
+} // namespace
+} // namespace textond::test
