@@ -145,8 +145,18 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     t0 = std::chrono::steady_clock::now();
     const GaussianModel model = estimate_gaussian_model(p, threads);
     out.timings.model_ms = ms_since(t0);
+    AnalysisResult r = texton_from_model(model, params, progress);
+    r.timings.periodic_ms = out.timings.periodic_ms;
+    r.timings.model_ms = out.timings.model_ms;
+    r.timings.total_ms = ms_since(t_start);
+    return r;
+}
 
-    t0 = std::chrono::steady_clock::now();
+AnalysisResult texton_from_model(const GaussianModel& model, const AnalysisParams& params,
+                                 const ProgressFn& progress) {
+    const int threads = resolve_threads(params.threads);
+    AnalysisResult out;
+    auto t0 = std::chrono::steady_clock::now();
     Image alpha = alternating_projections(model, params.size, params.order, params.iterations,
                                           params.seed, threads, progress);
     out.timings.projections_ms = ms_since(t0);
@@ -166,11 +176,10 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     out.timings.rme_ms += ms_since(t0);
 
     out.texton.size = params.size;
-    out.texton.channels = exemplar.channels;
+    out.texton.channels = model.channels;
     out.texton.order = params.order;
     out.texton.mean = model.mean;
     out.texton.alpha = std::move(alpha);
-    out.timings.total_ms = ms_since(t_start);
     return out;
 }
 

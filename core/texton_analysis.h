@@ -47,6 +47,11 @@ std::optional<Error> validate_analysis(const AnalysisParams& params, int width, 
 Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParams& params,
                                       const ProgressFn& progress = {});
 
+// The steps after the model (projections, colour correction, RME) for a model given directly:
+// the texture mixing's barycentres (texton-noise section 7). `params.periodic` is not used.
+AnalysisResult texton_from_model(const GaussianModel& model, const AnalysisParams& params,
+                                 const ProgressFn& progress = {});
+
 // Texton-noise paper Algorithm 1 (colour projection of section 4.3): coefficients supported on
 // [0, size)^2 whose spectrum times sqrt(b^) approaches |t_u^|, from a seeded random phase.
 Image alternating_projections(const GaussianModel& model, int size, int order, int iterations,

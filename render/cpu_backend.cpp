@@ -255,9 +255,24 @@ void cell_range(const LevelGeometry& g, int a, std::int64_t p0, std::int64_t p1,
     c1 = floor_div(b_hi, a);
 }
 
-void render_block(const PreparedTexton& tex, const LevelTable& table, const GridPoisson& grid,
-                  const LevelGeometry& geo, const NoiseRequest& q, const Block& blk,
-                  core::Image& out, std::uint64_t& points, std::uint64_t& evaluations) {
+std::vector<int>& thread_point_levels() {
+    static thread_local std::vector<int> v;
+    return v;
+}
+
+// The output pixel's position in texels: the point it samples (k <= 0) or the centre of its
+// footprint (k > 0), where a mix takes its mean colour.
+inline double pixel_texel(const LevelGeometry& g, std::int64_t p) {
+    if (g.level > 0) return static_cast<double>(g.st * p) + 0.5 * static_cast<double>(g.st - 1);
+    return static_cast<double>(p) / static_cast<double>(g.sub);
+}
+
+// `tables` holds one table (a texton) or one per mix level (`mix` set): then every point takes
+// the table of the level of the field at its own position (texton-noise section 7).
+void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*>& tables,
+                  const PreparedMix* mix, const GridPoisson& grid, const LevelGeometry& geo,
+                  const NoiseRequest& q, const Block& blk, core::Image& out, std::uint64_t& points,
+                  std::uint64_t& evaluations) {
     const int nc = tex.channels();
     const std::size_t stride = static_cast<std::size_t>(blk.w) + kRunQuantum;
     const std::size_t plane = stride * blk.h;
@@ -274,9 +289,17 @@ void render_block(const PreparedTexton& tex, const LevelTable& table, const Grid
     for (std::int64_t cy = cy0; cy <= cy1; ++cy)
         for (std::int64_t cx = cx0; cx <= cx1; ++cx) grid.cell_points(q.seed, cx, cy, pts);
     points += pts.size();
+    std::vector<int>& point_level = thread_point_levels();
+    point_level.assign(pts.size(), 0);
+    if (mix)
+        for (std::size_t i = 0; i < pts.size(); ++i)
+            point_level[i] = mix->level_at(static_cast<double>(pts[i].bx) + pts[i].fx / 16777216.0,
+                                           static_cast<double>(pts[i].by) + pts[i].fy / 16777216.0);
     AxisTaps tx, ty;
     for (int c = 0; c < nc; ++c)
-        for (const CellPoint& p : pts) {
+        for (std::size_t pi = 0; pi < pts.size(); ++pi) {
+            const CellPoint& p = pts[pi];
+            const LevelTable& table = *tables[static_cast<std::size_t>(point_level[pi])];
             if (geo.level == 0 && geo.order == 3) {
                 // t = P - b in [-1, L + 1]: contiguous, constant weights.
                 const std::int64_t xa = std::max(blk.x0, p.bx - 1),
@@ -369,7 +392,47 @@ void render_block(const PreparedTexton& tex, const LevelTable& table, const Grid
         for (int y = 0; y < blk.h; ++y) {
             const float* a = acc.data() + plane * c + static_cast<std::size_t>(y) * stride;
             float* o = &out.at(c, static_cast<int>(ox), static_cast<int>(oy) + y);
+            if (mix) {
+                const double py = pixel_texel(geo, blk.y0 + y);
+                for (int x = 0; x < blk.w; ++x)
+                    o[x] = static_cast<float>(mix->mean_at(pixel_texel(geo, blk.x0 + x), py, c)) +
+                           scale * a[x];
+                continue;
+            }
             for (int x = 0; x < blk.w; ++x) o[x] = m + scale * a[x];
+        }
+    }
+}
+
+// The limit model of a mix: each pixel takes the model of the level at its footprint's centre.
+void render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads,
+                      core::Image& out) {
+    const int nc = mix.channels();
+    const std::int64_t st = std::int64_t{1} << q.level;
+    LevelGeometry geo;
+    geo.level = q.level;
+    geo.st = st;
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int y = 0; y < q.height; ++y) {
+        const double ty = pixel_texel(geo, q.y0 + y);
+        for (int x = 0; x < q.width; ++x) {
+            const double tx = pixel_texel(geo, q.x0 + x);
+            const core::noise::LimitModel& lm = mix.level(mix.level_at(tx, ty)).limit(q.level);
+            float s[3] = {0, 0, 0};
+            for (int dy = -2; dy <= 2; ++dy)
+                for (int dx = -2; dx <= 2; ++dx) {
+                    float n[3];
+                    core::noise::pixel_normals(q.seed, q.level, q.x0 + x - dx, q.y0 + y - dy, nc,
+                                               n);
+                    const float k = static_cast<float>(
+                        lm.kappa[static_cast<std::size_t>((dy + 2) * 5 + dx + 2)]);
+                    for (int c = 0; c < nc; ++c) s[c] = s[c] + k * n[c];
+                }
+            for (int c = 0; c < nc; ++c) {
+                float v = 0.0f;
+                for (int d = 0; d < nc; ++d) v = v + static_cast<float>(lm.a(c, d)) * s[d];
+                out.at(c, x, y) = static_cast<float>(mix.mean_at(tx, ty, c)) + v;
+            }
         }
     }
 }
@@ -450,6 +513,38 @@ Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseReq
         return out;
     }
     const auto table = tex.table(q.level);
+    return render_exact(tex, {table.get()}, nullptr, q, stats);
+}
+
+Result<core::Image> CpuBackend::render_mix(const PreparedMix& mix, const NoiseRequest& q,
+                                           RenderStats* stats) {
+    if (auto err = mix.check(q)) return *err;
+    const PreparedTexton& first = mix.level(0);
+    if (q.level >= first.limit_level()) {
+        core::Image out(q.width, q.height, mix.channels());
+        render_limit_mix(mix, q, m_threads, out);
+        if (stats) {
+            stats->limit_model = true;
+            stats->points = 0;
+            stats->evaluations = static_cast<std::uint64_t>(q.width) * q.height * 25;
+        }
+        return out;
+    }
+    std::vector<std::shared_ptr<const LevelTable>> keep;
+    std::vector<const LevelTable*> tables;
+    for (int l = 0; l < mix.levels(); ++l) {
+        keep.push_back(mix.level(l).table(q.level));
+        tables.push_back(keep.back().get());
+    }
+    return render_exact(first, tables, &mix, q, stats);
+}
+
+Result<core::Image> CpuBackend::render_exact(const PreparedTexton& tex,
+                                             const std::vector<const LevelTable*>& tables,
+                                             const PreparedMix* mix, const NoiseRequest& q,
+                                             RenderStats* stats) {
+    core::Image out(q.width, q.height, tex.channels());
+    const LevelTable* table = tables.front();
     const GridPoisson grid(tex.size(), q.mni, q.period);
     LevelGeometry geo;
     geo.level = q.level;
@@ -469,7 +564,7 @@ Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseReq
                   q.y0 + static_cast<std::int64_t>(by) * bs, std::min(bs, q.width - bx * bs),
                   std::min(bs, q.height - by * bs)};
         std::uint64_t p = 0, e = 0;
-        render_block(tex, *table, grid, geo, q, blk, out, p, e);
+        render_block(tex, tables, mix, grid, geo, q, blk, out, p, e);
         points += p;
         evaluations += e;
     }

@@ -3,6 +3,9 @@
 // Algorithm 1) of every point's texton into cache-sized blocks of the window, in the global point
 // order of NOISE_SPEC.md section 7, so any tiling and any thread count give the same bits.
 #include "render/backend.h"
+#include "render/prepared_mix.h"
+
+#include <vector>
 
 namespace textond::render {
 
@@ -14,8 +17,16 @@ public:
     std::string renderer() const override;
     Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                RenderStats* stats = nullptr) override;
+    // A texture mix (texton-noise section 7): every Poisson point takes the level texton of the
+    // field at its position, the mean follows the field. CPU only for now.
+    Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,
+                                   RenderStats* stats = nullptr);
 
 private:
+    Result<core::Image> render_exact(const PreparedTexton& tex,
+                                     const std::vector<const LevelTable*>& tables,
+                                     const PreparedMix* mix, const NoiseRequest& q,
+                                     RenderStats* stats);
     int m_threads;
     int m_block;
 };

@@ -29,6 +29,21 @@ std::shared_ptr<const render::PreparedTexton> analysed_texton(const std::string&
     return t.value();
 }
 
+std::shared_ptr<const render::PreparedMix> analysed_mix(const std::string& u, const std::string& v,
+                                                        int size, int levels,
+                                                        const core::MixField& field) {
+    auto pair = core::common_models(load_exemplar(u), load_exemplar(v), true, 0);
+    if (!pair) throw std::runtime_error(pair.error().message);
+    core::AnalysisParams p;
+    p.size = size;
+    p.iterations = 30;
+    auto mixed = core::mix_levels(pair.value(), p, levels);
+    if (!mixed) throw std::runtime_error(mixed.error().message);
+    auto m = render::PreparedMix::make(mixed.value().levels, field);
+    if (!m) throw std::runtime_error(m.error().message);
+    return m.value();
+}
+
 double field_std(const render::PreparedTexton& t, int c) {
     return std::sqrt(t.covariance().at(c, c, 0, 0));
 }

@@ -1,5 +1,6 @@
 #pragma once
 // Textons analysed from the shared exemplars, once per test process, ready for the backends.
+#include "render/prepared_mix.h"
 #include "render/prepared_texton.h"
 
 #include <memory>
@@ -10,6 +11,11 @@ namespace textond::test {
 // `name` from shared/data/exemplars, analysed with r = size (order 1, 50 iterations, seed 0).
 std::shared_ptr<const render::PreparedTexton> analysed_texton(const std::string& name, int size,
                                                               int order = 1);
+
+// A mix of two shared exemplars (r = size, order 1, 30 iterations, seed 0) with `levels` levels.
+std::shared_ptr<const render::PreparedMix> analysed_mix(const std::string& u, const std::string& v,
+                                                        int size, int levels,
+                                                        const core::MixField& field);
 
 // Standard deviation of channel c of the level-0 field: sqrt(C(0)_cc).
 double field_std(const render::PreparedTexton& t, int c);

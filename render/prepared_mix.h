@@ -1,0 +1,36 @@
+#pragma once
+// A texture mix made ready for evaluation (texton-noise section 7): R prepared level textons that
+// share r, order and channels, and the field rho(x) that picks the level of every Poisson point.
+#include "core/texture_mix.h"
+#include "render/prepared_texton.h"
+
+#include <memory>
+#include <vector>
+
+namespace textond::render {
+
+class PreparedMix {
+public:
+    static Result<std::shared_ptr<const PreparedMix>> make(std::vector<core::Texton> levels,
+                                                           core::MixField field);
+
+    int levels() const { return static_cast<int>(m_levels.size()); }
+    const PreparedTexton& level(int l) const { return *m_levels[static_cast<std::size_t>(l)]; }
+    const core::MixField& field() const { return m_field; }
+    int size() const { return m_levels.front()->size(); }
+    int channels() const { return m_levels.front()->channels(); }
+
+    // The level of a point at (x, y) texels, and the mean colour channel c at (x, y): the linear
+    // interpolation (1 - rho) m_u + rho m_v of the two ends' means.
+    int level_at(double x, double y) const { return core::mix_level(m_field.rho(x, y), levels()); }
+    double mean_at(double x, double y, int c) const;
+
+    std::optional<Error> check(const NoiseRequest& req) const;
+
+private:
+    PreparedMix() = default;
+    std::vector<std::shared_ptr<const PreparedTexton>> m_levels;
+    core::MixField m_field;
+};
+
+} // namespace textond::render
