@@ -300,6 +300,45 @@ std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, Nois
     return noise_fields(q, out);
 }
 
+std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out) {
+    if (has_mask) {
+        if (auto e = check_fields(q, {"u", "v", "levels", "x0", "y0", "scale"})) return e;
+        out.field.kind = core::MixField::Kind::mask;
+    } else if (auto e = check_fields(q, {"u", "v", "levels", "x0", "y0", "dx", "dy", "width"})) {
+        if (field(q, "scale"))
+            return bad("invalid_parameter", "scale places a mask: send the mask image as the body");
+        return e;
+    }
+    const std::string* u = field(q, "u");
+    const std::string* v = field(q, "v");
+    if (!u || !v) return bad("invalid_parameter", "u and v (two texton ids) are required");
+    if (auto e = check_texton_id(*u)) return e;
+    if (auto e = check_texton_id(*v)) return e;
+    out.u = *u;
+    out.v = *v;
+    std::int64_t levels = out.levels;
+    if (auto e = int_field(q, "levels", 2, core::kMaxMixLevels, levels)) return e;
+    out.levels = static_cast<int>(levels);
+    for (auto [name, dst] : {std::pair<const char*, double*>{"x0", &out.field.x0},
+                             {"y0", &out.field.y0},
+                             {"dx", &out.field.dx},
+                             {"dy", &out.field.dy},
+                             {"width", &out.field.width},
+                             {"scale", &out.field.scale}})
+        if (const std::string* s = field(q, name)) {
+            auto d = parse_finite(*s);
+            if (!d) return bad("invalid_parameter", std::string(name) + " must be a finite number");
+            *dst = *d;
+        }
+    if (out.field.kind == core::MixField::Kind::mask) return std::nullopt; // mask checked later
+    if (auto err = out.field.validate()) return bad("invalid_parameter", err->message);
+    return std::nullopt;
+}
+
+std::optional<ApiError> check_mix_id(std::string_view s) {
+    return check_texton_id(s);
+}
+
 std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out) {
     if (auto e = check_texton_id(id)) return e;
     if (auto e = check_fields(q, {"mni"})) return e;

@@ -3,6 +3,7 @@
 // (style.md: OSRM's *_parameters). No HTTP here: server/ hands in strings and maps ApiError to a
 // response. Every rule below is also written in api/openapi.yaml.
 #include "core/texton_analysis.h"
+#include "core/texture_mix.h"
 
 #include <cstdint>
 #include <map>
@@ -92,6 +93,17 @@ std::optional<ApiError> parse_list(const Query& q, ListRequest& out);
 // TileJSON: seed, mni and the tile size it will write into its template.
 std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out);
 // The spectra: seed and mni of the noise window.
+// POST /v1/mixes: two texton ids, the level count and the field. Without a body the field is a
+// ramp (x0, y0, dx, dy, width); with one (a mask image, decoded by the caller) it is the mask's
+// placement (x0, y0, scale).
+struct MixRequest {
+    std::string u, v;
+    int levels = 21;
+    core::MixField field;
+};
+std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out);
+std::optional<ApiError> check_mix_id(std::string_view s);
+
 // GET /v1/textons/{id}/kit.tar[?mni=M]
 std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out);
 std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out);

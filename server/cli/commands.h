@@ -13,6 +13,7 @@ int synth_command(const Argv& args);
 int bench_command(const Argv& args);
 int bench_render_command(const Argv& args);
 int render_command(const Argv& args);
+int mix_command(const Argv& args);
 int serve_command(const Argv& args);
 int probe_command(const Argv& args);
 

@@ -19,6 +19,7 @@ commands:
   analyze   estimate the Gaussian model of an exemplar and compute its texton (+ RME)
   synth     reference synthesis (ADSN, RPN, discrete spot noise) from an exemplar or texton
   render    evaluate a window of texton noise (any position, level, seed) on a backend
+  mix       mix two exemplars across space (optimal-transport barycentres, a ramp or a mask)
   serve     run the HTTP service (textond serve --help; README "HTTP API")
   bench     benchmarks (textond bench analyze | render)
   probe     GET a URL, exit 0 on 2xx (the container HEALTHCHECK)
@@ -72,6 +73,7 @@ int main(int argc, char** argv) {
         if (cmd == "analyze") return textond::cli::analyze_command(rest);
         if (cmd == "synth") return textond::cli::synth_command(rest);
         if (cmd == "render") return textond::cli::render_command(rest);
+        if (cmd == "mix") return textond::cli::mix_command(rest);
         if (cmd == "bench") return textond::cli::bench_command(rest);
         if (cmd == "serve") return textond::cli::serve_command(rest);
         if (cmd == "probe") return textond::cli::probe_command(rest);

@@ -87,6 +87,7 @@ struct Service::ImageJob {
     render::NoiseRequest request;
     int out_width = 0, out_height = 0; // tileable textures are resampled to the asked size
     bool use_region_backend = false;
+    bool mix = false; // id names a texture mix (/v1/mixes/{id}/...)
 };
 
 std::string Service::etag_for(const std::string& key) const {
@@ -97,8 +98,13 @@ std::string Service::etag_for(const std::string& key) const {
 
 void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
                            const std::string& id, const std::string& key, api::ImageFormat format,
-                           const std::function<Result<core::Image>()>& produce) {
-    if (auto found = m_store->find(id); !found) return send_error(res, to_api_error(found.error()));
+                           const std::function<Result<core::Image>()>& produce, bool mix) {
+    if (mix) {
+        if (auto found = m_mixes->meta(id); !found)
+            return send_error(res, to_api_error(found.error()));
+    } else if (auto found = m_store->find(id); !found) {
+        return send_error(res, to_api_error(found.error()));
+    }
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
     const std::string etag = cached ? cached->etag : etag_for(key);
@@ -142,16 +148,39 @@ Result<core::Image> Service::render_noise(const std::string& id, const render::N
     return image;
 }
 
+Result<core::Image> Service::render_mix(const std::string& id, const render::NoiseRequest& q,
+                                        bool whole_machine, const char* kind) {
+    auto prepared = m_mixes->prepared(id);
+    if (!prepared) return prepared.error();
+    if (auto err = prepared.value()->check(q)) return *err;
+    render::CpuBackend& backend = whole_machine ? *m_mix_region_backend : *m_mix_backend;
+    const auto t0 = std::chrono::steady_clock::now();
+    Result<core::Image> image = [&] {
+        SlotGuard slot(m_render_slots);
+        return backend.render_mix(*prepared.value(), q);
+    }();
+    m_metrics.render(
+        "cpu", kind,
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    return image;
+}
+
 void Service::serve_image(const httplib::Request& req, httplib::Response& res,
                           const ImageJob& job) {
     const std::string key =
         noise_key(job.id, job.request, job.format, job.kind, job.out_width, job.out_height);
-    serve_cached(req, res, job.id, key, job.format, [&]() -> Result<core::Image> {
-        auto image = render_noise(job.id, job.request, job.use_region_backend, job.kind);
-        if (image && (job.out_width != job.request.width || job.out_height != job.request.height))
-            return core::resample_periodic(image.value(), job.out_width, job.out_height);
-        return image;
-    });
+    serve_cached(
+        req, res, job.id, key, job.format,
+        [&]() -> Result<core::Image> {
+            auto image = job.mix
+                             ? render_mix(job.id, job.request, job.use_region_backend, job.kind)
+                             : render_noise(job.id, job.request, job.use_region_backend, job.kind);
+            if (image &&
+                (job.out_width != job.request.width || job.out_height != job.request.height))
+                return core::resample_periodic(image.value(), job.out_width, job.out_height);
+            return image;
+        },
+        job.mix);
 }
 
 // The exemplar's power spectrum (periodic component, centre crop of at most 512 x 512) next to
@@ -219,12 +248,18 @@ std::string Service::base_url(const httplib::Request& req) const {
     return "http://" + host;
 }
 
-void Service::tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res) {
-    set_route("/v1/textons/{id}/tilejson.json");
+void Service::tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res,
+                       bool mix) {
+    set_route(mix ? "/v1/mixes/{id}/tilejson.json" : "/v1/textons/{id}/tilejson.json");
     api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
     if (auto e = api::parse_tilejson(id, req.params, probe)) return send_error(res, *e);
-    auto meta = m_store->find(id);
-    if (!meta) return send_error(res, to_api_error(meta.error()));
+    if (mix) {
+        if (auto meta = m_mixes->meta(id); !meta)
+            return send_error(res, to_api_error(meta.error()));
+    } else if (auto meta = m_store->find(id); !meta) {
+        return send_error(res, to_api_error(meta.error()));
+    }
+    const std::string prefix = mix ? "/v1/mixes/" : "/v1/textons/";
     const std::string query = "?seed=" + std::to_string(probe.noise.seed) +
                               "&mni=" + mni_text(probe.noise.mni) +
                               (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "");
@@ -233,12 +268,12 @@ void Service::tilejson(const httplib::Request& req, const std::string& id, httpl
     nlohmann::json j = {
         {"tilejson", "3.0.0"},
         {"name", "textond " + id.substr(0, 12)},
-        {"description", "Texton noise of texton " + id + " (seed " +
-                            std::to_string(probe.noise.seed) + ", MNI " +
+        {"description", std::string(mix ? "Texture mix " : "Texton noise of texton ") + id +
+                            " (seed " + std::to_string(probe.noise.seed) + ", MNI " +
                             mni_text(probe.noise.mni) + "), an unbounded seamless plane"},
         {"version", "1.0.0"},
         {"scheme", "xyz"},
-        {"tiles", {base + "/v1/textons/" + id + "/map/{z}/{x}/{y}.png" + query}},
+        {"tiles", {base + prefix + id + "/map/{z}/{x}/{y}.png" + query}},
         {"minzoom", 0},
         {"maxzoom", api::kMapMaxZoom},
         {"center", {0, 0, native_zoom}},
@@ -249,7 +284,7 @@ void Service::tilejson(const httplib::Request& req, const std::string& id, httpl
                                 "the texton's own resolution"},
           {"native_zoom", native_zoom},
           {"crs", "Leaflet L.CRS.Simple / OpenLayers pixel projection; y grows downwards"},
-          {"game_tiles", base + "/v1/textons/" + id + "/tiles/{level}/{x}/{y}.png" + query}}}};
+          {"game_tiles", base + prefix + id + "/tiles/{level}/{x}/{y}.png" + query}}}};
     // The absolute URLs come from the Host header unless --public-url is set.
     if (m_config.public_url.empty()) res.set_header("Vary", "Host");
     send_json(res, 200, j, "public, max-age=60");
@@ -260,8 +295,8 @@ void Service::install_image_routes() {
     using Res = httplib::Response&;
     // Game tiles (z = level) and web-map tiles (z = zoom, level = 24 - z) differ only in parsing.
     using TileParser = decltype(&api::parse_tile);
-    auto tile_route = [this](const char* route, TileParser parse) {
-        return [this, route, parse](Req req, Res res) {
+    auto tile_route = [this](const char* route, TileParser parse, bool mix = false) {
+        return [this, route, parse, mix](Req req, Res res) {
             set_route(route);
             api::TileRequest t;
             if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
@@ -270,24 +305,37 @@ void Service::install_image_routes() {
             serve_image(req, res,
                         {t.id, "tile", t.format,
                          noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise), t.size,
-                         t.size, false});
+                         t.size, false, mix});
         };
     };
+    auto region_route = [this](const char* route, bool mix) {
+        return [this, route, mix](Req req, Res res) {
+            set_route(route);
+            api::RegionRequest r;
+            if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), req.params,
+                                           m_config.limits, r))
+                return send_error(res, *e);
+            serve_image(req, res,
+                        {r.id, "region", r.format,
+                         noise_request(r.level, r.x, r.y, r.width, r.height, r.noise), r.width,
+                         r.height, true, mix});
+        };
+    };
+    // Texture mixes: the same windows onto their (non-stationary) noise.
+    m_http.Get(R"(/v1/mixes/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               tile_route("/v1/mixes/{id}/tiles/{z}/{x}/{y}.{format}", &api::parse_tile, true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               tile_route("/v1/mixes/{id}/map/{z}/{x}/{y}.{format}", &api::parse_map_tile, true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/region\.([a-z0-9]+))",
+               region_route("/v1/mixes/{id}/region.{format}", true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/tilejson\.json)",
+               [this](Req req, Res res) { tilejson(req, req.matches[1].str(), res, true); });
     m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
                tile_route("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &api::parse_tile));
     m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
                tile_route("/v1/textons/{id}/map/{z}/{x}/{y}.{format}", &api::parse_map_tile));
-    m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))", [this](Req req, Res res) {
-        set_route("/v1/textons/{id}/region.{format}");
-        api::RegionRequest r;
-        if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), req.params,
-                                       m_config.limits, r))
-            return send_error(res, *e);
-        serve_image(req, res,
-                    {r.id, "region", r.format,
-                     noise_request(r.level, r.x, r.y, r.width, r.height, r.noise), r.width,
-                     r.height, true});
-    });
+    m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))",
+               region_route("/v1/textons/{id}/region.{format}", false));
     m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", [this](Req req, Res res) {
         set_route("/v1/textons/{id}/tileable.{format}");
         api::TileableRequest t;

@@ -129,6 +129,11 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     }
     s->m_pool =
         std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
+    auto mixes = MixStore::open(s->m_config.data_dir);
+    if (!mixes) return mixes.error();
+    s->m_mixes = std::move(mixes.value());
+    s->m_mix_backend = std::make_shared<render::CpuBackend>(1);
+    s->m_mix_region_backend = std::make_shared<render::CpuBackend>(0);
 
     Metrics& m = s->m_metrics;
     Service* self = s.get();
@@ -155,6 +160,7 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     s->install_hooks();
     s->install_image_routes(); // the hot path first: cpp-httplib tries routes in order
     s->install_texton_routes();
+    s->install_mix_routes();
     s->install_ops_routes();
     s->install_web_routes();
     return s;

@@ -3,10 +3,12 @@
 // texton store, the analysis pool, the render backends and the image cache.
 #include "core/result.h"
 #include "render/backend.h"
+#include "render/cpu_backend.h"
 #include "server/http/analysis_pool.h"
 #include "server/http/config.h"
 #include "server/http/image_cache.h"
 #include "server/http/metrics.h"
+#include "server/http/mix_store.h"
 #include "server/http/texton_store.h"
 
 #include <httplib.h>
@@ -86,6 +88,11 @@ private:
     void install_web_routes();
     void install_texton_routes();
     void install_image_routes();
+    void install_mix_routes();
+
+    // mix_routes.cpp
+    void create_mix(const httplib::Request& req, httplib::Response& res);
+    void get_mix(const std::string& id, httplib::Response& res);
 
     // texton_routes.cpp
     void upload(const httplib::Request& req, httplib::Response& res,
@@ -104,13 +111,16 @@ private:
     // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format,
-                      const std::function<Result<core::Image>()>& produce);
+                      const std::function<Result<core::Image>()>& produce, bool mix = false);
     Result<core::Image> render_noise(const std::string& id, const render::NoiseRequest& q,
                                      bool whole_machine, const char* kind);
+    Result<core::Image> render_mix(const std::string& id, const render::NoiseRequest& q,
+                                   bool whole_machine, const char* kind);
     void serve_image(const httplib::Request& req, httplib::Response& res, const ImageJob& job);
     void spectrum(const httplib::Request& req, const std::string& id, httplib::Response& res);
     void exemplar(const std::string& id, httplib::Response& res);
-    void tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res);
+    void tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res,
+                  bool mix = false);
     std::string etag_for(const std::string& key) const;
     std::string base_url(const httplib::Request& req) const;
 
@@ -119,6 +129,11 @@ private:
     Metrics m_metrics;
     std::unique_ptr<TextonStore> m_store;
     std::unique_ptr<AnalysisPool> m_pool;
+    std::unique_ptr<MixStore> m_mixes;
+    std::mutex m_mix_mutex; // one mix analysis at a time
+    // Mixes render on the CPU backend whatever --backend says (no GL path for them yet).
+    std::shared_ptr<render::CpuBackend> m_mix_backend;        // tiles: one thread each
+    std::shared_ptr<render::CpuBackend> m_mix_region_backend; // regions: every core
     ImageCache m_cache;
     std::shared_ptr<render::Backend> m_tile_backend;   // one thread per render: many at once
     std::shared_ptr<render::Backend> m_region_backend; // every core on one large window

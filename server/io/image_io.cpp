@@ -404,7 +404,12 @@ EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attribute
                           : e == Encoding::png16 ? TypeDesc::UINT16
                                                  : TypeDesc::FLOAT;
     EncodeInput in{ImageSpec(image.width, image.height, image.channels, type), type, {}};
-    if (e == Encoding::exr) in.spec.attribute("compression", "zip");
+    if (e == Encoding::exr) {
+        in.spec.attribute("compression", "zip");
+        // OpenEXR's writer stamps the current time (capDate) unless a DateTime is given: the
+        // same pixels must be the same bytes (strong ETags, replicas, restarts), so a fixed one.
+        in.spec.attribute("DateTime", "1970:01:01 00:00:00");
+    }
     if (image.channels == 1) in.spec.channelnames = {"Y"};
     for (const auto& [key, value] : attributes) in.spec.attribute(key, value);
     in.pixels.resize(image.data.size() * type.size());

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <set>
@@ -42,7 +43,7 @@ RunResult run(const std::string& args) {
 
 TEST(Cli, HelpForEveryCommand) {
     for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help",
-                          "render --help", "bench render --help", "serve --help"}) {
+                          "render --help", "bench render --help", "serve --help", "mix --help"}) {
         const RunResult r = run(c);
         EXPECT_EQ(r.code, 0) << c;
         EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
@@ -156,6 +157,39 @@ TEST(Cli, RenderWritesTheAskedWindowOnEverySoftwareBackend) {
         EXPECT_EQ(e.code, c.code) << c.args << "\n" << e.err;
         EXPECT_NE(e.err.find(c.says), std::string::npos) << c.args << "\n" << e.err;
     }
+}
+
+// textond mix: the default ramp runs across the window, from U's mean colour to V's.
+TEST(Cli, MixWritesTheTransitionAcrossTheWindow) {
+    const std::string out = test::temp_path("mix.exr");
+    const RunResult r = run("mix " + test::exemplar_path("etr_sand01.png") + " " +
+                            test::exemplar_path("etr_pebbles04.png") +
+                            " --size 16 --iterations 10 --levels 5 --w 2048 --h 64 -o " + out);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j.at("rme").size(), 5u);
+    auto img = io::decode_image_file(out);
+    ASSERT_TRUE(img.ok());
+    ASSERT_EQ(img.value().width, 2048);
+    auto column_mean = [&](int x0) {
+        double s = 0;
+        for (int y = 0; y < 64; ++y)
+            for (int x = x0; x < x0 + 128; ++x) s += img.value().at(2, x, y);
+        return s / (64 * 128);
+    };
+    // Blue: sand is yellow, the pebbles grey, so the blue mean rises from left to right.
+    const RunResult su = run("analyze " + test::exemplar_path("etr_sand01.png") + " --size 16");
+    const RunResult sv = run("analyze " + test::exemplar_path("etr_pebbles04.png") + " --size 16");
+    const double bu = nlohmann::json::parse(su.out).at("mean")[2];
+    const double bv = nlohmann::json::parse(sv.out).at("mean")[2];
+    EXPECT_NEAR(column_mean(0), bu + (bv - bu) * 64 / 2048.0, 0.3 * std::fabs(bv - bu));
+    EXPECT_NEAR(column_mean(2048 - 128), bv - (bv - bu) * 64 / 2048.0, 0.3 * std::fabs(bv - bu));
+    for (const char* bad : {"--levels 1", "--ramp 1,2,3", "--ramp 0,0,0,0,10", "--mask-scale 0"}) {
+        const RunResult e = run("mix " + test::exemplar_path("etr_sand01.png") + " " +
+                                test::exemplar_path("etr_pebbles04.png") + " " + bad + " -o x.png");
+        EXPECT_EQ(e.code, 2) << bad << "\n" << e.err;
+    }
+    EXPECT_EQ(run("mix " + test::exemplar_path("etr_sand01.png") + " -o x.png").code, 2);
 }
 
 TEST(Cli, ServeHelpShowsEveryFlagWithItsEnvironmentVariable) {

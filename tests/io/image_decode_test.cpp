@@ -7,6 +7,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <thread>
+#include <vector>
 
 using namespace textond;
 namespace fs = std::filesystem;
@@ -289,3 +291,20 @@ TEST(Decode, ExrHeadersAreCheckedBeforeOpenExrAllocates) {
     EXPECT_NE(refused.error().message.find("more than the file has"), std::string::npos)
         << refused.error().message;
 }
+
+namespace textond::test {
+namespace {
+// The same pixels are the same bytes whenever they are encoded: tiles carry strong ETags, so an
+// encoder that stamps the time (OpenEXR's capDate) would give one ETag two bodies.
+TEST(ImageEncode, SameBytesAcrossSeconds) {
+    const core::Image im = crop(load_exemplar("etr_sand01.png"), 16, 16);
+    const io::Encoding all[] = {io::Encoding::exr, io::Encoding::png8, io::Encoding::png16};
+    std::vector<std::string> first;
+    for (io::Encoding e : all) first.push_back(io::encode_image_memory(im, e).value());
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+    for (std::size_t i = 0; i < 3; ++i)
+        EXPECT_TRUE(first[i] == io::encode_image_memory(im, all[i]).value())
+            << io::extension_of(all[i]);
+}
+} // namespace
+} // namespace textond::test

@@ -1,0 +1,152 @@
+// Texture mixes (texton-noise section 7): POST /v1/mixes from two textons, then the usual image
+// endpoints under /v1/mixes/{id}/ (installed with the texton ones in image_routes.cpp).
+#include "api/requests.h"
+#include "core/texture_mix.h"
+#include "server/http/http_support.h"
+#include "server/http/service.h"
+#include "server/io/image_io.h"
+#include "server/io/mix_file.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+namespace textond::http {
+
+namespace {
+
+nlohmann::json mix_json(const nlohmann::json& meta) {
+    nlohmann::json j = meta;
+    const std::string base = "/v1/mixes/" + meta.at("id").get<std::string>();
+    j["links"] = {{"self", base},
+                  {"tilejson", base + "/tilejson.json"},
+                  {"tiles", base + "/tiles/{z}/{x}/{y}.png"},
+                  {"region", base + "/region.png"},
+                  {"u", "/v1/textons/" + meta.at("u").get<std::string>()},
+                  {"v", "/v1/textons/" + meta.at("v").get<std::string>()}};
+    return j;
+}
+
+// A mask image to rho in [0, 1]: its only channel, or the mean of its three.
+core::Image mask_of(const core::Image& img) {
+    core::Image m(img.width, img.height, 1);
+    for (std::size_t k = 0; k < m.plane_size(); ++k) {
+        double s = 0;
+        for (int c = 0; c < img.channels; ++c) s += img.plane(c)[k];
+        m.plane(0)[k] = static_cast<float>(std::clamp(s / img.channels, 0.0, 1.0));
+    }
+    return m;
+}
+
+} // namespace
+
+void Service::create_mix(const httplib::Request& req, httplib::Response& res) {
+    set_route("/v1/mixes");
+    if (!authorised(req, res)) return;
+    const bool has_mask = !req.body.empty();
+    api::MixRequest m;
+    if (auto e = api::parse_mix(req.params, has_mask, m)) return send_error(res, *e);
+    if (has_mask) {
+        io::DecodeLimits limits;
+        limits.max_pixels = m_config.max_pixels;
+        limits.formats = m_config.formats;
+        auto img = [&] {
+            SlotGuard slot(m_decode_slots);
+            return io::decode_image_memory(req.body, limits);
+        }();
+        if (!img) return send_error(res, to_api_error(img.error(), "invalid_mask"));
+        m.field.mask = mask_of(img.value());
+        if (auto err = m.field.validate())
+            return send_error(res, {400, "invalid_parameter", err->message});
+    }
+    auto u = m_store->find(m.u);
+    if (!u) return send_error(res, to_api_error(u.error()));
+    auto v = m_store->find(m.v);
+    if (!v) return send_error(res, to_api_error(v.error()));
+    const std::string id = io::mix_id(m.u, m.v, m.levels, m.field);
+    if (auto meta = m_mixes->meta(id)) return send_json(res, 200, mix_json(meta.value()));
+
+    // One mix analysis at a time: each is R texton analyses.
+    std::lock_guard<std::mutex> lock(m_mix_mutex);
+    if (auto meta = m_mixes->meta(id)) return send_json(res, 200, mix_json(meta.value()));
+    const auto t0 = std::chrono::steady_clock::now();
+    auto pu = m_store->exemplar_png(m.u);
+    if (!pu) return send_error(res, to_api_error(pu.error()));
+    auto pv = m_store->exemplar_png(m.v);
+    if (!pv) return send_error(res, to_api_error(pv.error()));
+    auto eu = io::decode_image_memory(pu.value());
+    auto ev = io::decode_image_memory(pv.value());
+    if (!eu || !ev) return send_error(res, to_api_error(eu ? ev.error() : eu.error()));
+    const api::TextonMeta& mu = u.value();
+    core::AnalysisParams p;
+    p.size = mu.size;
+    p.order = mu.order;
+    p.iterations = mu.iterations;
+    p.seed = mu.seed;
+    p.periodic = mu.periodic;
+    auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
+    if (!pair) return send_error(res, to_api_error(pair.error()));
+    auto levels = core::mix_levels(pair.value(), p, m.levels);
+    if (!levels) return send_error(res, to_api_error(levels.error(), "exemplar_too_small"));
+
+    io::MixRecord record;
+    record.levels = levels.value().levels;
+    record.field = m.field;
+    nlohmann::json means = nlohmann::json::array();
+    for (const auto& t : record.levels) {
+        nlohmann::json mean = nlohmann::json::array();
+        for (int c = 0; c < t.channels; ++c) mean.push_back(t.mean[static_cast<std::size_t>(c)]);
+        means.push_back(mean);
+    }
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    record.meta = {{"id", id},
+                   {"version", core::kMixVersion},
+                   {"u", m.u},
+                   {"v", m.v},
+                   {"levels", m.levels},
+                   {"size", p.size},
+                   {"order", p.order},
+                   {"channels", record.levels.front().channels},
+                   {"iterations", p.iterations},
+                   {"seed", p.seed},
+                   {"grid", {pair.value().u.width, pair.value().u.height}},
+                   {"means", means},
+                   {"rme", levels.value().rme},
+                   {"field", io::field_json(m.field)},
+                   {"analysis_ms", ms},
+                   {"created", rfc3339_now()}};
+    auto put = m_mixes->put(record);
+    if (!put) return send_error(res, to_api_error(put.error()));
+    spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms", id, m.u.substr(0, 12),
+                 m.v.substr(0, 12), m.levels, ms);
+    res.set_header("Location", "/v1/mixes/" + id);
+    send_json(res, 201, mix_json(record.meta));
+}
+
+void Service::get_mix(const std::string& id, httplib::Response& res) {
+    set_route("/v1/mixes/{id}");
+    if (auto e = api::check_mix_id(id)) return send_error(res, *e);
+    auto meta = m_mixes->meta(id);
+    if (!meta) return send_error(res, to_api_error(meta.error()));
+    send_json(res, 200, mix_json(meta.value()), "public, max-age=86400");
+}
+
+void Service::install_mix_routes() {
+    using Req = const httplib::Request&;
+    using Res = httplib::Response&;
+    m_http.Post("/v1/mixes", [this](Req req, Res res) { create_mix(req, res); });
+    m_http.Get(R"(/v1/mixes/([^/]+))", [this](Req req, Res res) { get_mix(req.matches[1], res); });
+    // Anything else under /v1/mixes/: a bad id is a 400 (never a path), a good one a 404.
+    auto fallback = [](Req req, Res res) {
+        set_route("/v1/mixes/*");
+        const std::string rest = req.matches[1];
+        const std::string first = rest.substr(0, rest.find('/'));
+        if (auto e = api::check_mix_id(first)) return send_error(res, *e);
+        send_error(res, {404, "not_found", "no such endpoint under /v1/mixes/" + first});
+    };
+    m_http.Get(R"(/v1/mixes/(.*))", fallback);
+    m_http.Post(R"(/v1/mixes/(.*))", fallback);
+}
+
+} // namespace textond::http

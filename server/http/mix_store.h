@@ -1,0 +1,40 @@
+#pragma once
+// Texture mixes on local disk (`<data>/mixes/`, see server/io/mix_file.h), content addressed like
+// textons, with a small LRU of prepared mixes. Not shared through --store: a replica that lacks a
+// mix answers 404 and the client creates it again there (same id).
+#include "core/result.h"
+#include "render/prepared_mix.h"
+#include "server/io/mix_file.h"
+
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace textond::http {
+
+class MixStore {
+public:
+    static Result<std::unique_ptr<MixStore>> open(const std::string& data_dir);
+
+    bool contains(const std::string& id);
+    Result<nlohmann::json> meta(const std::string& id);
+    Result<std::shared_ptr<const render::PreparedMix>> prepared(const std::string& id);
+    // Writes the files (atomically); false when the mix was already there.
+    Result<bool> put(const io::MixRecord& record);
+
+private:
+    struct Entry {
+        std::string id;
+        nlohmann::json meta;
+        std::shared_ptr<const render::PreparedMix> prepared;
+    };
+    explicit MixStore(std::string dir) : m_dir(std::move(dir)) {}
+    Result<Entry> load(const std::string& id);
+    std::string m_dir;
+    std::mutex m_mutex;
+    std::list<Entry> m_lru; // front = most recent
+    static constexpr std::size_t kCapacity = 8;
+};
+
+} // namespace textond::http

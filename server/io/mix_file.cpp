@@ -1,0 +1,141 @@
+#include "server/io/mix_file.h"
+
+#include "server/io/image_io.h"
+#include "server/io/sha256.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cstdio>
+#include <filesystem>
+
+namespace textond::io {
+
+namespace OIIO = OIIO_NAMESPACE;
+
+namespace {
+
+std::string exact(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+std::string mask_sha256(const core::Image& mask) {
+    Sha256 h;
+    h.update(std::to_string(mask.width) + "x" + std::to_string(mask.height) + "\n");
+    h.update(std::string_view(reinterpret_cast<const char*>(mask.data.data()),
+                              mask.data.size() * sizeof(float)));
+    return h.hex();
+}
+
+Error bad(const std::string& path, const std::string& why) {
+    return make_error(ErrorCode::io, "mix file " + path + ": " + why);
+}
+
+} // namespace
+
+nlohmann::json field_json(const core::MixField& f) {
+    if (f.kind == core::MixField::Kind::ramp)
+        return {{"kind", "ramp"}, {"x0", f.x0}, {"y0", f.y0},
+                {"dx", f.dx},     {"dy", f.dy}, {"width", f.width}};
+    return {{"kind", "mask"},
+            {"x0", f.x0},
+            {"y0", f.y0},
+            {"scale", f.scale},
+            {"width", f.mask.width},
+            {"height", f.mask.height},
+            {"sha256", mask_sha256(f.mask)}};
+}
+
+std::string mix_id(const std::string& u, const std::string& v, int levels,
+                   const core::MixField& f) {
+    Sha256 h;
+    h.update(core::kMixVersion).update("\n").update(u).update("\n").update(v).update("\n");
+    h.update(std::to_string(levels)).update("\n");
+    if (f.kind == core::MixField::Kind::ramp)
+        h.update("ramp " + exact(f.x0) + " " + exact(f.y0) + " " + exact(f.dx) + " " + exact(f.dy) +
+                 " " + exact(f.width));
+    else
+        h.update("mask " + exact(f.x0) + " " + exact(f.y0) + " " + exact(f.scale) + " " +
+                 mask_sha256(f.mask));
+    return h.hex();
+}
+
+Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
+    const std::string id = r.meta.at("id");
+    if (r.field.kind == core::MixField::Kind::mask) {
+        auto ok = encode_image_file(r.field.mask, dir + "/" + id + ".mask.exr", Encoding::exr);
+        if (!ok) return ok.error();
+    }
+    const core::Texton& first = r.levels.front();
+    const int n = first.size, nl = static_cast<int>(r.levels.size());
+    core::Image stack(n, n * nl, first.channels);
+    for (int l = 0; l < nl; ++l)
+        for (int c = 0; c < first.channels; ++c)
+            for (int y = 0; y < n; ++y)
+                for (int x = 0; x < n; ++x)
+                    stack.at(c, x, l * n + y) =
+                        r.levels[static_cast<std::size_t>(l)].alpha.at(c, x, y);
+    auto bytes = encode_image_memory(stack, Encoding::exr, {{kMixAttribute, r.meta.dump()}});
+    if (!bytes) return bytes.error();
+    return write_file_atomic(dir + "/" + id + ".exr", bytes.value());
+}
+
+Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) {
+    const std::string path = dir + "/" + id + ".exr";
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec))
+        return make_error(ErrorCode::not_found, "no mix " + id);
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return bad(path, OIIO::geterror());
+    const OIIO::ImageSpec& spec = in->spec();
+    MixRecord r;
+    try {
+        r.meta = nlohmann::json::parse(spec.get_string_attribute(kMixAttribute));
+        const int n = r.meta.at("size"), nl = r.meta.at("levels"), nc = r.meta.at("channels");
+        if (r.meta.at("id") != id || spec.width != n || spec.height != n * nl ||
+            spec.nchannels != nc)
+            return bad(path, "size, levels or id disagree with the metadata");
+        std::vector<float> buf(static_cast<std::size_t>(n) * n * nl * nc);
+        if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
+            return bad(path, in->geterror());
+        for (int l = 0; l < nl; ++l) {
+            core::Texton t;
+            t.size = n;
+            t.channels = nc;
+            t.order = r.meta.at("order");
+            for (int c = 0; c < nc; ++c)
+                t.mean[static_cast<std::size_t>(c)] = r.meta.at("means").at(l).at(c);
+            t.alpha = core::Image(n, n, nc);
+            for (int y = 0; y < n; ++y)
+                for (int x = 0; x < n; ++x)
+                    for (int c = 0; c < nc; ++c)
+                        t.alpha.at(c, x, y) =
+                            buf[((static_cast<std::size_t>(l) * n + y) * n + x) * nc + c];
+            r.levels.push_back(std::move(t));
+        }
+        const nlohmann::json& f = r.meta.at("field");
+        r.field.x0 = f.at("x0");
+        r.field.y0 = f.at("y0");
+        if (f.at("kind") == "ramp") {
+            r.field.dx = f.at("dx");
+            r.field.dy = f.at("dy");
+            r.field.width = f.at("width");
+        } else {
+            r.field.kind = core::MixField::Kind::mask;
+            r.field.scale = f.at("scale");
+            auto mask = decode_image_file(dir + "/" + id + ".mask.exr");
+            if (!mask) return bad(path, "mask: " + mask.error().message);
+            r.field.mask = std::move(mask.value());
+            if (mask_sha256(r.field.mask) != f.at("sha256").get<std::string>())
+                return bad(path, "mask checksum mismatch");
+        }
+        if (mix_id(r.meta.at("u"), r.meta.at("v"), nl, r.field) != id)
+            return bad(path, "content does not hash to its id");
+    } catch (const std::exception& e) {
+        return bad(path, std::string("metadata: ") + e.what());
+    }
+    return r;
+}
+
+} // namespace textond::io

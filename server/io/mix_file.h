@@ -1,0 +1,35 @@
+#pragma once
+// A texture mix on disk: `<id>.exr` holds the R level textons stacked vertically (r x rR, float32,
+// lossless) with the metadata JSON in the header attribute "textond:mix"; a mask field's image is
+// `<id>.mask.exr`, written first and named by its sha256 in the metadata, so the main file's
+// presence means the whole mix is there.
+#include "core/result.h"
+#include "core/texton.h"
+#include "core/texture_mix.h"
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+namespace textond::io {
+
+inline constexpr const char* kMixAttribute = "textond:mix";
+
+struct MixRecord {
+    nlohmann::json meta; // id, u, v, levels, size, order, channels, rme, field, created, ...
+    std::vector<core::Texton> levels;
+    core::MixField field;
+};
+
+// Content address of a mix: its version, both texton ids, the level count and the canonical
+// field (a mask by the sha256 of its float pixels).
+std::string mix_id(const std::string& u, const std::string& v, int levels,
+                   const core::MixField& field);
+// The field as JSON (meta["field"]) and back (the mask's pixels travel separately).
+nlohmann::json field_json(const core::MixField& field);
+
+Result<bool> write_mix_files(const std::string& dir, const MixRecord& record);
+Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id);
+
+} // namespace textond::io

@@ -1,0 +1,136 @@
+// Texture mixes over HTTP: POST /v1/mixes from two uploaded textons (content addressed: one id
+// for one request, 201 then 200), the image endpoints under /v1/mixes/{id}/ (tiles stitch into
+// the region, TileJSON points at them), masks, bad requests, and persistence across a restart.
+#include "server/io/image_io.h"
+#include "tests/server/server_fixture.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace textond::test {
+namespace {
+
+core::Image window(const core::Image& src, int x0, int y0, int w, int h) {
+    core::Image out(w, h, src.channels);
+    for (int c = 0; c < src.channels; ++c)
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x0 + x, y0 + y);
+    return out;
+}
+
+std::string post_mix(httplib::Client& c, const std::string& query, const std::string& body,
+                     int expect) {
+    auto res = body.empty() ? c.Post(("/v1/mixes" + query).c_str())
+                            : c.Post(("/v1/mixes" + query).c_str(), body, "image/png");
+    EXPECT_TRUE(res);
+    if (!res) return "";
+    EXPECT_EQ(res->status, expect) << query << ": " << res->body;
+    if (res->status != 200 && res->status != 201) return "";
+    return nlohmann::json::parse(res->body).at("id").get<std::string>();
+}
+
+TEST(Mixes, CreateOnceThenServeWindowsOfOneFunction) {
+    TestServer server;
+    auto c = server.client();
+    const std::string u = upload(c, "etr_sand01.png", "?size=16&iterations=10");
+    const std::string v = upload(c, "etr_pebbles04.png", "?size=16&iterations=10");
+    const std::string q = "?u=" + u + "&v=" + v + "&levels=5&x0=-100&width=300";
+    const std::string id = post_mix(c, q, "", 201);
+    ASSERT_EQ(id.size(), 64u);
+    EXPECT_EQ(post_mix(c, q, "", 200), id); // content addressed
+    EXPECT_NE(post_mix(c, q + "&dy=1", "", 201), id);
+
+    auto meta = c.Get(("/v1/mixes/" + id).c_str());
+    ASSERT_TRUE(meta && meta->status == 200);
+    const auto j = nlohmann::json::parse(meta->body);
+    EXPECT_EQ(j["levels"], 5);
+    EXPECT_EQ(j["rme"].size(), 5u);
+    EXPECT_EQ(j["field"]["kind"], "ramp");
+    EXPECT_EQ(j["u"], u);
+
+    // Four 256 tiles at level 0 are the 512 region, across the whole ramp (bit-exact floats).
+    auto region = c.Get(("/v1/mixes/" + id + "/region.exr?x=-256&y=0&w=512&h=512&seed=4").c_str());
+    ASSERT_TRUE(region && region->status == 200) << (region ? region->body : "");
+    const core::Image whole = decode(region->body);
+    for (int t = 0; t < 4; ++t) {
+        const int tx = -1 + t % 2, ty = t / 2;
+        auto tile = c.Get(("/v1/mixes/" + id + "/tiles/0/" + std::to_string(tx) + "/" +
+                           std::to_string(ty) + ".exr?seed=4")
+                              .c_str());
+        ASSERT_TRUE(tile && tile->status == 200);
+        EXPECT_FALSE(tile->get_header_value("ETag").empty());
+        const core::Image part = decode(tile->body);
+        EXPECT_EQ(max_abs_diff(part, window(whole, 256 * (t % 2), 256 * ty, 256, 256)), 0.0)
+            << "tile " << t;
+    }
+    // Far on either side: the two textures' mean colours.
+    for (auto [x, tex] : {std::pair<int, std::string>{-40, u}, {40, v}}) {
+        auto tile = c.Get(("/v1/mixes/" + id + "/tiles/0/" + std::to_string(x) + "/0.exr").c_str());
+        ASSERT_TRUE(tile && tile->status == 200);
+        const core::Image img = decode(tile->body);
+        double s = 0;
+        for (std::size_t k = 0; k < img.plane_size(); ++k) s += img.plane(1)[k];
+        const auto tj = nlohmann::json::parse(c.Get(("/v1/textons/" + tex).c_str())->body);
+        EXPECT_NEAR(s / double(img.plane_size()), tj["mean"][1].get<double>(), 0.02) << x;
+    }
+    auto tj = c.Get(("/v1/mixes/" + id + "/tilejson.json").c_str());
+    ASSERT_TRUE(tj && tj->status == 200);
+    EXPECT_NE(tj->body.find("/v1/mixes/" + id + "/map/{z}/{x}/{y}.png"), std::string::npos);
+    EXPECT_EQ(c.Get(("/v1/mixes/" + id + "/map/24/0/0.png").c_str())->status, 200);
+
+    // A restart keeps the mix and serves the same bytes.
+    const std::string before =
+        c.Get(("/v1/mixes/" + id + "/tiles/2/3/-1.exr?seed=9").c_str())->body;
+    http::ServeConfig cfg = TestServer::default_config();
+    cfg.data_dir = server.data_dir();
+    TestServer again(cfg);
+    auto c2 = again.client();
+    // (Compared as a flag: a failure must not print 1 MB of EXR.)
+    EXPECT_TRUE(c2.Get(("/v1/mixes/" + id + "/tiles/2/3/-1.exr?seed=9").c_str())->body == before);
+}
+
+TEST(Mixes, MaskFieldAndBadRequests) {
+    TestServer server;
+    auto c = server.client();
+    const std::string u = upload(c, "etr_sand01.png", "?size=16&iterations=10");
+    const std::string v = upload(c, "skimage_gravel.png", "?size=16&iterations=10");
+    core::Image mask(2, 2, 1);
+    mask.at(0, 1, 0) = mask.at(0, 1, 1) = 1.0f;
+    const std::string png = io::encode_image_memory(mask, io::Encoding::png8).value();
+    const std::string base = "?u=" + u + "&v=" + v;
+    const std::string id = post_mix(c, base + "&levels=3&scale=128", png, 201);
+    EXPECT_EQ(post_mix(c, base + "&levels=3&scale=128", png, 200), id);
+    auto meta = nlohmann::json::parse(c.Get(("/v1/mixes/" + id).c_str())->body);
+    EXPECT_EQ(meta["field"]["kind"], "mask");
+    EXPECT_EQ(meta["channels"], 3); // the grey exemplar was promoted
+    EXPECT_EQ(c.Get(("/v1/mixes/" + id + "/tiles/0/0/0.png").c_str())->status, 200);
+
+    const std::string unknown(64, 'b');
+    struct Bad {
+        std::string query, body;
+        int status;
+    };
+    for (const Bad& b :
+         {Bad{"?u=" + u, "", 400}, Bad{base + "&levels=1", "", 400},
+          Bad{base + "&levels=65", "", 400}, Bad{base + "&dx=0&dy=0", "", 400},
+          Bad{base + "&width=0", "", 400}, Bad{base + "&x0=nan", "", 400},
+          Bad{base + "&x0=1e300", "", 400}, Bad{base + "&bogus=1", "", 400},
+          Bad{base + "&scale=4", "", 400}, Bad{base + "&dx=1", png, 400},
+          Bad{base + "&scale=0", png, 400}, Bad{base, "not an image", 415},
+          Bad{"?u=" + u + "&v=" + unknown, "", 404}, Bad{"?u=../../etc&v=" + v, "", 400}}) {
+        auto res = b.body.empty() ? c.Post(("/v1/mixes" + b.query).c_str())
+                                  : c.Post(("/v1/mixes" + b.query).c_str(), b.body, "image/png");
+        ASSERT_TRUE(res);
+        EXPECT_EQ(res->status, b.status) << b.query << ": " << res->body;
+        EXPECT_NE(res->body.find("\"code\""), std::string::npos) << b.query;
+    }
+    EXPECT_EQ(c.Get(("/v1/mixes/" + unknown).c_str())->status, 404);
+    EXPECT_EQ(c.Get(("/v1/mixes/" + unknown + "/tiles/0/0/0.png").c_str())->status, 404);
+    EXPECT_EQ(c.Get("/v1/mixes/..%2F..%2Fetc/tiles/0/0/0.png")->status, 400);
+    EXPECT_EQ(c.Get(("/v1/mixes/" + id + "/tiles/0/0/0.gif").c_str())->status, 400);
+    EXPECT_EQ(c.Get("/healthz")->status, 200);
+}
+
+} // namespace
+} // namespace textond::test
