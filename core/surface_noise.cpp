@@ -1,0 +1,133 @@
+#include "core/surface_noise.h"
+
+#include "core/grid_poisson.h"
+#include "core/noise_hash.h"
+
+#include <cmath>
+
+namespace textond::core {
+
+using noise::absorb;
+using noise::floor_div;
+using noise::hi32;
+using noise::lo32;
+using noise::mix32;
+using noise::Stream32;
+
+void tangent_frame(const Vec3& n, Vec3& u1, Vec3& u2) {
+    if (n[2] < -0.9999999) {
+        u1 = {0.0, -1.0, 0.0};
+        u2 = {-1.0, 0.0, 0.0};
+        return;
+    }
+    const double a = 1.0 / (1.0 + n[2]);
+    const double b = -n[0] * n[1] * a;
+    u1 = {1.0 - n[0] * n[0] * a, b, -n[0]};
+    u2 = {b, 1.0 - n[1] * n[1] * a, -n[1]};
+}
+
+std::uint32_t cell_key3(std::uint64_t seed, std::int64_t cx, std::int64_t cy, std::int64_t cz) {
+    const auto ux = static_cast<std::uint64_t>(cx), uy = static_cast<std::uint64_t>(cy),
+               uz = static_cast<std::uint64_t>(cz);
+    std::uint32_t k = mix32(lo32(seed) ^ 0x3c6ef372u);
+    k = absorb(k, hi32(seed));
+    k = absorb(k, lo32(ux));
+    k = absorb(k, hi32(ux));
+    k = absorb(k, lo32(uy));
+    k = absorb(k, hi32(uy));
+    k = absorb(k, lo32(uz));
+    return absorb(k, hi32(uz));
+}
+
+SurfaceNoise::SurfaceNoise(const Texton& texton, double mni)
+    : m_t(texton), m_a(noise::cell_size(texton.size)) {
+    const double r = texton.size;
+    m_lambda = mni / (r * r * r); // Prop. 3: MNI = lambda r^3
+    m_norm = 1.0 / std::sqrt(m_lambda * r / 3.0);
+    m_thresholds = noise::poisson_thresholds(m_lambda * m_a * m_a * m_a);
+}
+
+double SurfaceNoise::h(int c, double z1, double z2) const {
+    // The texton centred on the origin: its coefficients span [0, r - 1], so shift by (r - 1)/2.
+    const double shift = 0.5 * (m_t.size - 1);
+    const double x = z1 + shift, y = z2 + shift;
+    const int r = m_t.size;
+    auto alpha = [&](int i, int j) -> double {
+        return (i < 0 || j < 0 || i >= r || j >= r) ? 0.0 : m_t.alpha.at(c, i, j);
+    };
+    if (m_t.order == 0) {
+        return alpha(static_cast<int>(std::floor(x)), static_cast<int>(std::floor(y)));
+    }
+    const double fx = std::floor(x), fy = std::floor(y);
+    const double tx = x - fx, ty = y - fy;
+    const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
+    if (m_t.order == 1)
+        return (1 - ty) * ((1 - tx) * alpha(ix, iy) + tx * alpha(ix + 1, iy)) +
+               ty * ((1 - tx) * alpha(ix, iy + 1) + tx * alpha(ix + 1, iy + 1));
+    // Cubic B-spline: taps ix - 1 .. ix + 2 with the weights of beta3(t - k).
+    auto w = [](double t, double out[4]) {
+        const double s = 1 - t;
+        out[0] = s * s * s / 6;
+        out[1] = (3 * t * t * t - 6 * t * t + 4) / 6;
+        out[2] = (3 * s * s * s - 6 * s * s + 4) / 6;
+        out[3] = t * t * t / 6;
+    };
+    double wx[4], wy[4];
+    w(tx, wx);
+    w(ty, wy);
+    double v = 0;
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) v += wy[j] * wx[i] * alpha(ix - 1 + i, iy - 1 + j);
+    return v;
+}
+
+void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float* out,
+                        SurfaceStats* stats) const {
+    Vec3 u1, u2;
+    tangent_frame(n, u1, u2);
+    const int r = m_t.size, nc = m_t.channels;
+    const double half = 0.5 * r;
+    // Every point within the r-cube around y lies within r sqrt(3) / 2 of y, and the texton's
+    // support (with its interpolation) within r/2 + 2 of the centre in each tangent direction.
+    const double reach = std::sqrt(3.0) * (half + 2.0);
+    double acc[3] = {0, 0, 0};
+    std::int64_t lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+        lo[d] = floor_div(
+            static_cast<std::int64_t>(std::floor(y[static_cast<std::size_t>(d)] - reach)), m_a);
+        hi[d] = floor_div(
+            static_cast<std::int64_t>(std::floor(y[static_cast<std::size_t>(d)] + reach)), m_a);
+    }
+    const auto ua = static_cast<std::uint64_t>(m_a);
+    for (std::int64_t cz = lo[2]; cz <= hi[2]; ++cz)
+        for (std::int64_t cy = lo[1]; cy <= hi[1]; ++cy)
+            for (std::int64_t cx = lo[0]; cx <= hi[0]; ++cx) {
+                Stream32 s(cell_key3(seed, cx, cy, cz));
+                const int count = noise::poisson_count(
+                    m_thresholds.data(), static_cast<int>(m_thresholds.size()), s.next());
+                const std::int64_t cell[3] = {cx, cy, cz};
+                for (int i = 0; i < count; ++i) {
+                    Vec3 d; // y - x_i
+                    for (int k = 0; k < 3; ++k) {
+                        const std::uint64_t p = s.next() * ua;
+                        const double x = static_cast<double>(cell[k] * m_a +
+                                                             static_cast<std::int64_t>(p >> 32)) +
+                                         static_cast<double>((p & 0xffffffffu) >> 8) / 16777216.0;
+                        d[static_cast<std::size_t>(k)] = y[static_cast<std::size_t>(k)] - x;
+                    }
+                    const double eps = (s.next() >> 31) == 0 ? 1.0 : -1.0;
+                    if (stats) ++stats->points;
+                    const double t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+                    const double w = 1.0 - 2.0 * std::fabs(t) / r;
+                    if (w <= 0) continue;
+                    const double z1 = d[0] * u1[0] + d[1] * u1[1] + d[2] * u1[2];
+                    const double z2 = d[0] * u2[0] + d[1] * u2[1] + d[2] * u2[2];
+                    if (stats && std::fabs(z1) < half && std::fabs(z2) < half) ++stats->impacts;
+                    for (int c = 0; c < nc; ++c) acc[c] += eps * w * h(c, z1, z2);
+                }
+            }
+    for (int c = 0; c < nc; ++c)
+        out[c] = static_cast<float>(m_t.mean[static_cast<std::size_t>(c)] + m_norm * acc[c]);
+}
+
+} // namespace textond::core

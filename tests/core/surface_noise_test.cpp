@@ -1,0 +1,128 @@
+// Surface noise (texton-noise section 6): Proposition 3's mean, variance and MNI on a sphere, and
+// the local frame.
+#include "core/rme.h"
+#include "core/surface_noise.h"
+#include "core/texton_analysis.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace textond::test {
+namespace {
+
+struct Estimate {
+    double mean = 0, se = 0;
+};
+
+Estimate of(const std::vector<double>& v) {
+    Estimate e;
+    for (double x : v) e.mean += x;
+    e.mean /= static_cast<double>(v.size());
+    double s = 0;
+    for (double x : v) s += (x - e.mean) * (x - e.mean);
+    e.se = std::sqrt(s / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
+    return e;
+}
+
+constexpr double kSigmas = 4.5;
+constexpr double kPi = 3.14159265358979323846;
+
+TEST(SurfaceNoise, FrameIsOrthonormalAndContinuous) {
+    for (int i = 0; i < 200; ++i) {
+        // Fibonacci directions over the whole sphere, the south pole's neighbourhood included.
+        const double z = 1 - 2 * (i + 0.5) / 200, rad = std::sqrt(1 - z * z);
+        const double phi = i * kPi * (3 - std::sqrt(5.0));
+        const core::Vec3 n = {rad * std::cos(phi), rad * std::sin(phi), z};
+        core::Vec3 u1, u2;
+        core::tangent_frame(n, u1, u2);
+        auto dot = [](const core::Vec3& a, const core::Vec3& b) {
+            return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        };
+        EXPECT_NEAR(dot(u1, u1), 1, 1e-12);
+        EXPECT_NEAR(dot(u2, u2), 1, 1e-12);
+        EXPECT_NEAR(dot(u1, u2), 0, 1e-12);
+        EXPECT_NEAR(dot(u1, n), 0, 1e-12);
+        EXPECT_NEAR(dot(u2, n), 0, 1e-12);
+        if (z < -0.99) continue; // the one singular direction
+        // A small turn of the normal turns the frame by a comparably small amount.
+        const double e = 1e-6;
+        core::Vec3 m = {n[0] + e * u1[0], n[1] + e * u1[1], n[2] + e * u1[2]};
+        const double len = std::sqrt(dot(m, m));
+        for (double& c : m) c /= len;
+        core::Vec3 v1, v2;
+        core::tangent_frame(m, v1, v2);
+        const double moved =
+            std::sqrt((v1[0] - u1[0]) * (v1[0] - u1[0]) + (v1[1] - u1[1]) * (v1[1] - u1[1]) +
+                      (v1[2] - u1[2]) * (v1[2] - u1[2]));
+        EXPECT_LT(moved, 1e-6 * 2 / (1 + z) + 1e-9) << "z " << z;
+    }
+}
+
+// Proposition 3 with random signs: mean m, variance integral h^2 = C(0) (the 2D noise's, once
+// divided by sqrt(lambda r / 3)), and lambda r^3 = MNI points in the r-cube around each point.
+// Points on a sphere of radius 20000 texels, ~1800 texels apart: independent samples.
+TEST(SurfaceNoise, MeanVarianceAndMniOnASphereMatchProposition3) {
+    for (int order : {1, 3}) {
+        core::AnalysisParams p;
+        p.size = 32;
+        p.iterations = 30;
+        p.order = order;
+        auto analysed = core::analyze_texton(load_exemplar("etr_sand01.png"), p);
+        ASSERT_TRUE(analysed.ok());
+        const core::Texton& t = analysed.value().texton;
+        const core::ColourMatrix c0 = core::texton_noise_covariance(t.alpha, t.order);
+        const core::SurfaceNoise noise(t);
+        const int n = 1600;
+        std::vector<double> value[3], square[3], impacts;
+        const core::Vec3 centre = {1.0e6, -3.0e5, 7.0e4};
+        for (int i = 0; i < n; ++i) {
+            const double z = 1 - 2 * (i + 0.5) / n, rad = std::sqrt(1 - z * z);
+            const double phi = i * kPi * (3 - std::sqrt(5.0));
+            const core::Vec3 dir = {rad * std::cos(phi), rad * std::sin(phi), z};
+            const core::Vec3 y = {centre[0] + 20000 * dir[0], centre[1] + 20000 * dir[1],
+                                  centre[2] + 20000 * dir[2]};
+            float out[3];
+            core::SurfaceStats stats;
+            noise.eval(11, y, dir, out, &stats);
+            impacts.push_back(static_cast<double>(stats.impacts));
+            for (int c = 0; c < 3; ++c) {
+                const double d = out[c] - t.mean[static_cast<std::size_t>(c)];
+                value[c].push_back(out[c]);
+                square[c].push_back(d * d);
+            }
+        }
+        for (int c = 0; c < 3; ++c) {
+            const Estimate m = of(value[c]), v = of(square[c]);
+            EXPECT_NEAR(m.mean, t.mean[static_cast<std::size_t>(c)], kSigmas * m.se)
+                << "order " << order << " channel " << c;
+            EXPECT_NEAR(v.mean, c0(c, c), kSigmas * v.se) << "order " << order << " channel " << c;
+        }
+        const Estimate k = of(impacts);
+        EXPECT_NEAR(k.mean, core::kDefaultSurfaceMni, kSigmas * k.se) << "order " << order;
+    }
+}
+
+// The same point, seed and texton give the same colour; another seed or point another one; the
+// value does not depend on how far from the origin the surface is beyond float rounding.
+TEST(SurfaceNoise, DeterministicAndSeeded) {
+    core::AnalysisParams p;
+    p.size = 16;
+    p.iterations = 10;
+    auto analysed = core::analyze_texton(load_exemplar("etr_sand01.png"), p);
+    ASSERT_TRUE(analysed.ok());
+    const core::SurfaceNoise noise(analysed.value().texton);
+    const core::Vec3 y = {10.25, -3.5, 7.75}, n = {0.0, 0.6, 0.8};
+    float a[3], b[3], c[3], d[3];
+    noise.eval(5, y, n, a);
+    noise.eval(5, y, n, b);
+    noise.eval(6, y, n, c);
+    noise.eval(5, {10.25, -3.5, 8.75}, n, d);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a[k], b[k]);
+    EXPECT_NE(a[0], c[0]);
+    EXPECT_NE(a[0], d[0]);
+}
+
+} // namespace
+} // namespace textond::test
