@@ -339,6 +339,65 @@ std::optional<ApiError> check_mix_id(std::string_view s) {
     return check_texton_id(s);
 }
 
+std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool mesh,
+                                      SurfaceParams& out) {
+    if (auto e = check_texton_id(id)) return e;
+    if (mesh) {
+        if (auto e = check_fields(
+                q, {"seed", "mni", "scale", "width", "height", "fov", "eye", "target"}))
+            return e;
+        out.scale = 0; // automatic: the bounding box's diagonal spans 512 texels
+    } else if (auto e = check_fields(q, {"seed", "mni", "scale"})) {
+        return e;
+    }
+    if (const std::string* s = field(q, "seed")) {
+        auto v = parse_u64(*s);
+        if (!v) return bad("invalid_parameter", "seed must be an unsigned 64-bit integer");
+        out.seed = *v;
+    }
+    auto number = [&](const char* name, double lo, double hi,
+                      double& dst) -> std::optional<ApiError> {
+        if (const std::string* s = field(q, name)) {
+            auto v = parse_finite(*s);
+            if (!v || *v < lo || *v > hi)
+                return bad("invalid_parameter", std::string(name) + " must be a number in [" +
+                                                    std::to_string(lo) + ", " + std::to_string(hi) +
+                                                    "]");
+            dst = *v;
+        }
+        return std::nullopt;
+    };
+    if (auto e = number("mni", 1, 200, out.mni)) return e;
+    if (auto e = number("scale", mesh ? 0 : 1e-9, 1e9, out.scale)) return e;
+    if (!mesh) return std::nullopt;
+    if (auto e = number("fov", 5, 150, out.fov)) return e;
+    std::int64_t w = out.width, h = out.height;
+    if (auto e = int_field(q, "width", 16, 2048, w)) return e;
+    if (auto e = int_field(q, "height", 16, 2048, h)) return e;
+    out.width = static_cast<int>(w);
+    out.height = static_cast<int>(h);
+    const std::string* eye = field(q, "eye");
+    const std::string* target = field(q, "target");
+    if (!eye != !target) return bad("invalid_parameter", "eye and target go together");
+    if (eye) {
+        for (auto [text, dst] :
+             {std::pair<const std::string*, double*>{eye, out.eye}, {target, out.target}}) {
+            std::size_t start = 0;
+            for (int k = 0; k < 3; ++k) {
+                const std::size_t comma = text->find(',', start);
+                if ((k < 2) == (comma == std::string::npos))
+                    return bad("invalid_parameter", "eye and target are x,y,z");
+                auto v = parse_finite(text->substr(start, comma - start));
+                if (!v) return bad("invalid_parameter", "eye and target are x,y,z numbers");
+                dst[k] = *v;
+                start = comma + 1;
+            }
+        }
+        out.camera = true;
+    }
+    return std::nullopt;
+}
+
 std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out) {
     if (auto e = check_texton_id(id)) return e;
     if (auto e = check_fields(q, {"mni"})) return e;

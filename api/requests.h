@@ -104,6 +104,20 @@ struct MixRequest {
 std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out);
 std::optional<ApiError> check_mix_id(std::string_view s);
 
+// POST /v1/textons/{id}/surface and /mesh.png: seed, mni (default 60), scale (texels per unit;
+// 0 = automatic for meshes); meshes also width, height, fov and an optional eye and target.
+struct SurfaceParams {
+    std::uint64_t seed = 0;
+    double mni = 60.0;
+    double scale = 1.0;
+    int width = 512, height = 512;
+    double fov = 35;
+    bool camera = false; // eye and target given
+    double eye[3] = {0, 0, 0}, target[3] = {0, 0, 0};
+};
+std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool mesh,
+                                      SurfaceParams& out);
+
 // GET /v1/textons/{id}/kit.tar[?mni=M]
 std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out);
 std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out);

@@ -158,7 +158,8 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
             [self] { return static_cast<double>(self->m_cache.budget()); });
 
     s->install_hooks();
-    s->install_image_routes(); // the hot path first: cpp-httplib tries routes in order
+    s->install_image_routes();   // the hot path first: cpp-httplib tries routes in order
+    s->install_surface_routes(); // before the /v1/textons/* fallback
     s->install_texton_routes();
     s->install_mix_routes();
     s->install_ops_routes();

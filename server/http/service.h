@@ -89,6 +89,11 @@ private:
     void install_texton_routes();
     void install_image_routes();
     void install_mix_routes();
+    void install_surface_routes();
+
+    // surface_routes.cpp
+    void surface_points(const httplib::Request& req, const std::string& id, httplib::Response& res);
+    void surface_mesh(const httplib::Request& req, const std::string& id, httplib::Response& res);
 
     // mix_routes.cpp
     void create_mix(const httplib::Request& req, httplib::Response& res);

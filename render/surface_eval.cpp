@@ -1,0 +1,217 @@
+#include "render/surface_eval.h"
+
+#include "core/fft2d.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+
+namespace textond::render {
+
+namespace {
+
+using core::Vec3;
+
+Vec3 sub(const Vec3& a, const Vec3& b) {
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+double dot(const Vec3& a, const Vec3& b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+Vec3 cross(const Vec3& a, const Vec3& b) {
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+bool normalise(Vec3& v) {
+    const double n = std::sqrt(dot(v, v));
+    if (!(n > 0) || !std::isfinite(n)) return false;
+    for (double& c : v) c /= n;
+    return true;
+}
+
+std::optional<Error> check_request(const SurfaceRequest& req) {
+    if (!(req.mni >= 1 && req.mni <= 200))
+        return make_error(ErrorCode::invalid_argument, "mni must be in [1, 200]");
+    if (!(req.scale >= 0 && req.scale <= 1e9) || !std::isfinite(req.scale))
+        return make_error(ErrorCode::invalid_argument, "scale must be in [0, 1e9]");
+    return std::nullopt;
+}
+
+} // namespace
+
+Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const SurfaceRequest& req,
+                                            const std::vector<float>& points,
+                                            const std::vector<float>& normals, int threads) {
+    if (auto e = check_request(req)) return *e;
+    if (points.size() % 3 != 0 || normals.size() != points.size())
+        return make_error(ErrorCode::invalid_argument,
+                          "points and normals must be equally many x, y, z triples");
+    const std::size_t n = points.size() / 3;
+    if (n > kMaxSurfacePoints)
+        return make_error(ErrorCode::too_large,
+                          "at most " + std::to_string(kMaxSurfacePoints) + " points a request");
+    const double lim = 4.0e15; // positions stay exact to a 24-bit fraction in double
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        if (!std::isfinite(points[i]) || std::fabs(points[i] * req.scale) > lim)
+            return make_error(ErrorCode::invalid_argument,
+                              "point " + std::to_string(i / 3) + " is not finite or too far out");
+        if (!std::isfinite(normals[i]))
+            return make_error(ErrorCode::invalid_argument,
+                              "normal " + std::to_string(i / 3) + " is not finite");
+    }
+    const double scale = req.scale > 0 ? req.scale : 1.0;
+    const core::SurfaceNoise noise(texton, req.mni);
+    const int nc = texton.channels;
+    std::vector<float> out(n * static_cast<std::size_t>(nc));
+    std::vector<char> bad(n, 0);
+#pragma omp parallel for schedule(dynamic, 64) num_threads(core::resolve_threads(threads))
+    for (std::size_t i = 0; i < n; ++i) {
+        Vec3 nn = {normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]};
+        if (!normalise(nn)) {
+            bad[i] = 1;
+            continue;
+        }
+        const Vec3 y = {points[3 * i] * scale, points[3 * i + 1] * scale,
+                        points[3 * i + 2] * scale};
+        noise.eval(req.seed, y, nn, &out[i * static_cast<std::size_t>(nc)]);
+    }
+    for (std::size_t i = 0; i < n; ++i)
+        if (bad[i])
+            return make_error(ErrorCode::invalid_argument,
+                              "normal " + std::to_string(i) + " has zero length");
+    return out;
+}
+
+Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
+                                        const Mesh& mesh, Camera cam, int width, int height,
+                                        int threads) {
+    if (auto e = check_request(req)) return *e;
+    if (width < 16 || height < 16 || width > 2048 || height > 2048)
+        return make_error(ErrorCode::invalid_argument, "preview sides must be in [16, 2048]");
+    const std::size_t nv = mesh.positions.size() / 3;
+    if (nv == 0 || mesh.triangles.empty())
+        return make_error(ErrorCode::invalid_argument, "the mesh has no triangles");
+    Vec3 lo = {1e300, 1e300, 1e300}, hi = {-1e300, -1e300, -1e300};
+    for (std::size_t v = 0; v < nv; ++v)
+        for (int d = 0; d < 3; ++d) {
+            const double p = mesh.positions[3 * v + static_cast<std::size_t>(d)];
+            lo[static_cast<std::size_t>(d)] = std::min(lo[static_cast<std::size_t>(d)], p);
+            hi[static_cast<std::size_t>(d)] = std::max(hi[static_cast<std::size_t>(d)], p);
+        }
+    const Vec3 centre = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2};
+    const double diag = std::sqrt(dot(sub(hi, lo), sub(hi, lo)));
+    if (!(diag > 0)) return make_error(ErrorCode::invalid_argument, "the mesh is a single point");
+    const double scale = req.scale > 0 ? req.scale : 512.0 / diag;
+    if (cam.automatic) {
+        cam.target = centre;
+        const double dist = 0.5 * diag / std::tan(cam.fov_degrees * 3.14159265358979 / 360) * 1.1;
+        Vec3 dir = {0.0, 0.35, 1.0};
+        normalise(dir);
+        cam.eye = {centre[0] + dist * dir[0], centre[1] + dist * dir[1], centre[2] + dist * dir[2]};
+        cam.up = {0, 1, 0};
+    }
+    Vec3 fwd = sub(cam.target, cam.eye);
+    if (!normalise(fwd)) return make_error(ErrorCode::invalid_argument, "eye equals target");
+    Vec3 right = cross(fwd, cam.up);
+    if (!normalise(right)) return make_error(ErrorCode::invalid_argument, "up is along the view");
+    const Vec3 up = cross(right, fwd);
+    const double f = 1.0 / std::tan(cam.fov_degrees * 3.14159265358979 / 360);
+    const double aspect = static_cast<double>(width) / height;
+
+    // Project vertices: screen x, y in pixels, depth along the view.
+    std::vector<double> sx(nv), sy(nv), sz(nv);
+    for (std::size_t v = 0; v < nv; ++v) {
+        const Vec3 p = {mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                        mesh.positions[3 * v + 2]};
+        const Vec3 d = sub(p, cam.eye);
+        const double z = dot(d, fwd);
+        sz[v] = z;
+        const double x = dot(d, right) * f / (z * aspect), y = dot(d, up) * f / z;
+        sx[v] = (x + 1) * 0.5 * width;
+        sy[v] = (1 - y) * 0.5 * height;
+    }
+    // Z-buffer of (triangle, barycentrics) per pixel; then one noise evaluation per pixel.
+    const std::size_t npx = static_cast<std::size_t>(width) * height;
+    std::vector<double> depth(npx, std::numeric_limits<double>::infinity());
+    std::vector<std::int64_t> tri(npx, -1);
+    std::vector<double> bary(npx * 3, 0.0);
+    const std::size_t nt = mesh.triangles.size() / 3;
+    for (std::size_t t = 0; t < nt; ++t) {
+        const std::uint32_t i0 = mesh.triangles[3 * t], i1 = mesh.triangles[3 * t + 1],
+                            i2 = mesh.triangles[3 * t + 2];
+        if (sz[i0] <= 1e-9 || sz[i1] <= 1e-9 || sz[i2] <= 1e-9) continue; // behind the eye
+        const double x0 = sx[i0], y0 = sy[i0], x1 = sx[i1], y1 = sy[i1], x2 = sx[i2], y2 = sy[i2];
+        const double area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+        if (std::fabs(area) < 1e-12) continue;
+        const int bx0 = std::max(0, static_cast<int>(std::floor(std::min({x0, x1, x2}))));
+        const int bx1 = std::min(width - 1, static_cast<int>(std::ceil(std::max({x0, x1, x2}))));
+        const int by0 = std::max(0, static_cast<int>(std::floor(std::min({y0, y1, y2}))));
+        const int by1 = std::min(height - 1, static_cast<int>(std::ceil(std::max({y0, y1, y2}))));
+        for (int py = by0; py <= by1; ++py)
+            for (int px = bx0; px <= bx1; ++px) {
+                const double cx = px + 0.5, cy = py + 0.5;
+                double w0 = ((x1 - cx) * (y2 - cy) - (x2 - cx) * (y1 - cy)) / area;
+                double w1 = ((x2 - cx) * (y0 - cy) - (x0 - cx) * (y2 - cy)) / area;
+                double w2 = 1 - w0 - w1;
+                if (w0 < 0 || w1 < 0 || w2 < 0) continue;
+                // Perspective-correct weights from the screen-space ones.
+                const double q0 = w0 / sz[i0], q1 = w1 / sz[i1], q2 = w2 / sz[i2];
+                const double qs = q0 + q1 + q2;
+                const double z = 1 / qs;
+                const std::size_t k = static_cast<std::size_t>(py) * width + px;
+                if (z >= depth[k]) continue;
+                depth[k] = z;
+                tri[k] = static_cast<std::int64_t>(t);
+                bary[3 * k] = q0 / qs;
+                bary[3 * k + 1] = q1 / qs;
+                bary[3 * k + 2] = q2 / qs;
+            }
+    }
+    const core::SurfaceNoise noise(texton, req.mni);
+    const int nc = texton.channels;
+    core::Image out(width, height, 4);
+    Vec3 light = {0.4, 0.8, 0.6};
+    normalise(light);
+#pragma omp parallel for schedule(dynamic, 4) num_threads(core::resolve_threads(threads))
+    for (int py = 0; py < height; ++py)
+        for (int px = 0; px < width; ++px) {
+            const std::size_t k = static_cast<std::size_t>(py) * width + px;
+            if (tri[k] < 0) continue;
+            const auto t = static_cast<std::size_t>(tri[k]);
+            const std::uint32_t idx[3] = {mesh.triangles[3 * t], mesh.triangles[3 * t + 1],
+                                          mesh.triangles[3 * t + 2]};
+            Vec3 p = {0, 0, 0}, n = {0, 0, 0};
+            for (int j = 0; j < 3; ++j) {
+                const double w = bary[3 * k + static_cast<std::size_t>(j)];
+                for (int d = 0; d < 3; ++d) {
+                    p[static_cast<std::size_t>(d)] +=
+                        w * mesh.positions[3 * idx[j] + static_cast<std::size_t>(d)];
+                    if (!mesh.normals.empty())
+                        n[static_cast<std::size_t>(d)] +=
+                            w * mesh.normals[3 * idx[j] + static_cast<std::size_t>(d)];
+                }
+            }
+            if (mesh.normals.empty() || !normalise(n)) {
+                const Vec3 a = {mesh.positions[3 * idx[0]], mesh.positions[3 * idx[0] + 1],
+                                mesh.positions[3 * idx[0] + 2]};
+                const Vec3 b = {mesh.positions[3 * idx[1]], mesh.positions[3 * idx[1] + 1],
+                                mesh.positions[3 * idx[1] + 2]};
+                const Vec3 c = {mesh.positions[3 * idx[2]], mesh.positions[3 * idx[2] + 1],
+                                mesh.positions[3 * idx[2] + 2]};
+                n = cross(sub(b, a), sub(c, a));
+                if (!normalise(n)) continue;
+            }
+            if (dot(n, fwd) > 0) n = {-n[0], -n[1], -n[2]}; // face the camera
+            float colour[3];
+            noise.eval(req.seed, {p[0] * scale, p[1] * scale, p[2] * scale}, n, colour);
+            const double shade = 0.35 + 0.65 * std::max(0.0, dot(n, light));
+            for (int c = 0; c < 3; ++c)
+                out.at(c, px, py) =
+                    static_cast<float>(std::clamp(colour[nc == 3 ? c : 0] * shade, 0.0, 1.0));
+            out.at(3, px, py) = 1.0f;
+        }
+    return out;
+}
+
+} // namespace textond::render

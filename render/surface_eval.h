@@ -1,0 +1,45 @@
+#pragma once
+// Surface noise at many points (texton-noise section 6): the per-point evaluation of
+// core/surface_noise.h spread over threads, and a preview of a triangle mesh textured by it.
+// CPU only for now.
+#include "core/image.h"
+#include "core/result.h"
+#include "core/surface_noise.h"
+#include "core/texton.h"
+#include "core/triangle_mesh.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace textond::render {
+
+inline constexpr std::size_t kMaxSurfacePoints = 1'000'000;
+
+struct SurfaceRequest {
+    std::uint64_t seed = 0;
+    double mni = core::kDefaultSurfaceMni;
+    double scale = 1.0; // texels per unit of the positions
+};
+
+// `points` and `normals` hold x, y, z per point (normals need not be unit length, must not be
+// zero); returns the texton's channels per point.
+Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const SurfaceRequest& req,
+                                            const std::vector<float>& points,
+                                            const std::vector<float>& normals, int threads = 0);
+
+using Mesh = core::TriangleMesh;
+
+struct Camera {
+    core::Vec3 eye{0, 0, 0}, target{0, 0, 0}, up{0, 1, 0};
+    double fov_degrees = 35;
+    bool automatic = true; // frame the mesh's bounding box from the front, slightly above
+};
+
+// A perspective view of the mesh, each visible pixel the surface noise at its interpolated
+// position and normal (positions times req.scale; scale 0 = the bounding box's diagonal spans 512
+// texels), lit by one directional light; the background is transparent (alpha 0, RGBA output).
+Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
+                                        const Mesh& mesh, Camera camera, int width, int height,
+                                        int threads = 0);
+
+} // namespace textond::render

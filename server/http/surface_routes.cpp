@@ -1,0 +1,136 @@
+// Surface noise over HTTP (texton-noise section 6): colours at 3D points with normals, and a
+// preview of an OBJ mesh textured by it. Both evaluate on the CPU.
+#include "api/requests.h"
+#include "render/surface_eval.h"
+#include "server/http/http_support.h"
+#include "server/http/service.h"
+#include "server/io/image_io.h"
+#include "server/io/obj_mesh.h"
+
+#include <cstring>
+
+namespace textond::http {
+
+namespace {
+
+bool wants_binary(const httplib::Request& req) {
+    return req.get_header_value("Accept").find("application/octet-stream") != std::string::npos;
+}
+
+// {"points": [[x, y, z], ...], "normals": [[x, y, z], ...]} or 6 little-endian float32 a point.
+std::optional<api::ApiError> read_points(const httplib::Request& req, std::vector<float>& points,
+                                         std::vector<float>& normals) {
+    const std::string type = req.get_header_value("Content-Type");
+    if (type.find("application/json") != std::string::npos) {
+        try {
+            const auto j = nlohmann::json::parse(req.body);
+            const auto& p = j.at("points");
+            const auto& n = j.at("normals");
+            if (!p.is_array() || !n.is_array() || p.size() != n.size())
+                return api::ApiError{400, "invalid_body",
+                                     "points and normals must be arrays of equal length"};
+            if (p.size() > render::kMaxSurfacePoints)
+                return api::ApiError{413, "payload_too_large", "at most 1000000 points"};
+            for (std::size_t i = 0; i < p.size(); ++i)
+                for (int d = 0; d < 3; ++d) {
+                    points.push_back(p.at(i).at(static_cast<std::size_t>(d)).get<float>());
+                    normals.push_back(n.at(i).at(static_cast<std::size_t>(d)).get<float>());
+                }
+        } catch (const std::exception& e) {
+            return api::ApiError{400, "invalid_body",
+                                 std::string("expected {\"points\": [[x,y,z],...], \"normals\": "
+                                             "[[x,y,z],...]}: ") +
+                                     e.what()};
+        }
+        return std::nullopt;
+    }
+    if (req.body.size() % 24 != 0)
+        return api::ApiError{400, "invalid_body",
+                             "a binary body is 6 little-endian float32 a point (x y z nx ny nz), "
+                             "or send application/json"};
+    const std::size_t n = req.body.size() / 24;
+    if (n > render::kMaxSurfacePoints)
+        return api::ApiError{413, "payload_too_large", "at most 1000000 points"};
+    std::vector<float> all(n * 6);
+    std::memcpy(all.data(), req.body.data(), req.body.size());
+    for (std::size_t i = 0; i < n; ++i)
+        for (int d = 0; d < 3; ++d) {
+            points.push_back(all[6 * i + static_cast<std::size_t>(d)]);
+            normals.push_back(all[6 * i + 3 + static_cast<std::size_t>(d)]);
+        }
+    return std::nullopt;
+}
+
+} // namespace
+
+void Service::surface_points(const httplib::Request& req, const std::string& id,
+                             httplib::Response& res) {
+    set_route("/v1/textons/{id}/surface");
+    api::SurfaceParams p;
+    if (auto e = api::parse_surface(id, req.params, false, p)) return send_error(res, *e);
+    auto prepared = m_store->prepared(id);
+    if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    std::vector<float> points, normals;
+    if (auto e = read_points(req, points, normals)) return send_error(res, *e);
+    render::SurfaceRequest sr{p.seed, p.mni, p.scale};
+    auto colours = [&] {
+        SlotGuard slot(m_render_slots);
+        return render::evaluate_surface(prepared.value()->texton(), sr, points, normals, 1);
+    }();
+    if (!colours) return send_error(res, to_api_error(colours.error()));
+    const int nc = prepared.value()->channels();
+    res.set_header("X-Textond-Channels", std::to_string(nc));
+    if (wants_binary(req)) {
+        std::string body(colours.value().size() * sizeof(float), '\0');
+        std::memcpy(body.data(), colours.value().data(), body.size());
+        return res.set_content(body, "application/octet-stream");
+    }
+    nlohmann::json list = nlohmann::json::array();
+    const auto& c = colours.value();
+    for (std::size_t i = 0; i < c.size(); i += static_cast<std::size_t>(nc)) {
+        nlohmann::json one = nlohmann::json::array();
+        for (int k = 0; k < nc; ++k) one.push_back(c[i + static_cast<std::size_t>(k)]);
+        list.push_back(one);
+    }
+    send_json(res, 200, {{"channels", nc}, {"mni", p.mni}, {"seed", p.seed}, {"colors", list}},
+              "no-store");
+}
+
+void Service::surface_mesh(const httplib::Request& req, const std::string& id,
+                           httplib::Response& res) {
+    set_route("/v1/textons/{id}/mesh.png");
+    api::SurfaceParams p;
+    if (auto e = api::parse_surface(id, req.params, true, p)) return send_error(res, *e);
+    auto prepared = m_store->prepared(id);
+    if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    auto mesh = io::parse_obj(req.body);
+    if (!mesh) return send_error(res, to_api_error(mesh.error(), "invalid_mesh"));
+    render::Camera cam;
+    cam.fov_degrees = p.fov;
+    if (p.camera) {
+        cam.automatic = false;
+        cam.eye = {p.eye[0], p.eye[1], p.eye[2]};
+        cam.target = {p.target[0], p.target[1], p.target[2]};
+    }
+    render::SurfaceRequest sr{p.seed, p.mni, p.scale};
+    auto image = [&] {
+        SlotGuard slot(m_render_slots);
+        return render::render_mesh_preview(prepared.value()->texton(), sr, mesh.value(), cam,
+                                           p.width, p.height, 0);
+    }();
+    if (!image) return send_error(res, to_api_error(image.error()));
+    auto png = io::encode_image_memory(image.value(), io::Encoding::png8);
+    if (!png) return send_error(res, to_api_error(png.error()));
+    res.set_content(png.value(), "image/png");
+}
+
+void Service::install_surface_routes() {
+    using Req = const httplib::Request&;
+    using Res = httplib::Response&;
+    m_http.Post(R"(/v1/textons/([^/]+)/surface)",
+                [this](Req req, Res res) { surface_points(req, req.matches[1], res); });
+    m_http.Post(R"(/v1/textons/([^/]+)/mesh\.png)",
+                [this](Req req, Res res) { surface_mesh(req, req.matches[1], res); });
+}
+
+} // namespace textond::http
