@@ -40,9 +40,9 @@ std::optional<Error> check_request(const SurfaceRequest& req) {
 
 } // namespace
 
-Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const SurfaceRequest& req,
-                                            const std::vector<float>& points,
-                                            const std::vector<float>& normals, int threads) {
+std::optional<Error> check_surface_input(const SurfaceRequest& req,
+                                         const std::vector<float>& points,
+                                         const std::vector<float>& normals) {
     if (auto e = check_request(req)) return *e;
     if (points.size() % 3 != 0 || normals.size() != points.size())
         return make_error(ErrorCode::invalid_argument,
@@ -60,6 +60,20 @@ Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const Su
             return make_error(ErrorCode::invalid_argument,
                               "normal " + std::to_string(i / 3) + " is not finite");
     }
+    for (std::size_t i = 0; i < n; ++i)
+        if (!(std::fabs(normals[3 * i]) + std::fabs(normals[3 * i + 1]) +
+                  std::fabs(normals[3 * i + 2]) >
+              0))
+            return make_error(ErrorCode::invalid_argument,
+                              "normal " + std::to_string(i) + " has zero length");
+    return std::nullopt;
+}
+
+Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const SurfaceRequest& req,
+                                            const std::vector<float>& points,
+                                            const std::vector<float>& normals, int threads) {
+    if (auto e = check_surface_input(req, points, normals)) return *e;
+    const std::size_t n = points.size() / 3;
     const double scale = req.scale > 0 ? req.scale : 1.0;
     const core::SurfaceNoise noise(texton, req.mni);
     const int nc = texton.channels;
@@ -85,7 +99,7 @@ Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const Su
 
 Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
                                         const Mesh& mesh, Camera cam, int width, int height,
-                                        int threads) {
+                                        int threads, const SurfaceEvaluator& evaluator) {
     if (auto e = check_request(req)) return *e;
     if (width < 16 || height < 16 || width > 2048 || height > 2048)
         return make_error(ErrorCode::invalid_argument, "preview sides must be in [16, 2048]");
@@ -168,12 +182,13 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
                 bary[3 * k + 2] = q2 / qs;
             }
     }
-    const core::SurfaceNoise noise(texton, req.mni);
-    const int nc = texton.channels;
-    core::Image out(width, height, 4);
+    // Every visible pixel's surface point and normal, then one evaluation of them all.
+    std::vector<std::size_t> where;
+    std::vector<double> ys;
+    std::vector<float> ns;
+    std::vector<float> shade;
     Vec3 light = {0.4, 0.8, 0.6};
     normalise(light);
-#pragma omp parallel for schedule(dynamic, 4) num_threads(core::resolve_threads(threads))
     for (int py = 0; py < height; ++py)
         for (int px = 0; px < width; ++px) {
             const std::size_t k = static_cast<std::size_t>(py) * width + px;
@@ -203,14 +218,40 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
                 if (!normalise(n)) continue;
             }
             if (dot(n, fwd) > 0) n = {-n[0], -n[1], -n[2]}; // face the camera
-            float colour[3];
-            noise.eval(req.seed, {p[0] * scale, p[1] * scale, p[2] * scale}, n, colour);
-            const double shade = 0.35 + 0.65 * std::max(0.0, dot(n, light));
-            for (int c = 0; c < 3; ++c)
-                out.at(c, px, py) =
-                    static_cast<float>(std::clamp(colour[nc == 3 ? c : 0] * shade, 0.0, 1.0));
-            out.at(3, px, py) = 1.0f;
+            where.push_back(k);
+            for (int d = 0; d < 3; ++d) {
+                ys.push_back(p[static_cast<std::size_t>(d)] * scale);
+                ns.push_back(static_cast<float>(n[static_cast<std::size_t>(d)]));
+            }
+            shade.push_back(static_cast<float>(0.35 + 0.65 * std::max(0.0, dot(n, light))));
         }
+    const int nc = texton.channels;
+    std::vector<float> colours;
+    int stride = nc;
+    if (evaluator) {
+        auto got = evaluator(ys, ns);
+        if (!got) return got.error();
+        colours = std::move(got.value());
+        stride = 3;
+    } else {
+        const core::SurfaceNoise noise(texton, req.mni);
+        colours.resize(where.size() * static_cast<std::size_t>(nc));
+#pragma omp parallel for schedule(dynamic, 256) num_threads(core::resolve_threads(threads))
+        for (std::size_t i = 0; i < where.size(); ++i)
+            noise.eval(req.seed, {ys[3 * i], ys[3 * i + 1], ys[3 * i + 2]},
+                       {ns[3 * i], ns[3 * i + 1], ns[3 * i + 2]},
+                       &colours[i * static_cast<std::size_t>(nc)]);
+    }
+    core::Image out(width, height, 4);
+    for (std::size_t i = 0; i < where.size(); ++i) {
+        const int px = static_cast<int>(where[i] % static_cast<std::size_t>(width));
+        const int py = static_cast<int>(where[i] / static_cast<std::size_t>(width));
+        for (int c = 0; c < 3; ++c)
+            out.at(c, px, py) = std::clamp(
+                colours[i * static_cast<std::size_t>(stride) + (nc == 3 ? c : 0)] * shade[i], 0.0f,
+                1.0f);
+        out.at(3, px, py) = 1.0f;
+    }
     return out;
 }
 

@@ -9,6 +9,8 @@
 #include "core/triangle_mesh.h"
 
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <vector>
 
 namespace textond::render {
@@ -20,6 +22,11 @@ struct SurfaceRequest {
     double mni = core::kDefaultSurfaceMni;
     double scale = 1.0; // texels per unit of the positions
 };
+
+// Why `points` and `normals` cannot be evaluated (lengths, limits, NaN, zero normals), or nothing.
+std::optional<Error> check_surface_input(const SurfaceRequest& req,
+                                         const std::vector<float>& points,
+                                         const std::vector<float>& normals);
 
 // `points` and `normals` hold x, y, z per point (normals need not be unit length, must not be
 // zero); returns the texton's channels per point.
@@ -38,8 +45,13 @@ struct Camera {
 // A perspective view of the mesh, each visible pixel the surface noise at its interpolated
 // position and normal (positions times req.scale; scale 0 = the bounding box's diagonal spans 512
 // texels), lit by one directional light; the background is transparent (alpha 0, RGBA output).
+// Evaluates the surface noise at points (texels, x y z each) with unit normals: 3 floats a point
+// (a GL backend's GlBackend::surface). Empty: the CPU (core/surface_noise.h).
+using SurfaceEvaluator = std::function<Result<std::vector<float>>(const std::vector<double>& y,
+                                                                  const std::vector<float>& n)>;
+
 Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
                                         const Mesh& mesh, Camera camera, int width, int height,
-                                        int threads = 0);
+                                        int threads = 0, const SurfaceEvaluator& evaluator = {});
 
 } // namespace textond::render

@@ -1,11 +1,13 @@
 #include "render/gl/gl_backend.h"
 
 #include "core/grid_poisson.h"
+#include "core/surface_noise.h"
 #include "render/gl/gl_api.h"
 #include "render/gl/glsl_sources.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace textond::render {
 
@@ -89,6 +91,7 @@ GlBackend::~GlBackend() {
     for (auto& [key, t] : m_tables) m_gl->DeleteTextures(1, &t.texture);
     if (m_program) m_gl->DeleteProgram(m_program);
     if (m_probe_program) m_gl->DeleteProgram(m_probe_program);
+    if (m_surface_program) m_gl->DeleteProgram(m_surface_program);
     if (m_vao) m_gl->DeleteVertexArrays(1, &m_vao);
 }
 
@@ -300,6 +303,88 @@ Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequ
         return make_error(ErrorCode::internal,
                           m_name + ": GL error " + std::to_string(static_cast<int>(err)));
     return out;
+}
+
+Result<std::vector<float>> GlBackend::surface(const PreparedTexton& tex, std::uint64_t seed,
+                                              double mni, const std::vector<double>& y,
+                                              const std::vector<float>& normals) {
+    const std::size_t n = y.size() / 3;
+    if (y.size() != normals.size() || y.size() % 3 != 0)
+        return make_error(ErrorCode::invalid_argument, "surface: points and normals differ");
+    std::vector<std::uint32_t> in(n * 12, 0);
+    for (std::size_t i = 0; i < n; ++i)
+        for (int d = 0; d < 3; ++d) {
+            const double v = y[3 * i + static_cast<std::size_t>(d)];
+            const double fl = std::floor(v);
+            if (!(std::fabs(fl) < 2147483000.0))
+                return make_error(ErrorCode::invalid_argument, "surface: |y| over 2^31 texels");
+            const auto whole = static_cast<std::int32_t>(fl);
+            const auto frac = static_cast<float>(v - fl);
+            in[12 * i + static_cast<std::size_t>(d)] = static_cast<std::uint32_t>(whole);
+            std::memcpy(&in[12 * i + 3 + static_cast<std::size_t>(d)], &frac, 4);
+            std::memcpy(&in[12 * i + 6 + static_cast<std::size_t>(d)],
+                        &normals[3 * i + static_cast<std::size_t>(d)], 4);
+        }
+    const auto table = tex.table(0);
+    const core::SurfaceNoise noise(tex.texton(), mni);
+    const int a = noise.cell_size();
+    const std::vector<std::uint32_t> thresholds =
+        core::noise::poisson_thresholds(noise.lambda() * a * a * a);
+    const double r = tex.size();
+
+    std::lock_guard<std::mutex> lock(m_mutex);
+    CurrentScope scope(*m_context);
+    if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
+    const gl::GlApi& g = *m_gl;
+    if (!m_surface_program) {
+        auto prog = link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") +
+                                                     glsl::kNoiseLib + glsl::kSurfaceNoiseComp}});
+        if (!prog) return prog.error();
+        m_surface_program = prog.value();
+    }
+    const GLuint prog = m_surface_program;
+    g.UseProgram(prog);
+    auto loc = [&](const char* name) { return g.GetUniformLocation(prog, name); };
+    g.ActiveTexture(GL_TEXTURE0);
+    g.BindTexture(GL_TEXTURE_2D, table_texture(table));
+    g.Uniform1i(loc("u_table"), 0);
+    g.Uniform1i(loc("u_pad"), table->pad);
+    g.Uniform1i(loc("u_r"), tex.size());
+    g.Uniform1i(loc("u_order"), tex.order());
+    g.Uniform1i(loc("u_a"), a);
+    g.Uniform1i(loc("u_count"), static_cast<GLint>(n));
+    g.Uniform2ui(loc("u_seed"), static_cast<GLuint>(seed), static_cast<GLuint>(seed >> 32));
+    g.Uniform1f(loc("u_norm"), static_cast<float>(1.0 / std::sqrt(noise.lambda() * r / 3.0)));
+    const auto& m = tex.texton().mean;
+    const bool grey = tex.channels() == 1;
+    g.Uniform3f(loc("u_mean"), static_cast<float>(m[0]), static_cast<float>(grey ? 0 : m[1]),
+                static_cast<float>(grey ? 0 : m[2]));
+    g.Uniform1uiv(loc("u_thresholds[0]"), static_cast<GLsizei>(thresholds.size()),
+                  thresholds.data());
+    g.Uniform1i(loc("u_nthresholds"), static_cast<GLint>(thresholds.size()));
+    GLuint bufs[2];
+    g.GenBuffers(2, bufs);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[0]);
+    g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(in.size() * 4), in.data(),
+                 GL_STATIC_DRAW);
+    std::vector<float> out(n * 4, 0.0f);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[1]);
+    g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(out.size() * 4), out.data(),
+                 GL_DYNAMIC_READ);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, bufs[0]);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, bufs[1]);
+    g.DispatchCompute(static_cast<GLuint>((n + 63) / 64), 1, 1);
+    g.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[1]);
+    g.GetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(out.size() * 4),
+                       out.data());
+    g.DeleteBuffers(2, bufs);
+    if (g.GetError() != GL_NO_ERROR) return make_error(ErrorCode::internal, "surface: GL error");
+    std::vector<float> rgb(n * 3);
+    for (std::size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c)
+            rgb[3 * i + static_cast<std::size_t>(c)] = out[4 * i + static_cast<std::size_t>(c)];
+    return rgb;
 }
 
 Result<std::vector<std::uint32_t>> GlBackend::probe(const std::vector<std::uint32_t>& queries,

@@ -48,6 +48,12 @@ public:
     Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                RenderStats* stats = nullptr) override;
 
+    // Surface noise (render/glsl/surface_noise.comp) at `y` (texels, x y z a point, each within
+    // +-2^31) with normals; returns 3 floats a point (grey textons repeat their channel).
+    Result<std::vector<float>> surface(const PreparedTexton& texton, std::uint64_t seed, double mni,
+                                       const std::vector<double>& y,
+                                       const std::vector<float>& normals);
+
     // Test hook: runs render/glsl/spec_probe.comp on `queries` (8 words each) with the given
     // Poisson thresholds; returns 64 words per query.
     Result<std::vector<std::uint32_t>> probe(const std::vector<std::uint32_t>& queries,
@@ -66,7 +72,7 @@ private:
     std::string m_version;
     bool m_software = false;
     std::mutex m_mutex;
-    unsigned m_program = 0, m_probe_program = 0, m_vao = 0;
+    unsigned m_program = 0, m_probe_program = 0, m_surface_program = 0, m_vao = 0;
     std::map<std::string, int> m_uniforms;
     struct CachedTable {
         std::shared_ptr<const LevelTable> table; // keeps the key alive while cached

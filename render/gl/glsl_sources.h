@@ -8,4 +8,5 @@ extern const char* const kTextonNoiseFrag;
 extern const char* const kSpecProbeComp;
 extern const char* const kTextonNoiseHlsl;
 extern const char* const kNoiseSpec;
+extern const char* const kSurfaceNoiseComp;
 } // namespace textond::render::glsl

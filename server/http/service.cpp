@@ -77,8 +77,9 @@ void apply_cors(bool any, const std::vector<std::string>& listed, const httplib:
         if (std::find(listed.begin(), listed.end(), origin) == listed.end()) return;
         res.set_header("Access-Control-Allow-Origin", origin);
     }
-    res.set_header("Access-Control-Expose-Headers",
-                   "ETag, X-Request-Id, Location, Retry-After, X-Textond-Backend");
+    res.set_header(
+        "Access-Control-Expose-Headers",
+        "ETag, X-Request-Id, Location, Retry-After, X-Textond-Backend, X-Textond-Channels");
 }
 } // namespace
 

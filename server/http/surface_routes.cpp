@@ -1,6 +1,7 @@
 // Surface noise over HTTP (texton-noise section 6): colours at 3D points with normals, and a
 // preview of an OBJ mesh textured by it. Both evaluate on the CPU.
 #include "api/requests.h"
+#include "render/gl/gl_backend.h"
 #include "render/surface_eval.h"
 #include "server/http/http_support.h"
 #include "server/http/service.h"
@@ -73,13 +74,33 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
     std::vector<float> points, normals;
     if (auto e = read_points(req, points, normals)) return send_error(res, *e);
     render::SurfaceRequest sr{p.seed, p.mni, p.scale};
+    const int nc = prepared.value()->channels();
+    std::string evaluated_on = "cpu";
     auto colours = [&] {
         SlotGuard slot(m_render_slots);
-        return render::evaluate_surface(prepared.value()->texton(), sr, points, normals, 1);
+        auto cpu = [&] {
+            return render::evaluate_surface(prepared.value()->texton(), sr, points, normals, 1);
+        };
+        auto gl = std::dynamic_pointer_cast<render::GlBackend>(m_region_backend);
+        if (!gl) return cpu();
+        if (auto e = render::check_surface_input(sr, points, normals))
+            return Result<std::vector<float>>(*e);
+        // On a GL backend the GPU's colours (equal to the CPU's within float rounding).
+        std::vector<double> y(points.size());
+        for (std::size_t i = 0; i < y.size(); ++i) y[i] = double(points[i]) * p.scale;
+        auto got = gl->surface(*prepared.value(), p.seed, p.mni, y, normals);
+        if (!got) return cpu(); // beyond the GPU path's +-2^31 texels
+        evaluated_on = gl->name();
+        std::vector<float> out(points.size() / 3 * static_cast<std::size_t>(nc));
+        for (std::size_t i = 0; i < points.size() / 3; ++i)
+            for (int c = 0; c < nc; ++c)
+                out[i * static_cast<std::size_t>(nc) + static_cast<std::size_t>(c)] =
+                    got.value()[3 * i + static_cast<std::size_t>(c)];
+        return Result<std::vector<float>>(std::move(out));
     }();
     if (!colours) return send_error(res, to_api_error(colours.error()));
-    const int nc = prepared.value()->channels();
     res.set_header("X-Textond-Channels", std::to_string(nc));
+    res.set_header("X-Textond-Backend", evaluated_on);
     if (wants_binary(req)) {
         std::string body(colours.value().size() * sizeof(float), '\0');
         std::memcpy(body.data(), colours.value().data(), body.size());
@@ -115,8 +136,13 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
     render::SurfaceRequest sr{p.seed, p.mni, p.scale};
     auto image = [&] {
         SlotGuard slot(m_render_slots);
+        render::SurfaceEvaluator on_gpu;
+        if (auto gl = std::dynamic_pointer_cast<render::GlBackend>(m_region_backend))
+            on_gpu = [&, gl](const std::vector<double>& y, const std::vector<float>& n) {
+                return gl->surface(*prepared.value(), p.seed, p.mni, y, n);
+            };
         return render::render_mesh_preview(prepared.value()->texton(), sr, mesh.value(), cam,
-                                           p.width, p.height, 0);
+                                           p.width, p.height, 0, on_gpu);
     }();
     if (!image) return send_error(res, to_api_error(image.error()));
     auto png = io::encode_image_memory(image.value(), io::Encoding::png8);

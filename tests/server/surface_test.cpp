@@ -1,5 +1,6 @@
 // Surface noise over HTTP: POST /v1/textons/{id}/surface (JSON and binary float32, the same
 // colours as the library's evaluation of the stored texton) and POST /v1/textons/{id}/mesh.png.
+#include "render/osmesa_backend.h"
 #include "render/surface_eval.h"
 #include "server/io/texton_file.h"
 #include "tests/server/server_fixture.h"
@@ -63,6 +64,7 @@ TEST(Surface, JsonAndBinaryGiveTheLibrarysColours) {
     ASSERT_TRUE(b && b->status == 200);
     ASSERT_EQ(b->body.size(), 9 * sizeof(float));
     EXPECT_EQ(b->get_header_value("X-Textond-Channels"), "3");
+    EXPECT_EQ(b->get_header_value("X-Textond-Backend"), "cpu");
     std::vector<float> got(9);
     std::memcpy(got.data(), b->body.data(), b->body.size());
 
@@ -108,6 +110,38 @@ TEST(Surface, JsonAndBinaryGiveTheLibrarysColours) {
         ASSERT_TRUE(r);
         EXPECT_EQ(r->status, x.status) << x.path << " " << x.body.substr(0, 40) << ": " << r->body;
     }
+}
+
+// With --backend osmesa the service evaluates on the GPU path (llvmpipe here): the same colours
+// as the CPU's within float rounding, and the mesh preview through it.
+TEST(Surface, GlBackendServesTheSameColours) {
+    if (!render::make_osmesa_backend().ok()) GTEST_SKIP() << "no OSMesa";
+    http::ServeConfig cfg = TestServer::default_config();
+    cfg.backend = render::BackendKind::osmesa;
+    TestServer server(cfg);
+    auto c = server.client();
+    const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=10");
+    const std::string body = R"({"points":[[0,0,0],[100.5,-2,3],[-5000,7000,12.25]],)"
+                             R"("normals":[[0,0,1],[0,2,0],[1,1,1]]})";
+    auto r = c.Post(("/v1/textons/" + id + "/surface?seed=5").c_str(), body, "application/json");
+    ASSERT_TRUE(r && r->status == 200) << (r ? r->body : "");
+    EXPECT_EQ(r->get_header_value("X-Textond-Backend"), "osmesa");
+    const auto got = nlohmann::json::parse(r->body).at("colors");
+    auto record = io::read_texton_file(server.data_dir() + "/textons/" + id + ".exr");
+    ASSERT_TRUE(record.ok());
+    render::SurfaceRequest sr;
+    sr.seed = 5;
+    auto want = render::evaluate_surface(record.value().texton, sr,
+                                         {0, 0, 0, 100.5f, -2, 3, -5000, 7000, 12.25f},
+                                         {0, 0, 1, 0, 2, 0, 1, 1, 1});
+    ASSERT_TRUE(want.ok());
+    for (int i = 0; i < 9; ++i)
+        EXPECT_NEAR(
+            got[static_cast<std::size_t>(i / 3)][static_cast<std::size_t>(i % 3)].get<double>(),
+            want.value()[static_cast<std::size_t>(i)], 1e-4);
+    auto mesh = c.Post(("/v1/textons/" + id + "/mesh.png?width=32&height=32").c_str(),
+                       sphere_obj(8, 16), "model/obj");
+    ASSERT_TRUE(mesh && mesh->status == 200) << (mesh ? mesh->body : "");
 }
 
 TEST(Surface, MeshPreviewDrawsTheObjTexturedWithoutUvs) {
