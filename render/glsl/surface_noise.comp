@@ -77,16 +77,23 @@ void main() {
         u2 = vec3(b, 1.0 - n.y * n.y * a, -n.y);
     }
     float r = float(u_r);
-    float reach = sqrt(3.0) * (0.5 * r + 2.0);
+    float half_r = 0.5 * r;
+    // The cells that meet the bounding box of the contributing box and the slab (as on the CPU,
+    // with a margin: a cell visited in vain only costs time).
     ivec3 lo, hi;
     for (int d = 0; d < 3; ++d) {
-        lo[d] = floor_div(yi[d] + int(floor(yf[d] - reach)), u_a);
-        hi[d] = floor_div(yi[d] + int(floor(yf[d] + reach)), u_a);
+        float ext = (half_r + 2.0) * (abs(u1[d]) + abs(u2[d])) + half_r * abs(n[d]) + 0.01;
+        lo[d] = floor_div(yi[d] + int(floor(yf[d] - ext)), u_a);
+        hi[d] = floor_div(yi[d] + int(floor(yf[d] + ext)), u_a);
     }
+    float cell_half = 0.5 * float(u_a) * (abs(n.x) + abs(n.y) + abs(n.z));
     vec3 acc = vec3(0.0);
     for (int cz = lo.z; cz <= hi.z; ++cz)
         for (int cy = lo.y; cy <= hi.y; ++cy)
             for (int cx = lo.x; cx <= hi.x; ++cx) {
+                ivec3 cc = ivec3(cx, cy, cz);
+                vec3 off = vec3(yi - cc * u_a) + yf - 0.5 * float(u_a);
+                if (abs(dot(off, n)) - cell_half >= half_r + 0.01 * float(u_a)) continue;
                 uint state = cell_key3(u_seed, cx, cy, cz);
                 int count = poisson_count(next_draw(state));
                 ivec3 cell = ivec3(cx, cy, cz);

@@ -1,13 +1,17 @@
 #include "core/spectral_synthesis.h"
 #include "core/texton_analysis.h"
+#include "core/texture_mix.h"
 #include "render/backend_factory.h"
 #include "render/cpu_backend.h"
+#include "render/prepared_mix.h"
+#include "render/surface_eval.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
 #include "server/io/image_io.h"
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -21,7 +25,8 @@ const char* kHelp =
 Milliseconds per frame of texton noise (MNI 30, level 0) for each backend at 256x256, 1024x1024,
 1920x1080 and 3840x2160, with textons of r = 64 and r = 256 (the paper's Table 1), next to an
 FFTW ADSN of the same size measured in the same run (ratio = ADSN ms / backend ms). Also one
-256x256 tile at levels 0, 3 and 24, and one 1024x1024 frame at interpolation orders 0, 1, 3. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
+256x256 tile at levels 0, 3 and 24, one 1024x1024 frame at interpolation orders 0, 1, 3, and (CPU,
+one thread) a texture-mix tile and 65536 surface-noise points against a plain tile. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
   --exemplars DIR   texture photos                              [../shared/data/exemplars]
   --repeat N        frames per row; the table shows the median    [5]
   --backends LIST   comma-separated: cpu, osmesa, egl (skipped when absent)   [cpu,egl]
@@ -172,6 +177,70 @@ int bench_render_command(const Argv& argv) {
             });
             if (order == 1) base = ms;
             std::printf("| %s | %d | %.2f | %.2fx |\n", b->name().c_str(), order, ms, ms / base);
+        }
+    }
+
+    // Texture mixing and surface noise (CPU): against a plain 256x256 level-0 tile of the same
+    // r = 64 texton, measured here too.
+    auto other = io::decode_image_file((dir / "etr_pebbles04.png").string());
+    if (!other) return fail(1, "etr_pebbles04.png not found in " + dir.string());
+    render::CpuBackend cpu1(1);
+    render::NoiseRequest tile;
+    tile.x0 = -128;
+    const double plain = median_ms(static_cast<int>(repeat.value()), [&] {
+        ++tile.seed;
+        auto img = cpu1.render(*r64, tile);
+    });
+    std::printf("\nCPU, one thread: a 256x256 tile of the r = 64 texton (%.2f ms) against\n",
+                plain);
+    std::printf("| what | ms | ratio to the plain tile |\n|---|---|---|\n");
+    {
+        core::AnalysisParams p;
+        p.size = 64;
+        p.threads = nthreads;
+        const auto t0 = std::chrono::steady_clock::now();
+        auto pair = core::common_models(sand.value(), other.value(), true, nthreads);
+        if (!pair) return fail(1, pair.error().message);
+        auto levels = core::mix_levels(pair.value(), p, core::kDefaultMixLevels);
+        if (!levels) return fail(1, levels.error().message);
+        const double build =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+        core::MixField f;
+        f.x0 = -128;
+        f.width = 256;
+        auto mix = render::PreparedMix::make(levels.value().levels, f);
+        if (!mix) return fail(1, mix.error().message);
+        auto warm = cpu1.render_mix(*mix.value(), tile);
+        const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
+            ++tile.seed;
+            auto img = cpu1.render_mix(*mix.value(), tile);
+        });
+        std::printf("| mix tile, 21 levels across it | %.2f | %.2fx |\n", ms, ms / plain);
+        std::printf("| building the 21 levels (%d threads) | %.0f | %.0fx |\n", nthreads, build,
+                    build / plain);
+    }
+    {
+        const int n = 65536; // as many points as the tile has pixels
+        std::vector<float> pts(3 * n), nrm(3 * n);
+        for (int i = 0; i < n; ++i) {
+            const double z = 1 - 2 * (i + 0.5) / n, rad = std::sqrt(1 - z * z), phi = i * 2.39996;
+            const float d[3] = {static_cast<float>(rad * std::cos(phi)),
+                                static_cast<float>(rad * std::sin(phi)), static_cast<float>(z)};
+            for (int k = 0; k < 3; ++k) {
+                pts[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)] = 500 * d[k];
+                nrm[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)] = d[k];
+            }
+        }
+        for (double mni : {30.0, 60.0}) {
+            render::SurfaceRequest sr;
+            sr.mni = mni;
+            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
+                ++sr.seed;
+                auto c = render::evaluate_surface(r64->texton(), sr, pts, nrm, 1);
+            });
+            std::printf("| surface noise, 65536 points, MNI %.0f | %.2f | %.2fx |\n", mni, ms,
+                        ms / plain);
         }
     }
     return 0;
