@@ -151,7 +151,9 @@ int bench_render_command(const Argv& argv) {
         }
     }
 
-    std::printf("\nOne 1024x1024 frame by interpolation order (r = 64, MNI 30, level 0)\n");
+    const int order_side = std::min(1024, static_cast<int>(max_side.value()));
+    std::printf("\nOne %dx%d frame by interpolation order (r = 64, MNI 30, level 0)\n", order_side,
+                order_side);
     std::printf("| backend | order | ms/frame | ratio to order 1 |\n|---|---|---|---|\n");
     std::shared_ptr<const render::PreparedTexton> by_order[4] = {nullptr, r64, nullptr, nullptr};
     for (int order : {0, 3}) {
@@ -168,7 +170,7 @@ int bench_render_command(const Argv& argv) {
         double base = 0.0;
         for (int order : {1, 0, 3}) {
             render::NoiseRequest q;
-            q.width = q.height = std::min(1024, static_cast<int>(max_side.value()));
+            q.width = q.height = order_side;
             auto warm = b->render(*by_order[order], q);
             if (!warm) return fail(1, warm.error().message);
             const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
