@@ -12,20 +12,6 @@
 namespace textond::test {
 namespace {
 
-struct Estimate {
-    double mean = 0, se = 0;
-};
-
-Estimate of(const std::vector<double>& v) {
-    Estimate e;
-    for (double x : v) e.mean += x;
-    e.mean /= static_cast<double>(v.size());
-    double s = 0;
-    for (double x : v) s += (x - e.mean) * (x - e.mean);
-    e.se = std::sqrt(s / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
-    return e;
-}
-
 constexpr double kSigmas = 4.5;
 constexpr double kPi = 3.14159265358979323846;
 
@@ -94,12 +80,12 @@ TEST(SurfaceNoise, MeanVarianceAndMniOnASphereMatchProposition3) {
             }
         }
         for (int c = 0; c < 3; ++c) {
-            const Estimate m = of(value[c]), v = of(square[c]);
+            const Estimate m = estimate_of(value[c]), v = estimate_of(square[c]);
             EXPECT_NEAR(m.mean, t.mean[static_cast<std::size_t>(c)], kSigmas * m.se)
                 << "order " << order << " channel " << c;
             EXPECT_NEAR(v.mean, c0(c, c), kSigmas * v.se) << "order " << order << " channel " << c;
         }
-        const Estimate k = of(impacts);
+        const Estimate k = estimate_of(impacts);
         EXPECT_NEAR(k.mean, core::kDefaultSurfaceMni, kSigmas * k.se) << "order " << order;
     }
 }

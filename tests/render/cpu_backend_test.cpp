@@ -27,14 +27,6 @@ bool same_bits(const core::Image& a, const core::Image& b) {
            std::memcmp(a.data.data(), b.data.data(), a.data.size() * sizeof(float)) == 0;
 }
 
-core::Image window(const core::Image& src, int x0, int y0, int w, int h) {
-    core::Image out(w, h, src.channels);
-    for (int c = 0; c < src.channels; ++c)
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x0 + x, y0 + y);
-    return out;
-}
-
 struct StitchCase {
     int level;
     std::int64_t x0, y0;

@@ -3,6 +3,7 @@
 // many windows.
 #include "render/cpu_backend.h"
 #include "tests/render/render_fixtures.h"
+#include "tests/support/test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -15,20 +16,6 @@ namespace {
 
 using render::CpuBackend;
 using render::NoiseRequest;
-
-struct Estimate {
-    double mean = 0, se = 0;
-};
-
-Estimate of(const std::vector<double>& v) {
-    Estimate e;
-    for (double x : v) e.mean += x;
-    e.mean /= static_cast<double>(v.size());
-    double s = 0;
-    for (double x : v) s += (x - e.mean) * (x - e.mean);
-    e.se = std::sqrt(s / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
-    return e;
-}
 
 constexpr double kSigmas = 4.5;
 const std::int64_t kFar = std::int64_t{1} << 40;
@@ -71,7 +58,7 @@ TEST(TextureMixNoise, EndsReproduceTheTwoTexturesStatistics) {
             }
         }
         for (int c = 0; c < 3; ++c) {
-            const Estimate em = of(mean[c]), ev = of(var[c]);
+            const Estimate em = estimate_of(mean[c]), ev = estimate_of(var[c]);
             EXPECT_NEAR(em.mean, tex.texton().mean[static_cast<std::size_t>(c)], kSigmas * em.se)
                 << "end " << end << " channel " << c;
             EXPECT_NEAR(ev.mean, tex.covariance().at(c, c, 0, 0), kSigmas * ev.se)
@@ -130,7 +117,8 @@ TEST(TextureMixNoise, NoJumpAcrossLevelBoundaries) {
     // Level 0 -> 1 switches at rho = 1/4: x = span / 2. Control: the middle of level 1 (x = span).
     columns(static_cast<std::int64_t>(span / 2), bv, bg);
     columns(static_cast<std::int64_t>(span), cv, cg);
-    const Estimate b_var = of(bv), c_var = of(cv), b_grad = of(bg), c_grad = of(cg);
+    const Estimate b_var = estimate_of(bv), c_var = estimate_of(cv), b_grad = estimate_of(bg),
+                   c_grad = estimate_of(cg);
     std::printf("levels 0 -> 1 variance %.3g -> %.3g, gradient energy %.3g -> %.3g; column step at "
                 "the boundary %.3g +- %.2g, "
                 "mid-level %.3g +- %.2g; gradient energy step %.3g +- %.2g vs %.3g +- %.2g\n",

@@ -7,6 +7,7 @@
 #include "core/texton_covariance.h"
 #include "render/cpu_backend.h"
 #include "tests/render/render_fixtures.h"
+#include "tests/support/test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -19,20 +20,6 @@ namespace {
 
 using render::CpuBackend;
 using render::NoiseRequest;
-
-struct Estimate {
-    double mean = 0, se = 0;
-};
-
-Estimate of(const std::vector<double>& v) {
-    Estimate e;
-    for (double x : v) e.mean += x;
-    e.mean /= static_cast<double>(v.size());
-    double s = 0;
-    for (double x : v) s += (x - e.mean) * (x - e.mean);
-    e.se = std::sqrt(s / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
-    return e;
-}
 
 constexpr double kSigmas = 4.5; // two-sided, ~7e-6 per comparison: a handful of comparisons
 
@@ -87,7 +74,8 @@ TEST_P(Campbell, MomentsMatchTheTexton) {
     }
     for (int ch = 0; ch < tex->channels(); ++ch) {
         const auto i = static_cast<std::size_t>(ch);
-        const Estimate em = of(mean[i]), ev = of(var[i]), ek = of(kurt[i]);
+        const Estimate em = estimate_of(mean[i]), ev = estimate_of(var[i]),
+                       ek = estimate_of(kurt[i]);
         const double k_theory = cm.excess_kurtosis(ch, lambda);
         EXPECT_NEAR(em.mean, 0.0, kSigmas * em.se) << "channel " << ch;
         EXPECT_NEAR(ev.mean, cm.h2[i], kSigmas * ev.se) << "channel " << ch;
@@ -149,7 +137,7 @@ TEST(NoiseStatistics, ColourCovarianceMatchesTheModel) {
     }
     for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) {
-            const Estimate e = of(cov[a][b]);
+            const Estimate e = estimate_of(cov[a][b]);
             EXPECT_NEAR(e.mean, model(a, b), kSigmas * e.se) << a << "," << b;
         }
 }
@@ -292,7 +280,7 @@ TEST(NoiseLevels, LimitModelKeepsMeanAndVarianceUpToLevel24) {
             mean.push_back(s1 / static_cast<double>(img.value().plane_size()));
             var.push_back(s2 / static_cast<double>(img.value().plane_size()));
         }
-        const Estimate em = of(mean), ev = of(var);
+        const Estimate em = estimate_of(mean), ev = estimate_of(var);
         // Float output: values within half an ulp of the mean cannot show a smaller variance.
         const double ulp = std::ldexp(1.0, -24) * std::fabs(tex->texton().mean[0]);
         EXPECT_NEAR(em.mean, 0.0, kSigmas * em.se + ulp) << "level " << level;
@@ -340,7 +328,7 @@ TEST(InterpolationOrder, OnlyOrderZeroHasGridAlignedGradients) {
             ASSERT_TRUE(img.ok());
             v.push_back(axis_over_diagonal(img.value(), 0));
         }
-        ratio[order] = of(v);
+        ratio[order] = estimate_of(v);
         std::printf("order %d: axis / diagonal gradient energy %.3f +- %.3f\n", order,
                     ratio[order].mean, ratio[order].se);
     }

@@ -11,14 +11,6 @@
 namespace textond::test {
 namespace {
 
-core::Image window(const core::Image& src, int x0, int y0, int w, int h) {
-    core::Image out(w, h, src.channels);
-    for (int c = 0; c < src.channels; ++c)
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x0 + x, y0 + y);
-    return out;
-}
-
 std::string post_mix(httplib::Client& c, const std::string& query, const std::string& body,
                      int expect) {
     auto res = body.empty() ? c.Post(("/v1/mixes" + query).c_str())

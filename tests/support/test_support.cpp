@@ -69,4 +69,22 @@ Moments moments(const float* p, std::size_t n) {
     return m;
 }
 
+core::Image window(const core::Image& src, int x0, int y0, int w, int h) {
+    core::Image out(w, h, src.channels);
+    for (int c = 0; c < src.channels; ++c)
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x0 + x, y0 + y);
+    return out;
+}
+
+Estimate estimate_of(const std::vector<double>& v) {
+    Estimate e;
+    for (double x : v) e.mean += x;
+    e.mean /= static_cast<double>(v.size());
+    double s = 0;
+    for (double x : v) s += (x - e.mean) * (x - e.mean);
+    e.se = std::sqrt(s / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
+    return e;
+}
+
 } // namespace textond::test

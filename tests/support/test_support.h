@@ -3,12 +3,15 @@
 #include "core/random.h"
 
 #include <string>
+#include <vector>
 
 namespace textond::test {
 
 std::string exemplar_path(const std::string& name);
 core::Image load_exemplar(const std::string& name); // fails the test if missing
 core::Image crop(const core::Image& u, int w, int h);
+// The w x h window of `src` at (x0, y0).
+core::Image window(const core::Image& src, int x0, int y0, int w, int h);
 core::Image white_noise(int w, int h, int c, std::uint64_t seed);
 double max_abs_diff(const core::Image& a, const core::Image& b);
 
@@ -20,5 +23,11 @@ struct Moments {
     double mean = 0, variance = 0, excess_kurtosis = 0;
 };
 Moments moments(const float* p, std::size_t n);
+
+// The mean of independent estimates and its standard error (their spread / sqrt(n)).
+struct Estimate {
+    double mean = 0, se = 0;
+};
+Estimate estimate_of(const std::vector<double>& v);
 
 } // namespace textond::test
