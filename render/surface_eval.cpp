@@ -97,9 +97,29 @@ Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const Su
     return out;
 }
 
-Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
-                                        const Mesh& mesh, Camera cam, int width, int height,
-                                        int threads, const SurfaceEvaluator& evaluator) {
+std::array<float, 16> MeshView::mvp() const {
+    // Camera space looks down -z: x = <d, right>, y = <d, up>, z = -<d, fwd>, d = p - eye.
+    const double v[4][4] = {{right[0], right[1], right[2], -dot(right, eye)},
+                            {up[0], up[1], up[2], -dot(up, eye)},
+                            {-fwd[0], -fwd[1], -fwd[2], dot(fwd, eye)},
+                            {0, 0, 0, 1}};
+    const double n = near_z, f = far_z;
+    const double p[4][4] = {{focal / aspect, 0, 0, 0},
+                            {0, focal, 0, 0},
+                            {0, 0, (f + n) / (n - f), 2 * f * n / (n - f)},
+                            {0, 0, -1, 0}};
+    std::array<float, 16> m{};
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            double s = 0;
+            for (int k = 0; k < 4; ++k) s += p[i][k] * v[k][j];
+            m[static_cast<std::size_t>(i * 4 + j)] = static_cast<float>(s);
+        }
+    return m;
+}
+
+Result<MeshView> mesh_view(const Mesh& mesh, const SurfaceRequest& req, Camera cam, int width,
+                           int height) {
     if (auto e = check_request(req)) return *e;
     if (width < 16 || height < 16 || width > 2048 || height > 2048)
         return make_error(ErrorCode::invalid_argument, "preview sides must be in [16, 2048]");
@@ -116,7 +136,8 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
     const Vec3 centre = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2};
     const double diag = std::sqrt(dot(sub(hi, lo), sub(hi, lo)));
     if (!(diag > 0)) return make_error(ErrorCode::invalid_argument, "the mesh is a single point");
-    const double scale = req.scale > 0 ? req.scale : 512.0 / diag;
+    MeshView v;
+    v.scale = req.scale > 0 ? req.scale : 512.0 / diag;
     if (cam.automatic) {
         cam.target = centre;
         const double dist = 0.5 * diag / std::tan(cam.fov_degrees * 3.14159265358979 / 360) * 1.1;
@@ -125,13 +146,40 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
         cam.eye = {centre[0] + dist * dir[0], centre[1] + dist * dir[1], centre[2] + dist * dir[2]};
         cam.up = {0, 1, 0};
     }
-    Vec3 fwd = sub(cam.target, cam.eye);
-    if (!normalise(fwd)) return make_error(ErrorCode::invalid_argument, "eye equals target");
-    Vec3 right = cross(fwd, cam.up);
-    if (!normalise(right)) return make_error(ErrorCode::invalid_argument, "up is along the view");
-    const Vec3 up = cross(right, fwd);
-    const double f = 1.0 / std::tan(cam.fov_degrees * 3.14159265358979 / 360);
-    const double aspect = static_cast<double>(width) / height;
+    v.eye = cam.eye;
+    v.fwd = sub(cam.target, cam.eye);
+    if (!normalise(v.fwd)) return make_error(ErrorCode::invalid_argument, "eye equals target");
+    v.right = cross(v.fwd, cam.up);
+    if (!normalise(v.right)) return make_error(ErrorCode::invalid_argument, "up is along the view");
+    v.up = cross(v.right, v.fwd);
+    v.focal = 1.0 / std::tan(cam.fov_degrees * 3.14159265358979 / 360);
+    v.aspect = static_cast<double>(width) / height;
+    double zmin = 1e300, zmax = -1e300;
+    for (std::size_t i = 0; i < nv; ++i) {
+        const double z =
+            dot(sub({mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]},
+                    v.eye),
+                v.fwd);
+        zmin = std::min(zmin, z);
+        zmax = std::max(zmax, z);
+    }
+    if (!(zmax > 0)) return make_error(ErrorCode::invalid_argument, "the mesh is behind the eye");
+    v.far_z = zmax * 1.01 + 1e-9 * diag;
+    v.near_z = std::max(zmin * 0.99, v.far_z * 1e-4);
+    return v;
+}
+
+Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
+                                        const Mesh& mesh, Camera cam, int width, int height,
+                                        int threads) {
+    auto view = mesh_view(mesh, req, cam, width, height);
+    if (!view) return view.error();
+    const MeshView& mv = view.value();
+    const std::size_t nv = mesh.positions.size() / 3;
+    const double scale = mv.scale;
+    const Vec3 fwd = mv.fwd, right = mv.right, up = mv.up;
+    const double f = mv.focal, aspect = mv.aspect;
+    cam.eye = mv.eye;
 
     // Project vertices: screen x, y in pixels, depth along the view.
     std::vector<double> sx(nv), sy(nv), sz(nv);
@@ -226,22 +274,14 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
             shade.push_back(static_cast<float>(0.35 + 0.65 * std::max(0.0, dot(n, light))));
         }
     const int nc = texton.channels;
-    std::vector<float> colours;
-    int stride = nc;
-    if (evaluator) {
-        auto got = evaluator(ys, ns);
-        if (!got) return got.error();
-        colours = std::move(got.value());
-        stride = 3;
-    } else {
-        const core::SurfaceNoise noise(texton, req.mni);
-        colours.resize(where.size() * static_cast<std::size_t>(nc));
+    const int stride = nc;
+    std::vector<float> colours(where.size() * static_cast<std::size_t>(nc));
+    const core::SurfaceNoise noise(texton, req.mni);
 #pragma omp parallel for schedule(dynamic, 256) num_threads(core::resolve_threads(threads))
-        for (std::size_t i = 0; i < where.size(); ++i)
-            noise.eval(req.seed, {ys[3 * i], ys[3 * i + 1], ys[3 * i + 2]},
-                       {ns[3 * i], ns[3 * i + 1], ns[3 * i + 2]},
-                       &colours[i * static_cast<std::size_t>(nc)]);
-    }
+    for (std::size_t i = 0; i < where.size(); ++i)
+        noise.eval(req.seed, {ys[3 * i], ys[3 * i + 1], ys[3 * i + 2]},
+                   {ns[3 * i], ns[3 * i + 1], ns[3 * i + 2]},
+                   &colours[i * static_cast<std::size_t>(nc)]);
     core::Image out(width, height, 4);
     for (std::size_t i = 0; i < where.size(); ++i) {
         const int px = static_cast<int>(where[i] % static_cast<std::size_t>(width));

@@ -8,8 +8,8 @@
 #include "core/texton.h"
 #include "core/triangle_mesh.h"
 
+#include <array>
 #include <cstdint>
-#include <functional>
 #include <optional>
 #include <vector>
 
@@ -45,13 +45,21 @@ struct Camera {
 // A perspective view of the mesh, each visible pixel the surface noise at its interpolated
 // position and normal (positions times req.scale; scale 0 = the bounding box's diagonal spans 512
 // texels), lit by one directional light; the background is transparent (alpha 0, RGBA output).
-// Evaluates the surface noise at points (texels, x y z each) with unit normals: 3 floats a point
-// (a GL backend's GlBackend::surface). Empty: the CPU (core/surface_noise.h).
-using SurfaceEvaluator = std::function<Result<std::vector<float>>(const std::vector<double>& y,
-                                                                  const std::vector<float>& n)>;
+// Where the camera is and how it projects: the CPU rasteriser and GlBackend::mesh_preview share it.
+struct MeshView {
+    core::Vec3 eye{0, 0, 0}, fwd{0, 0, -1}, right{1, 0, 0}, up{0, 1, 0};
+    double focal = 1;                  // 1 / tan(fov / 2)
+    double aspect = 1;                 // width / height
+    double scale = 1;                  // texels per mesh unit
+    double near_z = 0.01, far_z = 100; // depths (along fwd) covering the mesh in front of the eye
+    // The OpenGL clip transform, row-major.
+    std::array<float, 16> mvp() const;
+};
+Result<MeshView> mesh_view(const Mesh& mesh, const SurfaceRequest& req, Camera camera, int width,
+                           int height);
 
 Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
                                         const Mesh& mesh, Camera camera, int width, int height,
-                                        int threads = 0, const SurfaceEvaluator& evaluator = {});
+                                        int threads = 0);
 
 } // namespace textond::render

@@ -61,7 +61,19 @@ namespace textond::render::gl {
     X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                                     \
     X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)                                                 \
     X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute)                                                   \
-    X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)
+    X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)                                                       \
+    X(PFNGLENABLEPROC, Enable)                                                                     \
+    X(PFNGLCLEARPROC, Clear)                                                                       \
+    X(PFNGLCLEARCOLORPROC, ClearColor)                                                             \
+    X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)                                           \
+    X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)                                   \
+    X(PFNGLDRAWELEMENTSPROC, DrawElements)                                                         \
+    X(PFNGLGENRENDERBUFFERSPROC, GenRenderbuffers)                                                 \
+    X(PFNGLDELETERENDERBUFFERSPROC, DeleteRenderbuffers)                                           \
+    X(PFNGLBINDRENDERBUFFERPROC, BindRenderbuffer)                                                 \
+    X(PFNGLRENDERBUFFERSTORAGEPROC, RenderbufferStorage)                                           \
+    X(PFNGLFRAMEBUFFERRENDERBUFFERPROC, FramebufferRenderbuffer)                                   \
+    X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)
 
 struct GlApi {
 #define TEXTOND_GL_DECLARE(type, name) type name = nullptr;

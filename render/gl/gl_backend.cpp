@@ -92,6 +92,7 @@ GlBackend::~GlBackend() {
     if (m_program) m_gl->DeleteProgram(m_program);
     if (m_probe_program) m_gl->DeleteProgram(m_probe_program);
     if (m_surface_program) m_gl->DeleteProgram(m_surface_program);
+    if (m_mesh_program) m_gl->DeleteProgram(m_mesh_program);
     if (m_vao) m_gl->DeleteVertexArrays(1, &m_vao);
 }
 
@@ -325,43 +326,20 @@ Result<std::vector<float>> GlBackend::surface(const PreparedTexton& tex, std::ui
             std::memcpy(&in[12 * i + 6 + static_cast<std::size_t>(d)],
                         &normals[3 * i + static_cast<std::size_t>(d)], 4);
         }
-    const auto table = tex.table(0);
-    const core::SurfaceNoise noise(tex.texton(), mni);
-    const int a = noise.cell_size();
-    const std::vector<std::uint32_t> thresholds =
-        core::noise::poisson_thresholds(noise.lambda() * a * a * a);
-    const double r = tex.size();
-
     std::lock_guard<std::mutex> lock(m_mutex);
     CurrentScope scope(*m_context);
     if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
     const gl::GlApi& g = *m_gl;
     if (!m_surface_program) {
-        auto prog = link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") +
-                                                     glsl::kNoiseLib + glsl::kSurfaceNoiseComp}});
+        auto prog =
+            link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") + glsl::kNoiseLib +
+                                             glsl::kSurfaceLib + glsl::kSurfaceNoiseComp}});
         if (!prog) return prog.error();
         m_surface_program = prog.value();
     }
-    const GLuint prog = m_surface_program;
-    g.UseProgram(prog);
-    auto loc = [&](const char* name) { return g.GetUniformLocation(prog, name); };
-    g.ActiveTexture(GL_TEXTURE0);
-    g.BindTexture(GL_TEXTURE_2D, table_texture(table));
-    g.Uniform1i(loc("u_table"), 0);
-    g.Uniform1i(loc("u_pad"), table->pad);
-    g.Uniform1i(loc("u_r"), tex.size());
-    g.Uniform1i(loc("u_order"), tex.order());
-    g.Uniform1i(loc("u_a"), a);
-    g.Uniform1i(loc("u_count"), static_cast<GLint>(n));
-    g.Uniform2ui(loc("u_seed"), static_cast<GLuint>(seed), static_cast<GLuint>(seed >> 32));
-    g.Uniform1f(loc("u_norm"), static_cast<float>(1.0 / std::sqrt(noise.lambda() * r / 3.0)));
-    const auto& m = tex.texton().mean;
-    const bool grey = tex.channels() == 1;
-    g.Uniform3f(loc("u_mean"), static_cast<float>(m[0]), static_cast<float>(grey ? 0 : m[1]),
-                static_cast<float>(grey ? 0 : m[2]));
-    g.Uniform1uiv(loc("u_thresholds[0]"), static_cast<GLsizei>(thresholds.size()),
-                  thresholds.data());
-    g.Uniform1i(loc("u_nthresholds"), static_cast<GLint>(thresholds.size()));
+    g.UseProgram(m_surface_program);
+    set_surface_uniforms(m_surface_program, tex, seed, mni);
+    g.Uniform1i(g.GetUniformLocation(m_surface_program, "u_count"), static_cast<GLint>(n));
     GLuint bufs[2];
     g.GenBuffers(2, bufs);
     g.BindBuffer(GL_SHADER_STORAGE_BUFFER, bufs[0]);
@@ -385,6 +363,135 @@ Result<std::vector<float>> GlBackend::surface(const PreparedTexton& tex, std::ui
         for (int c = 0; c < 3; ++c)
             rgb[3 * i + static_cast<std::size_t>(c)] = out[4 * i + static_cast<std::size_t>(c)];
     return rgb;
+}
+
+void GlBackend::set_surface_uniforms(unsigned prog, const PreparedTexton& tex, std::uint64_t seed,
+                                     double mni) {
+    const gl::GlApi& g = *m_gl;
+    const auto table = tex.table(0);
+    const core::SurfaceNoise noise(tex.texton(), mni);
+    const int a = noise.cell_size();
+    const std::vector<std::uint32_t> thresholds =
+        core::noise::poisson_thresholds(noise.lambda() * a * a * a);
+    const double r = tex.size();
+    auto loc = [&](const char* name) { return g.GetUniformLocation(prog, name); };
+    g.ActiveTexture(GL_TEXTURE0);
+    g.BindTexture(GL_TEXTURE_2D, table_texture(table));
+    g.Uniform1i(loc("u_table"), 0);
+    g.Uniform1i(loc("u_pad"), table->pad);
+    g.Uniform1i(loc("u_r"), tex.size());
+    g.Uniform1i(loc("u_order"), tex.order());
+    g.Uniform1i(loc("u_a"), a);
+    g.Uniform2ui(loc("u_seed"), static_cast<GLuint>(seed), static_cast<GLuint>(seed >> 32));
+    g.Uniform1f(loc("u_norm"), static_cast<float>(1.0 / std::sqrt(noise.lambda() * r / 3.0)));
+    const auto& m = tex.texton().mean;
+    const bool grey = tex.channels() == 1;
+    g.Uniform3f(loc("u_mean"), static_cast<float>(m[0]), static_cast<float>(grey ? 0 : m[1]),
+                static_cast<float>(grey ? 0 : m[2]));
+    g.Uniform1uiv(loc("u_thresholds[0]"), static_cast<GLsizei>(thresholds.size()),
+                  thresholds.data());
+    g.Uniform1i(loc("u_nthresholds"), static_cast<GLint>(thresholds.size()));
+}
+
+Result<core::Image> GlBackend::mesh_preview(const PreparedTexton& tex, std::uint64_t seed,
+                                            double mni, const core::TriangleMesh& mesh,
+                                            const MeshView& view, int width, int height) {
+    core::TriangleMesh normals_mesh;
+    const core::TriangleMesh* m = &mesh;
+    if (mesh.normals.size() != mesh.positions.size()) {
+        normals_mesh = mesh;
+        core::smooth_normals(normals_mesh);
+        m = &normals_mesh;
+    }
+    std::lock_guard<std::mutex> lock(m_mutex);
+    CurrentScope scope(*m_context);
+    if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
+    const gl::GlApi& g = *m_gl;
+    if (!m_mesh_program) {
+        const std::string head = "#version 450 core\n";
+        auto prog = link(g, {{GL_VERTEX_SHADER, head + glsl::kMeshPreviewVert},
+                             {GL_FRAGMENT_SHADER, head + glsl::kNoiseLib + glsl::kSurfaceLib +
+                                                      glsl::kMeshPreviewFrag}});
+        if (!prog) return prog.error();
+        m_mesh_program = prog.value();
+    }
+    const GLuint prog = m_mesh_program;
+    g.UseProgram(prog);
+    set_surface_uniforms(prog, tex, seed, mni);
+    auto loc = [&](const char* name) { return g.GetUniformLocation(prog, name); };
+    const auto mvp = view.mvp();
+    g.UniformMatrix4fv(loc("u_mvp"), 1, GL_TRUE, mvp.data());
+    g.Uniform1f(loc("u_scale"), static_cast<float>(view.scale));
+    g.Uniform3f(loc("u_fwd"), static_cast<float>(view.fwd[0]), static_cast<float>(view.fwd[1]),
+                static_cast<float>(view.fwd[2]));
+    const double l = std::sqrt(0.4 * 0.4 + 0.8 * 0.8 + 0.6 * 0.6);
+    g.Uniform3f(loc("u_light"), static_cast<float>(0.4 / l), static_cast<float>(0.8 / l),
+                static_cast<float>(0.6 / l));
+    g.Uniform1i(loc("u_grey"), tex.channels() == 1 ? 1 : 0);
+
+    GLuint vao = 0, bufs[3] = {0, 0, 0}, target = 0, depth = 0, fbo = 0;
+    g.GenVertexArrays(1, &vao);
+    g.BindVertexArray(vao);
+    g.GenBuffers(3, bufs);
+    g.BindBuffer(GL_ARRAY_BUFFER, bufs[0]);
+    g.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(m->positions.size() * 4),
+                 m->positions.data(), GL_STATIC_DRAW);
+    g.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    g.EnableVertexAttribArray(0);
+    g.BindBuffer(GL_ARRAY_BUFFER, bufs[1]);
+    g.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(m->normals.size() * 4), m->normals.data(),
+                 GL_STATIC_DRAW);
+    g.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    g.EnableVertexAttribArray(1);
+    g.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, bufs[2]);
+    g.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(m->triangles.size() * 4),
+                 m->triangles.data(), GL_STATIC_DRAW);
+
+    g.ActiveTexture(GL_TEXTURE1); // unit 0 holds the table
+    g.GenTextures(1, &target);
+    g.BindTexture(GL_TEXTURE_2D, target);
+    g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, width, height, 0, GL_RGBA, GL_FLOAT, nullptr);
+    g.GenRenderbuffers(1, &depth);
+    g.BindRenderbuffer(GL_RENDERBUFFER, depth);
+    g.RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
+    g.GenFramebuffers(1, &fbo);
+    g.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+    g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target, 0);
+    g.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+    core::Image out;
+    bool complete = g.CheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
+    if (complete) {
+        g.Viewport(0, 0, width, height);
+        g.Enable(GL_DEPTH_TEST);
+        g.ClearColor(0, 0, 0, 0);
+        g.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        g.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(m->triangles.size()), GL_UNSIGNED_INT,
+                       nullptr);
+        std::vector<float> rgba(static_cast<std::size_t>(width) * height * 4);
+        g.PixelStorei(GL_PACK_ALIGNMENT, 4);
+        g.ReadPixels(0, 0, width, height, GL_RGBA, GL_FLOAT, rgba.data());
+        out = core::Image(width, height, 4);
+        for (int y = 0; y < height; ++y) // GL's first row is the bottom one
+            for (int x = 0; x < width; ++x)
+                for (int c = 0; c < 4; ++c)
+                    out.at(c, x, height - 1 - y) =
+                        rgba[(static_cast<std::size_t>(y) * width + x) * 4 +
+                             static_cast<std::size_t>(c)];
+        g.Disable(GL_DEPTH_TEST);
+    }
+    const GLenum err = g.GetError();
+    g.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    g.DeleteFramebuffers(1, &fbo);
+    g.DeleteRenderbuffers(1, &depth);
+    g.DeleteTextures(1, &target);
+    g.DeleteBuffers(3, bufs);
+    g.BindVertexArray(m_vao);
+    g.DeleteVertexArrays(1, &vao);
+    if (!complete) return make_error(ErrorCode::internal, m_name + ": mesh framebuffer incomplete");
+    if (err != GL_NO_ERROR)
+        return make_error(ErrorCode::internal,
+                          m_name + ": GL error " + std::to_string(static_cast<int>(err)));
+    return out;
 }
 
 Result<std::vector<std::uint32_t>> GlBackend::probe(const std::vector<std::uint32_t>& queries,

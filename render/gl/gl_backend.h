@@ -3,6 +3,7 @@
 // whatever context the platform code made. Owns its context; one render at a time (a mutex), made
 // current on the calling thread for the call and released after, so any thread may call it.
 #include "render/backend.h"
+#include "render/surface_eval.h"
 
 #include <cstdint>
 #include <map>
@@ -54,6 +55,12 @@ public:
                                        const std::vector<double>& y,
                                        const std::vector<float>& normals);
 
+    // The mesh drawn by OpenGL from `view`, each fragment the surface noise at its position
+    // (glsl/mesh_preview.*): RGBA, clear background, as render_mesh_preview draws it on the CPU.
+    Result<core::Image> mesh_preview(const PreparedTexton& texton, std::uint64_t seed, double mni,
+                                     const core::TriangleMesh& mesh, const MeshView& view,
+                                     int width, int height);
+
     // Test hook: runs render/glsl/spec_probe.comp on `queries` (8 words each) with the given
     // Poisson thresholds; returns 64 words per query.
     Result<std::vector<std::uint32_t>> probe(const std::vector<std::uint32_t>& queries,
@@ -72,7 +79,11 @@ private:
     std::string m_version;
     bool m_software = false;
     std::mutex m_mutex;
-    unsigned m_program = 0, m_probe_program = 0, m_surface_program = 0, m_vao = 0;
+    unsigned m_program = 0, m_probe_program = 0, m_surface_program = 0, m_mesh_program = 0,
+             m_vao = 0;
+    // Uniforms shared by surface_lib.glsl's users (the compute and the mesh programs).
+    void set_surface_uniforms(unsigned program, const PreparedTexton& texton, std::uint64_t seed,
+                              double mni);
     std::map<std::string, int> m_uniforms;
     struct CachedTable {
         std::shared_ptr<const LevelTable> table; // keeps the key alive while cached

@@ -9,4 +9,7 @@ extern const char* const kSpecProbeComp;
 extern const char* const kTextonNoiseHlsl;
 extern const char* const kNoiseSpec;
 extern const char* const kSurfaceNoiseComp;
+extern const char* const kSurfaceLib;
+extern const char* const kMeshPreviewVert;
+extern const char* const kMeshPreviewFrag;
 } // namespace textond::render::glsl

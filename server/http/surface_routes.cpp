@@ -134,19 +134,24 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
         cam.target = {p.target[0], p.target[1], p.target[2]};
     }
     render::SurfaceRequest sr{p.seed, p.mni, p.scale};
+    std::string evaluated_on = "cpu";
     auto image = [&] {
         SlotGuard slot(m_render_slots);
-        render::SurfaceEvaluator on_gpu;
-        if (auto gl = std::dynamic_pointer_cast<render::GlBackend>(m_region_backend))
-            on_gpu = [&, gl](const std::vector<double>& y, const std::vector<float>& n) {
-                return gl->surface(*prepared.value(), p.seed, p.mni, y, n);
-            };
+        // On a GL backend OpenGL draws it (glsl/mesh_preview.*), else the CPU rasteriser.
+        if (auto gl = std::dynamic_pointer_cast<render::GlBackend>(m_region_backend)) {
+            auto view = render::mesh_view(mesh.value(), sr, cam, p.width, p.height);
+            if (!view) return Result<core::Image>(view.error());
+            evaluated_on = gl->name();
+            return gl->mesh_preview(*prepared.value(), p.seed, p.mni, mesh.value(), view.value(),
+                                    p.width, p.height);
+        }
         return render::render_mesh_preview(prepared.value()->texton(), sr, mesh.value(), cam,
-                                           p.width, p.height, 0, on_gpu);
+                                           p.width, p.height, 0);
     }();
     if (!image) return send_error(res, to_api_error(image.error()));
     auto png = io::encode_image_memory(image.value(), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));
+    res.set_header("X-Textond-Backend", evaluated_on);
     res.set_content(png.value(), "image/png");
 }
 

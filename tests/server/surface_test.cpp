@@ -142,6 +142,7 @@ TEST(Surface, GlBackendServesTheSameColours) {
     auto mesh = c.Post(("/v1/textons/" + id + "/mesh.png?width=32&height=32").c_str(),
                        sphere_obj(8, 16), "model/obj");
     ASSERT_TRUE(mesh && mesh->status == 200) << (mesh ? mesh->body : "");
+    EXPECT_EQ(mesh->get_header_value("X-Textond-Backend"), "osmesa");
 }
 
 TEST(Surface, MeshPreviewDrawsTheObjTexturedWithoutUvs) {
