@@ -135,6 +135,9 @@ function updateDownloads() {
   $('dl-region').download = `textond-${meta.id.slice(0, 8)}-${w}x${h}.${ext}`;
   $('dl-tileable').href = `/v1/textons/${meta.id}/tileable.${f}?${q}`;
   $('dl-tileable').download = `textond-${meta.id.slice(0, 8)}-tileable-${w}x${h}.${ext}`;
+  const mni = new URLSearchParams(noiseQuery()).get('mni');
+  $('dl-kit').href = `/v1/textons/${meta.id}/kit.tar${mni ? `?mni=${mni}` : ''}`;
+  $('dl-kit').download = `textond-kit-${meta.id.slice(0, 12)}.tar`;
 }
 
 function loadImage(src) {

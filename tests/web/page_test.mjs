@@ -197,6 +197,10 @@ try {
   await page.selectOption('#dl-format', 'exr');
   const [exr] = await Promise.all([page.waitForEvent('download'), page.click('#dl-region')]);
   check(readFileSync(await exr.path()).readUInt32LE(0) === 20000630, 'the EXR download is an OpenEXR file');
+  const [kit] = await Promise.all([page.waitForEvent('download'), page.click('#dl-kit')]);
+  const tar = readFileSync(await kit.path());
+  check(tar.subarray(257, 262).toString() === 'ustar' && tar.subarray(0, 100).toString().includes('textond-kit-'),
+        'the engine kit downloads as a tar of the kit directory');
 
   await page.click('#copy-url');
   const template = await page.inputValue('#tile-url');
