@@ -179,14 +179,13 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
     const double scale = mv.scale;
     const Vec3 fwd = mv.fwd, right = mv.right, up = mv.up;
     const double f = mv.focal, aspect = mv.aspect;
-    cam.eye = mv.eye;
 
     // Project vertices: screen x, y in pixels, depth along the view.
     std::vector<double> sx(nv), sy(nv), sz(nv);
     for (std::size_t v = 0; v < nv; ++v) {
         const Vec3 p = {mesh.positions[3 * v], mesh.positions[3 * v + 1],
                         mesh.positions[3 * v + 2]};
-        const Vec3 d = sub(p, cam.eye);
+        const Vec3 d = sub(p, mv.eye);
         const double z = dot(d, fwd);
         sz[v] = z;
         const double x = dot(d, right) * f / (z * aspect), y = dot(d, up) * f / z;

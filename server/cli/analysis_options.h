@@ -31,6 +31,7 @@ Result<io::DecodeLimits> decode_limits_from(const Args& a);
 Result<io::Encoding> output_encoding_from(const Args& a);
 
 // Progress to stderr once an analysis has run for a second, then about once a second.
-core::ProgressFn progress_reporter(const std::string& label);
+core::ProgressFn progress_reporter(const std::string& label,
+                                   const std::string& unit = "projection");
 
 } // namespace textond::cli

@@ -88,16 +88,16 @@ Result<io::Encoding> output_encoding_from(const Args& a) {
     return io::Encoding::png16;
 }
 
-core::ProgressFn progress_reporter(const std::string& label) {
+core::ProgressFn progress_reporter(const std::string& label, const std::string& unit) {
     using clock = std::chrono::steady_clock;
     auto state = std::make_shared<std::pair<clock::time_point, clock::time_point>>(clock::now(),
                                                                                    clock::now());
-    return [state, label](int done, int total) {
+    return [state, label, unit](int done, int total) {
         const auto now = clock::now();
         if (now - state->first < std::chrono::seconds(1)) return;
         if (done < total && now - state->second < std::chrono::seconds(1)) return;
         state->second = now;
-        spdlog::info("{}: projection {}/{}", label, done, total);
+        spdlog::info("{}: {} {}/{}", label, unit, done, total);
     };
 }
 

@@ -139,7 +139,7 @@ int mix_command(const Argv& argv) {
         core::common_models(u.value(), v.value(), params.value().periodic, params.value().threads);
     if (!pair) return fail(1, pair.error().message);
     auto mixed = core::mix_levels(pair.value(), params.value(), static_cast<int>(levels.value()),
-                                  progress_reporter("mix"));
+                                  progress_reporter("mix", "level"));
     if (!mixed) return fail(1, mixed.error().message);
     const double analysis_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
