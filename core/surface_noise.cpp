@@ -47,38 +47,47 @@ SurfaceNoise::SurfaceNoise(const Texton& texton, double mni)
     m_thresholds = noise::poisson_thresholds(m_lambda * m_a * m_a * m_a);
 }
 
-double SurfaceNoise::h(int c, double z1, double z2) const {
+void SurfaceNoise::h(double z1, double z2, double* v) const {
     // The texton centred on the origin: its coefficients span [0, r - 1], so shift by (r - 1)/2.
     const double shift = 0.5 * (m_t.size - 1);
     const double x = z1 + shift, y = z2 + shift;
-    const int r = m_t.size;
-    auto alpha = [&](int i, int j) -> double {
-        return (i < 0 || j < 0 || i >= r || j >= r) ? 0.0 : m_t.alpha.at(c, i, j);
-    };
-    if (m_t.order == 0) {
-        return alpha(static_cast<int>(std::floor(x)), static_cast<int>(std::floor(y)));
-    }
+    const int r = m_t.size, nc = m_t.channels;
+    for (int c = 0; c < nc; ++c) v[c] = 0.0;
     const double fx = std::floor(x), fy = std::floor(y);
-    const double tx = x - fx, ty = y - fy;
     const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-    if (m_t.order == 1)
-        return (1 - ty) * ((1 - tx) * alpha(ix, iy) + tx * alpha(ix + 1, iy)) +
-               ty * ((1 - tx) * alpha(ix, iy + 1) + tx * alpha(ix + 1, iy + 1));
-    // Cubic B-spline: taps ix - 1 .. ix + 2 with the weights of beta3(t - k).
-    auto w = [](double t, double out[4]) {
-        const double s = 1 - t;
-        out[0] = s * s * s / 6;
-        out[1] = (3 * t * t * t - 6 * t * t + 4) / 6;
-        out[2] = (3 * s * s * s - 6 * s * s + 4) / 6;
-        out[3] = t * t * t / 6;
-    };
-    double wx[4], wy[4];
-    w(tx, wx);
-    w(ty, wy);
-    double v = 0;
-    for (int j = 0; j < 4; ++j)
-        for (int i = 0; i < 4; ++i) v += wy[j] * wx[i] * alpha(ix - 1 + i, iy - 1 + j);
-    return v;
+    // Taps: order 0 one, order 1 two (ix, ix + 1), order 3 four (ix - 1 .. ix + 2) per axis.
+    double wx[4] = {1, 0, 0, 0}, wy[4] = {1, 0, 0, 0};
+    int n = 1, first = 0;
+    const double tx = x - fx, ty = y - fy;
+    if (m_t.order == 1) {
+        n = 2;
+        wx[0] = 1 - tx;
+        wx[1] = tx;
+        wy[0] = 1 - ty;
+        wy[1] = ty;
+    } else if (m_t.order == 3) {
+        n = 4;
+        first = -1;
+        auto w = [](double t, double out[4]) {
+            const double s = 1 - t;
+            out[0] = s * s * s / 6;
+            out[1] = (3 * t * t * t - 6 * t * t + 4) / 6;
+            out[2] = (3 * s * s * s - 6 * s * s + 4) / 6;
+            out[3] = t * t * t / 6;
+        };
+        w(tx, wx);
+        w(ty, wy);
+    }
+    for (int j = 0; j < n; ++j) {
+        const int yy = iy + first + j;
+        if (yy < 0 || yy >= r) continue;
+        for (int i = 0; i < n; ++i) {
+            const int xx = ix + first + i;
+            if (xx < 0 || xx >= r) continue;
+            const double w = wy[j] * wx[i];
+            for (int c = 0; c < nc; ++c) v[c] += w * m_t.alpha.at(c, xx, yy);
+        }
+    }
 }
 
 void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float* out,
@@ -123,7 +132,10 @@ void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float*
                     const double z1 = d[0] * u1[0] + d[1] * u1[1] + d[2] * u1[2];
                     const double z2 = d[0] * u2[0] + d[1] * u2[1] + d[2] * u2[2];
                     if (stats && std::fabs(z1) < half && std::fabs(z2) < half) ++stats->impacts;
-                    for (int c = 0; c < nc; ++c) acc[c] += eps * w * h(c, z1, z2);
+                    if (std::fabs(z1) >= half + 2.0 || std::fabs(z2) >= half + 2.0) continue;
+                    double v[3];
+                    h(z1, z2, v);
+                    for (int c = 0; c < nc; ++c) acc[c] += eps * w * v[c];
                 }
             }
     for (int c = 0; c < nc; ++c)

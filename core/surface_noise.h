@@ -39,7 +39,7 @@ public:
     double lambda() const { return m_lambda; }
 
 private:
-    double h(int c, double z1, double z2) const; // h(z + centre), the centred texton
+    void h(double z1, double z2, double* v) const; // h(z + centre) per channel, the centred texton
     const Texton& m_t;
     int m_a;
     double m_lambda, m_norm;

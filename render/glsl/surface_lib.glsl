@@ -99,7 +99,9 @@ vec3 surface_noise(ivec3 yi, vec3 yf, vec3 n) {
                     float eps = (next_draw(state) >> 31u) == 0u ? 1.0 : -1.0;
                     float w = 1.0 - 2.0 * abs(dot(dv, n)) / r;
                     if (w <= 0.0) continue;
-                    acc += eps * w * texton(dot(dv, u1), dot(dv, u2));
+                    float z1 = dot(dv, u1), z2 = dot(dv, u2);
+                    if (abs(z1) >= half_r + 2.0 || abs(z2) >= half_r + 2.0) continue; // h = 0
+                    acc += eps * w * texton(z1, z2);
                 }
             }
     return u_mean + u_norm * acc;
