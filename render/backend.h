@@ -5,6 +5,7 @@
 #include "core/image.h"
 #include "core/result.h"
 #include "render/noise_request.h"
+#include "render/prepared_mix.h"
 #include "render/prepared_texton.h"
 
 #include <string>
@@ -20,6 +21,15 @@ public:
     virtual std::string renderer() const = 0;
     virtual Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                        RenderStats* stats = nullptr) = 0;
+    // A texture mix (NOISE_SPEC.md section 9). ErrorCode::unsupported where this backend has no
+    // path for the request (the caller then uses the CPU backend, which has them all).
+    virtual Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,
+                                           RenderStats* stats = nullptr) {
+        (void)mix;
+        (void)request;
+        (void)stats;
+        return make_error(ErrorCode::unsupported, name() + " does not render texture mixes");
+    }
 };
 
 } // namespace textond::render

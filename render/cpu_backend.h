@@ -20,7 +20,7 @@ public:
     // A texture mix (texton-noise section 7): every Poisson point takes the level texton of the
     // field at its position, the mean follows the field. CPU only for now.
     Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,
-                                   RenderStats* stats = nullptr);
+                                   RenderStats* stats = nullptr) override;
 
 private:
     Result<core::Image> render_exact(const PreparedTexton& tex,

@@ -73,7 +73,9 @@ namespace textond::render::gl {
     X(PFNGLBINDRENDERBUFFERPROC, BindRenderbuffer)                                                 \
     X(PFNGLRENDERBUFFERSTORAGEPROC, RenderbufferStorage)                                           \
     X(PFNGLFRAMEBUFFERRENDERBUFFERPROC, FramebufferRenderbuffer)                                   \
-    X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)
+    X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)                                                 \
+    X(PFNGLUNIFORM2FPROC, Uniform2f)                                                               \
+    X(PFNGLTEXIMAGE3DPROC, TexImage3D)
 
 struct GlApi {
 #define TEXTOND_GL_DECLARE(type, name) type name = nullptr;

@@ -178,6 +178,19 @@ unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
 Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
                                       RenderStats* stats) {
     if (auto err = tex.check(q)) return *err;
+    return render_impl(tex, nullptr, q, stats);
+}
+
+Result<core::Image> GlBackend::render_mix(const PreparedMix& mix, const NoiseRequest& q,
+                                          RenderStats* stats) {
+    if (auto err = mix.check(q)) return *err;
+    if (q.level >= mix.level(0).limit_level())
+        return make_error(ErrorCode::unsupported, m_name + ": a mix's limit levels are CPU only");
+    return render_impl(mix.level(0), &mix, q, stats);
+}
+
+Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const PreparedMix* mix,
+                                           const NoiseRequest& q, RenderStats* stats) {
     std::lock_guard<std::mutex> lock(m_mutex);
     CurrentScope scope(*m_context);
     if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
@@ -188,6 +201,11 @@ Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequ
 
     const bool limit = q.level >= tex.limit_level();
     const int nc = tex.channels();
+    GLuint mix_tables = 0, mix_mask = 0; // this render's only (a mix's tables and mask)
+    // Every sampler on its own unit, used or not: two sampler types on one unit fail the draw.
+    g.Uniform1i(uniform("u_level_tables"), 2);
+    g.Uniform1i(uniform("u_mask"), 3);
+    g.Uniform1i(uniform("u_mix"), 0);
     const auto& mean = tex.texton().mean;
     g.Uniform1i(uniform("u_mode"), limit ? 1 : 0);
     g.Uniform1i(uniform("u_level"), q.level);
@@ -259,6 +277,61 @@ Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequ
         g.Uniform1uiv(uniform("u_thresholds[0]"), static_cast<GLsizei>(grid.thresholds.size()),
                       grid.thresholds.data());
         g.Uniform1i(uniform("u_nthresholds"), static_cast<int>(grid.thresholds.size()));
+        g.Uniform1i(uniform("u_mix"), mix ? 1 : 0);
+        if (mix) {
+            // All level tables as one array, and the field as an affine map (or a mask) of the
+            // position relative to the base cell's origin (NOISE_SPEC.md section 9).
+            const int side = table->side(), nl = mix->levels();
+            std::vector<float> texels(static_cast<std::size_t>(side) * side * 3 * nl, 0.0f);
+            for (int l = 0; l < nl; ++l) {
+                const auto t = mix->level(l).table(q.level);
+                for (int y = 0; y < side; ++y)
+                    for (int x = 0; x < side; ++x)
+                        for (int c = 0; c < t->channels; ++c)
+                            texels[((static_cast<std::size_t>(l) * side + y) * side + x) * 3 +
+                                   static_cast<std::size_t>(c)] = t->row(c, y)[x];
+            }
+            g.ActiveTexture(GL_TEXTURE2);
+            g.GenTextures(1, &mix_tables);
+            g.BindTexture(GL_TEXTURE_2D_ARRAY, mix_tables);
+            g.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGB32F, side, side, nl, 0, GL_RGB, GL_FLOAT,
+                         texels.data());
+            g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+            g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+            g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, 0);
+            const core::MixField& f = mix->field();
+            const double bx = static_cast<double>(bcx) * a, by = static_cast<double>(bcy) * a;
+            g.Uniform1i(uniform("u_nlevels"), nl);
+            g.Uniform1i(uniform("u_field"), f.kind == core::MixField::Kind::ramp ? 0 : 1);
+            if (f.kind == core::MixField::Kind::ramp) {
+                const double n = std::hypot(f.dx, f.dy) * f.width;
+                g.Uniform2f(uniform("u_rho_g"), static_cast<float>(f.dx / n),
+                            static_cast<float>(f.dy / n));
+                g.Uniform1f(uniform("u_rho_c"),
+                            static_cast<float>(((bx - f.x0) * f.dx + (by - f.y0) * f.dy) / n));
+            } else {
+                g.ActiveTexture(GL_TEXTURE3);
+                g.GenTextures(1, &mix_mask);
+                g.BindTexture(GL_TEXTURE_2D, mix_mask);
+                g.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, f.mask.width, f.mask.height, 0, GL_RED,
+                             GL_FLOAT, f.mask.data.data());
+                g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+                g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+                g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+                g.Uniform1f(uniform("u_mask_inv_scale"), static_cast<float>(1.0 / f.scale));
+                g.Uniform2f(uniform("u_mask_o"), static_cast<float>((bx - f.x0) / f.scale),
+                            static_cast<float>((by - f.y0) / f.scale));
+            }
+            const auto& mu = mix->level(0).texton().mean;
+            const auto& mv = mix->level(nl - 1).texton().mean;
+            const bool grey = nc == 1;
+            g.Uniform3f(uniform("u_mean_u"), static_cast<float>(mu[0]),
+                        static_cast<float>(grey ? mu[0] : mu[1]),
+                        static_cast<float>(grey ? mu[0] : mu[2]));
+            g.Uniform3f(uniform("u_mean_v"), static_cast<float>(mv[0]),
+                        static_cast<float>(grey ? mv[0] : mv[1]),
+                        static_cast<float>(grey ? mv[0] : mv[2]));
+        }
         if (stats) {
             stats->limit_model = false;
             stats->points = 0; // not counted on the GPU
@@ -279,6 +352,8 @@ Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequ
     if (g.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
         g.DeleteFramebuffers(1, &fbo);
         g.DeleteTextures(1, &target);
+        if (mix_tables) g.DeleteTextures(1, &mix_tables);
+        if (mix_mask) g.DeleteTextures(1, &mix_mask);
         return make_error(ErrorCode::internal, m_name + ": float framebuffer incomplete");
     }
     out = core::Image(q.width, q.height, nc);
@@ -300,6 +375,8 @@ Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequ
     const GLenum err = g.GetError();
     g.DeleteFramebuffers(1, &fbo);
     g.DeleteTextures(1, &target);
+    if (mix_tables) g.DeleteTextures(1, &mix_tables);
+    if (mix_mask) g.DeleteTextures(1, &mix_mask);
     if (err != GL_NO_ERROR)
         return make_error(ErrorCode::internal,
                           m_name + ": GL error " + std::to_string(static_cast<int>(err)));

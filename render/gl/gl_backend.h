@@ -48,6 +48,10 @@ public:
     bool software() const { return m_software; }
     Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                RenderStats* stats = nullptr) override;
+    // Exact levels of a mix (its level tables as one texture array, the field in the shader);
+    // the limit levels are left to the CPU (unsupported).
+    Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,
+                                   RenderStats* stats = nullptr) override;
 
     // Surface noise (render/glsl/surface_noise.comp) at `y` (texels, x y z a point, each within
     // +-2^31) with normals; returns 3 floats a point (grey textons repeat their channel).
@@ -69,6 +73,8 @@ public:
 private:
     GlBackend(std::string name, std::unique_ptr<GlContext> context);
     Result<bool> init(bool allow_software, const GlslSources& sources);
+    Result<core::Image> render_impl(const PreparedTexton& texton, const PreparedMix* mix,
+                                    const NoiseRequest& request, RenderStats* stats);
     unsigned table_texture(const std::shared_ptr<const LevelTable>& table);
     int uniform(const char* name);
 

@@ -29,6 +29,45 @@ uniform uvec2 u_q0y;
 uniform float u_kappa[25];
 uniform mat3 u_A;
 uniform int u_channels;
+// texture mixing (NOISE_SPEC.md section 9); positions relative to the base cell's origin
+uniform int u_mix;                     // 0: one texton (u_table); 1: levels in u_level_tables
+uniform sampler2DArray u_level_tables; // one layer a level, laid out as u_table
+uniform int u_nlevels;
+uniform int u_field;     // 0 ramp: rho = <p, u_rho_g> + u_rho_c; 1 mask
+uniform vec2 u_rho_g;
+uniform float u_rho_c;
+uniform sampler2D u_mask; // R32F, read with texelFetch
+uniform float u_mask_inv_scale;
+uniform vec2 u_mask_o;    // mask pixel coordinate of the base cell's origin
+uniform vec3 u_mean_u;
+uniform vec3 u_mean_v;
+
+float rho_at(vec2 p) {
+    float r;
+    if (u_field == 0) {
+        r = dot(p, u_rho_g) + u_rho_c;
+    } else {
+        ivec2 sz = textureSize(u_mask, 0);
+        vec2 f = clamp(p * u_mask_inv_scale + u_mask_o - 0.5, vec2(0.0), vec2(sz - 1));
+        ivec2 i = min(ivec2(f), max(sz - 2, ivec2(0)));
+        vec2 t = f - vec2(i);
+        ivec2 j = min(i + 1, sz - 1);
+        float m00 = texelFetch(u_mask, i, 0).r, m10 = texelFetch(u_mask, ivec2(j.x, i.y), 0).r;
+        float m01 = texelFetch(u_mask, ivec2(i.x, j.y), 0).r, m11 = texelFetch(u_mask, j, 0).r;
+        r = (1.0 - t.y) * ((1.0 - t.x) * m00 + t.x * m10) + t.y * ((1.0 - t.x) * m01 + t.x * m11);
+    }
+    return clamp(r, 0.0, 1.0);
+}
+
+int level_at(vec2 p) {
+    float v = rho_at(p) * float(u_nlevels - 1) + 0.5;
+    return v <= 0.0 ? 0 : min(int(v), u_nlevels - 1);
+}
+
+vec3 table_at(int x, int y, int layer) {
+    return u_mix != 0 ? texelFetch(u_level_tables, ivec3(x, y, layer), 0).rgb
+                      : texelFetch(u_table, ivec2(x, y), 0).rgb;
+}
 
 // Table index t and fraction F' of one axis; false if out of reach (t in [0, L], or [-1, L + 1]
 // for order 3).
@@ -81,14 +120,14 @@ vec4 cubic_weights(uint fp) {
     return w;
 }
 
-vec3 cubic_point(float eps, int tx, uint fx, int ty, uint fy) {
+vec3 cubic_point(float eps, int tx, uint fx, int ty, uint fy, int layer) {
     vec4 wx = cubic_weights(fx), wy = cubic_weights(fy);
     precise vec3 v = vec3(0.0);
     for (int my = 0; my < 4; ++my) {
         precise float cy = eps * wy[my];
         for (int mx = 0; mx < 4; ++mx) {
             precise float c = cy * wx[mx];
-            v = v + c * texelFetch(u_table, ivec2(tx + 4 - mx, ty + 4 - my), 0).rgb;
+            v = v + c * table_at(tx + 4 - mx, ty + 4 - my, layer);
         }
     }
     return v;
@@ -121,12 +160,16 @@ vec3 exact_pixel(ivec2 pix) {
                 point_offset(next_draw(state), uint(u_a), qx, fx);
                 point_offset(next_draw(state), uint(u_a), qy, fy);
                 float eps = (next_draw(state) >> 31u) == 0u ? 1.0 : -1.0;
+                int layer = u_mix != 0
+                                ? level_at(vec2(float(cx * u_a + qx) + float(fx) * (1.0 / 16777216.0),
+                                                float(cy * u_a + qy) + float(fy) * (1.0 / 16777216.0)))
+                                : 0;
                 int tx, ty;
                 if (u_order == 3) {
                     uint fpx, fpy;
                     if (!axis_t(x.x, cx * u_a + qx, fx, tx, fpx)) continue;
                     if (!axis_t(x.y, cy * u_a + qy, fy, ty, fpy)) continue;
-                    acc = acc + cubic_point(eps, tx, fpx, ty, fpy);
+                    acc = acc + cubic_point(eps, tx, fpx, ty, fpy, layer);
                     continue;
                 }
                 float wx0, wx1, wy0, wy1;
@@ -138,16 +181,24 @@ vec3 exact_pixel(ivec2 pix) {
                 precise float c01 = cy0 * wx1;
                 precise float c10 = cy1 * wx0;
                 precise float c11 = cy1 * wx1;
-                vec3 g11 = texelFetch(u_table, ivec2(tx + 1, ty + 1), 0).rgb;
-                vec3 g10 = texelFetch(u_table, ivec2(tx, ty + 1), 0).rgb;
-                vec3 g01 = texelFetch(u_table, ivec2(tx + 1, ty), 0).rgb;
-                vec3 g00 = texelFetch(u_table, ivec2(tx, ty), 0).rgb;
+                vec3 g11 = table_at(tx + 1, ty + 1, layer);
+                vec3 g10 = table_at(tx, ty + 1, layer);
+                vec3 g01 = table_at(tx + 1, ty, layer);
+                vec3 g00 = table_at(tx, ty, layer);
                 precise vec3 v = ((c00 * g11 + c01 * g10) + c10 * g01) + c11 * g00;
                 acc = acc + v;
             }
         }
     }
-    precise vec3 o = u_mean + u_scale * acc;
+    vec3 mean = u_mean;
+    if (u_mix != 0) {
+        // The mean where the pixel samples (k <= 0) or at its footprint's centre (k > 0).
+        vec2 at = u_level >= 0 ? vec2(x) + 0.5 * float(u_st - 1)
+                               : vec2(x) / float(1 << u_sub_log2);
+        float rho = rho_at(at);
+        mean = (1.0 - rho) * u_mean_u + rho * u_mean_v;
+    }
+    precise vec3 o = mean + u_scale * acc;
     return o;
 }
 

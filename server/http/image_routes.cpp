@@ -153,14 +153,19 @@ Result<core::Image> Service::render_mix(const std::string& id, const render::Noi
     auto prepared = m_mixes->prepared(id);
     if (!prepared) return prepared.error();
     if (auto err = prepared.value()->check(q)) return *err;
-    render::CpuBackend& backend = whole_machine ? *m_mix_region_backend : *m_mix_backend;
+    // The server's backend where it has a path for the request (GL: the exact levels), else
+    // the CPU, which has them all.
+    render::Backend* backend = whole_machine ? m_region_backend.get() : m_tile_backend.get();
     const auto t0 = std::chrono::steady_clock::now();
     Result<core::Image> image = [&] {
         SlotGuard slot(m_render_slots);
-        return backend.render_mix(*prepared.value(), q);
+        auto r = backend->render_mix(*prepared.value(), q);
+        if (r || r.error().code != ErrorCode::unsupported) return r;
+        backend = whole_machine ? m_mix_region_backend.get() : m_mix_backend.get();
+        return backend->render_mix(*prepared.value(), q);
     }();
     m_metrics.render(
-        "cpu", kind,
+        backend->name(), kind,
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     return image;
 }

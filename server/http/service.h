@@ -136,7 +136,7 @@ private:
     std::unique_ptr<AnalysisPool> m_pool;
     std::unique_ptr<MixStore> m_mixes;
     std::mutex m_mix_mutex; // one mix analysis at a time
-    // Mixes render on the CPU backend whatever --backend says (no GL path for them yet).
+    // What a GL backend leaves to the CPU (a mix's limit levels).
     std::shared_ptr<render::CpuBackend> m_mix_backend;        // tiles: one thread each
     std::shared_ptr<render::CpuBackend> m_mix_region_backend; // regions: every core
     ImageCache m_cache;

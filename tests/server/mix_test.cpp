@@ -1,7 +1,10 @@
 // Texture mixes over HTTP: POST /v1/mixes from two uploaded textons (content addressed: one id
 // for one request, 201 then 200), the image endpoints under /v1/mixes/{id}/ (tiles stitch into
 // the region, TileJSON points at them), masks, bad requests, and persistence across a restart.
+#include "render/cpu_backend.h"
+#include "render/osmesa_backend.h"
 #include "server/io/image_io.h"
+#include "server/io/mix_file.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -80,6 +83,42 @@ TEST(Mixes, CreateOnceThenServeWindowsOfOneFunction) {
     auto c2 = again.client();
     // (Compared as a flag: a failure must not print 1 MB of EXR.)
     EXPECT_TRUE(c2.Get(("/v1/mixes/" + id + "/tiles/2/3/-1.exr?seed=9").c_str())->body == before);
+}
+
+// On --backend osmesa the exact levels render on OpenGL and the limit levels fall back to the CPU;
+// both agree with the CPU's rendering of the stored mix.
+TEST(Mixes, GlBackendServesTheSameTiles) {
+    if (!render::make_osmesa_backend().ok()) GTEST_SKIP() << "no OSMesa";
+    http::ServeConfig cfg = TestServer::default_config();
+    cfg.backend = render::BackendKind::osmesa;
+    TestServer server(cfg);
+    auto c = server.client();
+    const std::string u = upload(c, "etr_sand01.png", "?size=16&iterations=10");
+    const std::string v = upload(c, "etr_pebbles04.png", "?size=16&iterations=10");
+    const std::string id =
+        post_mix(c, "?u=" + u + "&v=" + v + "&levels=5&x0=-50&width=200", "", 201);
+    auto record = io::read_mix_files(server.data_dir() + "/mixes", id);
+    ASSERT_TRUE(record.ok()) << record.error().message;
+    auto mix = render::PreparedMix::make(record.value().levels, record.value().field);
+    ASSERT_TRUE(mix.ok());
+    render::CpuBackend cpu;
+    for (int level : {0, 1, 20}) {
+        auto tile = c.Get(
+            ("/v1/mixes/" + id + "/tiles/" + std::to_string(level) + "/-1/0.exr?seed=2").c_str());
+        ASSERT_TRUE(tile && tile->status == 200) << (tile ? tile->body : "");
+        render::NoiseRequest q;
+        q.seed = 2;
+        q.level = level;
+        q.x0 = -256;
+        auto want = cpu.render_mix(*mix.value(), q);
+        ASSERT_TRUE(want.ok());
+        const double tol = level >= mix.value()->level(0).limit_level() ? 0.0 : 1e-5;
+        EXPECT_LE(max_abs_diff(decode(tile->body), want.value()), tol) << "level " << level;
+    }
+    // Which backend rendered: OpenGL for the exact levels, the CPU for the limit one.
+    const std::string metrics = c.Get("/metrics")->body;
+    EXPECT_NE(metrics.find(R"(backend="osmesa",kind="tile")"), std::string::npos);
+    EXPECT_NE(metrics.find(R"(backend="cpu",kind="tile")"), std::string::npos);
 }
 
 TEST(Mixes, MaskFieldAndBadRequests) {
