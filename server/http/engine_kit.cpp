@@ -54,6 +54,8 @@ glUniform2i(u_offset, 0, 0);             /* pixel (i, j) of the viewport is texe
 glUniform2i(u_period, 0, 0);  glUniform2i(u_base_mod, 0, 0);
 glUniform1f(u_scale, scale);  glUniform3f(u_mean, m0, m1, m2);   /* grey: m0, m0, m0 */
 glUniform1uiv(u_thresholds, n, thresholds);  glUniform1i(u_nthresholds, n);
+glUniform1i(u_mix, 0);  /* the shader also draws the server's texture mixes: off here, but its */
+glUniform1i(u_level_tables, 2);  glUniform1i(u_mask, 3);  /* samplers need units of their own */
 ```
 
 then draw one full-screen triangle (`fullscreen.vert`, 3 vertices, no buffers). The output is
