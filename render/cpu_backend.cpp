@@ -259,6 +259,10 @@ std::vector<int>& thread_point_levels() {
     static thread_local std::vector<int> v;
     return v;
 }
+std::vector<double>& thread_pixel_rho() {
+    static thread_local std::vector<double> v;
+    return v;
+}
 
 // The output pixel's position in texels: the point it samples (k <= 0) or the centre of its
 // footprint (k > 0), where a mix takes its mean colour.
@@ -387,16 +391,26 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
         }
     const float scale = static_cast<float>(1.0 / std::sqrt(grid.lambda));
     const std::int64_t ox = blk.x0 - q.x0, oy = blk.y0 - q.y0;
+    // A mix's field at every pixel of the block, once for all channels.
+    std::vector<double>& rho = thread_pixel_rho();
+    if (mix) {
+        rho.resize(static_cast<std::size_t>(blk.w) * blk.h);
+        for (int y = 0; y < blk.h; ++y) {
+            const double py = pixel_texel(geo, blk.y0 + y);
+            for (int x = 0; x < blk.w; ++x)
+                rho[static_cast<std::size_t>(y) * blk.w + x] =
+                    mix->field().rho(pixel_texel(geo, blk.x0 + x), py);
+        }
+    }
     for (int c = 0; c < nc; ++c) {
         const float m = static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
         for (int y = 0; y < blk.h; ++y) {
             const float* a = acc.data() + plane * c + static_cast<std::size_t>(y) * stride;
             float* o = &out.at(c, static_cast<int>(ox), static_cast<int>(oy) + y);
             if (mix) {
-                const double py = pixel_texel(geo, blk.y0 + y);
+                const double* r = rho.data() + static_cast<std::size_t>(y) * blk.w;
                 for (int x = 0; x < blk.w; ++x)
-                    o[x] = static_cast<float>(mix->mean_at(pixel_texel(geo, blk.x0 + x), py, c)) +
-                           scale * a[x];
+                    o[x] = static_cast<float>(mix->mean_of(r[x], c)) + scale * a[x];
                 continue;
             }
             for (int x = 0; x < blk.w; ++x) o[x] = m + scale * a[x];
@@ -408,22 +422,34 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
 void render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads,
                       core::Image& out) {
     const int nc = mix.channels();
-    const std::int64_t st = std::int64_t{1} << q.level;
     LevelGeometry geo;
     geo.level = q.level;
-    geo.st = st;
+    geo.st = std::int64_t{1} << q.level;
+    // Every level's model once (each lookup takes the texton's lock), and the window's normals
+    // once: each pixel's 5 x 5 taps share them with its neighbours, as in render_limit.
+    std::vector<const core::noise::LimitModel*> models;
+    for (int l = 0; l < mix.levels(); ++l) models.push_back(&mix.level(l).limit(q.level));
+    const int zw = q.width + 4, zh = q.height + 4;
+    std::vector<float> z(static_cast<std::size_t>(zw) * zh * 3);
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int y = 0; y < zh; ++y)
+        for (int x = 0; x < zw; ++x)
+            core::noise::pixel_normals(q.seed, q.level, q.x0 - 2 + x, q.y0 - 2 + y, nc,
+                                       &z[(static_cast<std::size_t>(y) * zw + x) * 3]);
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < q.height; ++y) {
         const double ty = pixel_texel(geo, q.y0 + y);
         for (int x = 0; x < q.width; ++x) {
             const double tx = pixel_texel(geo, q.x0 + x);
-            const core::noise::LimitModel& lm = mix.level(mix.level_at(tx, ty)).limit(q.level);
+            const double rho = mix.field().rho(tx, ty);
+            const core::noise::LimitModel& lm =
+                *models[static_cast<std::size_t>(mix.level_of(rho))];
             float s[3] = {0, 0, 0};
             for (int dy = -2; dy <= 2; ++dy)
                 for (int dx = -2; dx <= 2; ++dx) {
-                    float n[3];
-                    core::noise::pixel_normals(q.seed, q.level, q.x0 + x - dx, q.y0 + y - dy, nc,
-                                               n);
+                    // z(P - D): pixel (x - dx, y - dy) sits at (x + 2 - dx, y + 2 - dy) in z.
+                    const float* n =
+                        &z[(static_cast<std::size_t>(y + 2 - dy) * zw + (x + 2 - dx)) * 3];
                     const float k = static_cast<float>(
                         lm.kappa[static_cast<std::size_t>((dy + 2) * 5 + dx + 2)]);
                     for (int c = 0; c < nc; ++c) s[c] = s[c] + k * n[c];
@@ -431,7 +457,7 @@ void render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads
             for (int c = 0; c < nc; ++c) {
                 float v = 0.0f;
                 for (int d = 0; d < nc; ++d) v = v + static_cast<float>(lm.a(c, d)) * s[d];
-                out.at(c, x, y) = static_cast<float>(mix.mean_at(tx, ty, c)) + v;
+                out.at(c, x, y) = static_cast<float>(mix.mean_of(rho, c)) + v;
             }
         }
     }
@@ -501,8 +527,8 @@ std::string CpuBackend::renderer() const {
 Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
                                        RenderStats* stats) {
     if (auto err = tex.check(q)) return *err;
-    core::Image out(q.width, q.height, tex.channels());
     if (q.level >= tex.limit_level()) {
+        core::Image out(q.width, q.height, tex.channels());
         render_limit(tex, q, m_threads, out);
         if (stats) {
             stats->limit_model = true;

@@ -21,8 +21,7 @@ Result<std::shared_ptr<const PreparedMix>> PreparedMix::make(std::vector<core::T
     return std::shared_ptr<const PreparedMix>(std::move(m));
 }
 
-double PreparedMix::mean_at(double x, double y, int c) const {
-    const double rho = m_field.rho(x, y);
+double PreparedMix::mean_of(double rho, int c) const {
     const auto ci = static_cast<std::size_t>(c);
     return (1.0 - rho) * m_levels.front()->texton().mean[ci] +
            rho * m_levels.back()->texton().mean[ci];

@@ -21,9 +21,12 @@ public:
     int channels() const { return m_levels.front()->channels(); }
 
     // The level of a point at (x, y) texels, and the mean colour channel c at (x, y): the linear
-    // interpolation (1 - rho) m_u + rho m_v of the two ends' means.
-    int level_at(double x, double y) const { return core::mix_level(m_field.rho(x, y), levels()); }
-    double mean_at(double x, double y, int c) const;
+    // interpolation (1 - rho) m_u + rho m_v of the two ends' means. Where one rho serves several
+    // uses, take it once with field().rho and use level_of / mean_of.
+    int level_at(double x, double y) const { return level_of(m_field.rho(x, y)); }
+    double mean_at(double x, double y, int c) const { return mean_of(m_field.rho(x, y), c); }
+    int level_of(double rho) const { return core::mix_level(rho, levels()); }
+    double mean_of(double rho, int c) const;
 
     std::optional<Error> check(const NoiseRequest& req) const;
 
