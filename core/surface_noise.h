@@ -37,6 +37,8 @@ public:
 
     int cell_size() const { return m_a; }
     double lambda() const { return m_lambda; }
+    double norm() const { return m_norm; } // 1 / sqrt(lambda r / 3)
+    const std::vector<std::uint32_t>& thresholds() const { return m_thresholds; }
 
 private:
     void h(double z1, double z2, double* v) const; // h(z + centre) per channel, the centred texton

@@ -108,6 +108,16 @@ Result<MixLevels> mix_levels(const ModelPair& pair, const AnalysisParams& params
     return out;
 }
 
+Image mask_from_image(const Image& img) {
+    Image m(img.width, img.height, 1);
+    for (std::size_t k = 0; k < m.plane_size(); ++k) {
+        double s = 0;
+        for (int c = 0; c < img.channels; ++c) s += img.plane(c)[k];
+        m.plane(0)[k] = static_cast<float>(std::clamp(s / img.channels, 0.0, 1.0));
+    }
+    return m;
+}
+
 double MixField::rho(double x, double y) const {
     double r;
     if (kind == Kind::ramp) {

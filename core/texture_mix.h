@@ -56,6 +56,9 @@ struct MixField {
     std::optional<Error> validate() const;
 };
 
+// A decoded image as a mask field: its only channel, or the mean of its three, in [0, 1].
+Image mask_from_image(const Image& image);
+
 // The level of a point where the field is rho: round(rho (R - 1)), in [0, R - 1].
 inline int mix_level(double rho, int levels) {
     const double v = rho * (levels - 1) + 0.5;

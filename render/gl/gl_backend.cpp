@@ -75,6 +75,13 @@ Result<GLuint> link(const gl::GlApi& gl, std::initializer_list<std::pair<GLenum,
     return prog;
 }
 
+// Textures the shaders read with texelFetch only: one level, no filtering.
+void texel_fetch_only(const gl::GlApi& gl, GLenum target) {
+    gl.TexParameteri(target, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl.TexParameteri(target, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl.TexParameteri(target, GL_TEXTURE_MAX_LEVEL, 0);
+}
+
 void* load_proc(const char* name, void* user) {
     return static_cast<GlContext*>(user)->proc_address(name);
 }
@@ -168,9 +175,7 @@ unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
     m_gl->BindTexture(GL_TEXTURE_2D, tex);
     m_gl->PixelStorei(GL_UNPACK_ALIGNMENT, 4);
     m_gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, n, n, 0, GL_RGB, GL_FLOAT, texels.data());
-    m_gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    m_gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    m_gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    texel_fetch_only(*m_gl, GL_TEXTURE_2D);
     m_tables.emplace(t.get(), CachedTable{t, tex});
     return tex;
 }
@@ -296,9 +301,7 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
             g.BindTexture(GL_TEXTURE_2D_ARRAY, mix_tables);
             g.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGB32F, side, side, nl, 0, GL_RGB, GL_FLOAT,
                          texels.data());
-            g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-            g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-            g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, 0);
+            texel_fetch_only(g, GL_TEXTURE_2D_ARRAY);
             const core::MixField& f = mix->field();
             const double bx = static_cast<double>(bcx) * a, by = static_cast<double>(bcy) * a;
             g.Uniform1i(uniform("u_nlevels"), nl);
@@ -315,9 +318,7 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
                 g.BindTexture(GL_TEXTURE_2D, mix_mask);
                 g.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, f.mask.width, f.mask.height, 0, GL_RED,
                              GL_FLOAT, f.mask.data.data());
-                g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-                g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-                g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+                texel_fetch_only(g, GL_TEXTURE_2D);
                 g.Uniform1f(uniform("u_mask_inv_scale"), static_cast<float>(1.0 / f.scale));
                 g.Uniform2f(uniform("u_mask_o"), static_cast<float>((bx - f.x0) / f.scale),
                             static_cast<float>((by - f.y0) / f.scale));
@@ -446,11 +447,9 @@ void GlBackend::set_surface_uniforms(unsigned prog, const PreparedTexton& tex, s
                                      double mni) {
     const gl::GlApi& g = *m_gl;
     const auto table = tex.table(0);
+    // The surface noise's own constants (cell size, thresholds, normalisation), as the CPU's.
     const core::SurfaceNoise noise(tex.texton(), mni);
-    const int a = noise.cell_size();
-    const std::vector<std::uint32_t> thresholds =
-        core::noise::poisson_thresholds(noise.lambda() * a * a * a);
-    const double r = tex.size();
+    const std::vector<std::uint32_t>& thresholds = noise.thresholds();
     auto loc = [&](const char* name) { return g.GetUniformLocation(prog, name); };
     g.ActiveTexture(GL_TEXTURE0);
     g.BindTexture(GL_TEXTURE_2D, table_texture(table));
@@ -458,9 +457,9 @@ void GlBackend::set_surface_uniforms(unsigned prog, const PreparedTexton& tex, s
     g.Uniform1i(loc("u_pad"), table->pad);
     g.Uniform1i(loc("u_r"), tex.size());
     g.Uniform1i(loc("u_order"), tex.order());
-    g.Uniform1i(loc("u_a"), a);
+    g.Uniform1i(loc("u_a"), noise.cell_size());
     g.Uniform2ui(loc("u_seed"), static_cast<GLuint>(seed), static_cast<GLuint>(seed >> 32));
-    g.Uniform1f(loc("u_norm"), static_cast<float>(1.0 / std::sqrt(noise.lambda() * r / 3.0)));
+    g.Uniform1f(loc("u_norm"), static_cast<float>(noise.norm()));
     const auto& m = tex.texton().mean;
     const bool grey = tex.channels() == 1;
     g.Uniform3f(loc("u_mean"), static_cast<float>(m[0]), static_cast<float>(grey ? 0 : m[1]),

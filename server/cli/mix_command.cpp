@@ -115,13 +115,7 @@ int mix_command(const Argv& argv) {
         auto img = io::decode_image_file(a.get("--mask"), limits.value());
         if (!img) return fail(1, img.error().message);
         field.kind = core::MixField::Kind::mask;
-        field.mask = core::Image(img.value().width, img.value().height, 1);
-        for (std::size_t k = 0; k < field.mask.plane_size(); ++k) {
-            double s = 0;
-            for (int c = 0; c < img.value().channels; ++c) s += img.value().plane(c)[k];
-            field.mask.plane(0)[k] =
-                static_cast<float>(std::clamp(s / img.value().channels, 0.0, 1.0));
-        }
+        field.mask = core::mask_from_image(img.value());
         auto o = numbers(a.get("--mask-origin", "0,0"), 2, "--mask-origin");
         if (!o) return fail(2, o.error().message);
         field.x0 = o.value()[0];

@@ -27,17 +27,6 @@ nlohmann::json mix_json(const nlohmann::json& meta) {
     return j;
 }
 
-// A mask image to rho in [0, 1]: its only channel, or the mean of its three.
-core::Image mask_of(const core::Image& img) {
-    core::Image m(img.width, img.height, 1);
-    for (std::size_t k = 0; k < m.plane_size(); ++k) {
-        double s = 0;
-        for (int c = 0; c < img.channels; ++c) s += img.plane(c)[k];
-        m.plane(0)[k] = static_cast<float>(std::clamp(s / img.channels, 0.0, 1.0));
-    }
-    return m;
-}
-
 } // namespace
 
 void Service::create_mix(const httplib::Request& req, httplib::Response& res) {
@@ -55,7 +44,7 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res) {
             return io::decode_image_memory(req.body, limits);
         }();
         if (!img) return send_error(res, to_api_error(img.error(), "invalid_mask"));
-        m.field.mask = mask_of(img.value());
+        m.field.mask = core::mask_from_image(img.value());
         if (auto err = m.field.validate())
             return send_error(res, {400, "invalid_parameter", err->message});
     }
