@@ -148,23 +148,10 @@ TEST(TextureMixNoise, TilesStitchBitExactly) {
         q.x0 = -64;
         q.y0 = -32;
         q.width = q.height = 128;
-        auto whole = cpu.render_mix(*mix, q);
-        ASSERT_TRUE(whole.ok());
-        for (int t = 0; t < 4; ++t) {
-            NoiseRequest tile = q;
-            tile.x0 = q.x0 + 64 * (t % 2);
-            tile.y0 = q.y0 + 64 * (t / 2);
-            tile.width = tile.height = 64;
-            auto part = cpu.render_mix(*mix, tile);
-            ASSERT_TRUE(part.ok());
-            for (int c = 0; c < 3; ++c)
-                for (int y = 0; y < 64; ++y)
-                    ASSERT_EQ(std::memcmp(&part.value().at(c, 0, y),
-                                          &whole.value().at(c, 64 * (t % 2), 64 * (t / 2) + y),
-                                          64 * sizeof(float)),
-                              0)
-                        << "level " << level << " tile " << t;
-        }
+        EXPECT_EQ(first_tile_off_the_region(
+                      [&](const NoiseRequest& r) { return cpu.render_mix(*mix, r); }, q),
+                  -1)
+            << "level " << level;
     }
     NoiseRequest tileable;
     tileable.period = {2, 2};

@@ -4,6 +4,7 @@
 #include "tests/support/test_support.h"
 
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <mutex>
 #include <stdexcept>
@@ -42,6 +43,28 @@ std::shared_ptr<const render::PreparedMix> analysed_mix(const std::string& u, co
     auto m = render::PreparedMix::make(mixed.value().levels, field);
     if (!m) throw std::runtime_error(m.error().message);
     return m.value();
+}
+
+int first_tile_off_the_region(const RenderFn& render, const render::NoiseRequest& q) {
+    auto whole = render(q);
+    if (!whole) return -2;
+    const int w = q.width / 2, h = q.height / 2;
+    for (int t = 0; t < 4; ++t) {
+        render::NoiseRequest tile = q;
+        tile.x0 = q.x0 + w * (t % 2);
+        tile.y0 = q.y0 + h * (t / 2);
+        tile.width = w;
+        tile.height = h;
+        auto part = render(tile);
+        if (!part) return -2;
+        for (int c = 0; c < whole.value().channels; ++c)
+            for (int y = 0; y < h; ++y)
+                if (std::memcmp(&part.value().at(c, 0, y),
+                                &whole.value().at(c, w * (t % 2), h * (t / 2) + y),
+                                static_cast<std::size_t>(w) * sizeof(float)) != 0)
+                    return t;
+    }
+    return -1;
 }
 
 double field_std(const render::PreparedTexton& t, int c) {

@@ -3,6 +3,7 @@
 #include "render/prepared_mix.h"
 #include "render/prepared_texton.h"
 
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -16,6 +17,12 @@ std::shared_ptr<const render::PreparedTexton> analysed_texton(const std::string&
 std::shared_ptr<const render::PreparedMix> analysed_mix(const std::string& u, const std::string& v,
                                                         int size, int levels,
                                                         const core::MixField& field);
+
+// One function, many windows: `q` rendered whole and as its four quarter tiles (even sides).
+// Returns -1 when every tile equals its part of the whole bit for bit, else the first tile (0-3)
+// that does not, or -2 when a render fails.
+using RenderFn = std::function<Result<core::Image>(const render::NoiseRequest&)>;
+int first_tile_off_the_region(const RenderFn& render, const render::NoiseRequest& q);
 
 // Standard deviation of channel c of the level-0 field: sqrt(C(0)_cc).
 double field_std(const render::PreparedTexton& t, int c);
