@@ -113,7 +113,8 @@ Image mask_from_image(const Image& img) {
     for (std::size_t k = 0; k < m.plane_size(); ++k) {
         double s = 0;
         for (int c = 0; c < img.channels; ++c) s += img.plane(c)[k];
-        m.plane(0)[k] = static_cast<float>(std::clamp(s / img.channels, 0.0, 1.0));
+        const double v = s / img.channels; // NaN (a float EXR mask) counts as 0
+        m.plane(0)[k] = static_cast<float>(v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0);
     }
     return m;
 }
@@ -121,8 +122,10 @@ Image mask_from_image(const Image& img) {
 double MixField::rho(double x, double y) const {
     double r;
     if (kind == Kind::ramp) {
+        // The unit direction first: (x - x0) * dx could overflow where (x - x0) * (dx / n) cannot
+        // (|x - x0| <= 2^63 and |dx / n| <= 1).
         const double n = std::hypot(dx, dy);
-        r = ((x - x0) * dx + (y - y0) * dy) / (n * width);
+        r = ((x - x0) * (dx / n) + (y - y0) * (dy / n)) / width;
     } else {
         // Mask pixel centres at origin + scale (i + 1/2): bilinear between them, edge-clamped.
         const double fx = std::clamp((x - x0) / scale - 0.5, 0.0, mask.width - 1.0);
@@ -137,7 +140,9 @@ double MixField::rho(double x, double y) const {
         r = (1 - ay) * ((1 - ax) * m(ix, iy) + ax * m(ix + 1, iy)) +
             ay * ((1 - ax) * m(ix, iy + 1) + ax * m(ix + 1, iy + 1));
     }
-    return std::clamp(r, 0.0, 1.0);
+    // NaN-safe clamp: std::clamp lets NaN through, and a NaN rho would index past the levels.
+    if (!(r > 0.0)) return 0.0;
+    return r < 1.0 ? r : 1.0;
 }
 
 std::optional<Error> MixField::validate() const {
@@ -146,8 +151,10 @@ std::optional<Error> MixField::validate() const {
     if (!std::isfinite(x0) || !std::isfinite(y0) || std::fabs(x0) > lim || std::fabs(y0) > lim)
         return bad("field origin must be finite and within the plane (|x|, |y| <= 2^62)");
     if (kind == Kind::ramp) {
-        if (!std::isfinite(dx) || !std::isfinite(dy) || std::hypot(dx, dy) == 0.0)
-            return bad("ramp direction must be a finite non-zero vector");
+        const double n = std::hypot(dx, dy);
+        if (!std::isfinite(dx) || !std::isfinite(dy) || !std::isfinite(n) || !(n > 0.0) ||
+            !std::isfinite(dx / n) || !std::isfinite(dy / n))
+            return bad("ramp direction must be a finite non-zero vector of finite length");
         if (!std::isfinite(width) || width < 1.0 || width > lim)
             return bad("ramp width must be in [1, 2^62] texels");
         return std::nullopt;
@@ -156,6 +163,9 @@ std::optional<Error> MixField::validate() const {
         return bad("mask must be a one-channel image");
     if (!std::isfinite(scale) || scale < 1.0 / 16 || scale > 1e9)
         return bad("mask scale must be in [1/16, 1e9] texels per mask pixel");
+    // A stored mask is read back from a file: every value must still be a weight.
+    for (float v : mask.data)
+        if (!(v >= 0.0f && v <= 1.0f)) return bad("mask values must be numbers in [0, 1]");
     return std::nullopt;
 }
 

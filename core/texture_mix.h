@@ -8,6 +8,8 @@
 #include "core/texton.h"
 #include "core/texton_analysis.h"
 
+#include <cassert>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -59,10 +61,14 @@ struct MixField {
 // A decoded image as a mask field: its only channel, or the mean of its three, in [0, 1].
 Image mask_from_image(const Image& image);
 
-// The level of a point where the field is rho: round(rho (R - 1)), in [0, R - 1].
+// The level of a point where the field is rho: round(rho (R - 1)), in [0, R - 1] for any rho,
+// NaN (level 0) and infinities included: the result indexes the level tables.
 inline int mix_level(double rho, int levels) {
+    assert(levels >= 1 && !std::isnan(rho));
     const double v = rho * (levels - 1) + 0.5;
-    const int l = v <= 0 ? 0 : static_cast<int>(v);
+    if (!(v > 0.0)) return 0;                                  // NaN too: never cast NaN to int
+    if (!(v < static_cast<double>(levels))) return levels - 1; // before the cast can overflow
+    const int l = static_cast<int>(v);
     return l > levels - 1 ? levels - 1 : l;
 }
 

@@ -161,29 +161,70 @@ Result<MeshView> mesh_view(const Mesh& mesh, const SurfaceRequest& req, Camera c
     return v;
 }
 
+namespace {
+
+// Screen x, y in pixels and depth along the view of every vertex.
+void project_vertices(const Mesh& mesh, const MeshView& mv, int width, int height,
+                      std::vector<double>& sx, std::vector<double>& sy, std::vector<double>& sz) {
+    const std::size_t nv = mesh.positions.size() / 3;
+    sx.assign(nv, 0.0);
+    sy.assign(nv, 0.0);
+    sz.assign(nv, 0.0);
+    for (std::size_t v = 0; v < nv; ++v) {
+        const Vec3 p = {mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                        mesh.positions[3 * v + 2]};
+        const Vec3 d = sub(p, mv.eye);
+        const double z = dot(d, mv.fwd);
+        sz[v] = z;
+        const double x = dot(d, mv.right) * mv.focal / (z * mv.aspect),
+                     y = dot(d, mv.up) * mv.focal / z;
+        sx[v] = (x + 1) * 0.5 * width;
+        sy[v] = (1 - y) * 0.5 * height;
+    }
+}
+
+// Pixel bounds of a triangle's box, clamped to the screen in double before any cast: a vertex
+// just in front of the eye projects to 1e300 pixels, and casting that to int is undefined.
+int screen_floor(double v, int n) {
+    return v > 0 ? static_cast<int>(std::floor(std::min(v, double(n - 1)))) : 0;
+}
+int screen_ceil(double v, int n) {
+    return v < n - 1 ? (v > 0 ? static_cast<int>(std::ceil(v)) : 0) : n - 1;
+}
+
+} // namespace
+
+std::uint64_t mesh_raster_tests(const Mesh& mesh, const MeshView& mv, int width, int height) {
+    std::vector<double> sx, sy, sz;
+    project_vertices(mesh, mv, width, height, sx, sy, sz);
+    std::uint64_t total = 0;
+    for (std::size_t t = 0; t + 2 < mesh.triangles.size(); t += 3) {
+        const std::uint32_t i[3] = {mesh.triangles[t], mesh.triangles[t + 1],
+                                    mesh.triangles[t + 2]};
+        if (sz[i[0]] <= 1e-9 || sz[i[1]] <= 1e-9 || sz[i[2]] <= 1e-9) continue;
+        const double lx = std::min({sx[i[0]], sx[i[1]], sx[i[2]]});
+        const double hx = std::max({sx[i[0]], sx[i[1]], sx[i[2]]});
+        const double ly = std::min({sy[i[0]], sy[i[1]], sy[i[2]]});
+        const double hy = std::max({sy[i[0]], sy[i[1]], sy[i[2]]});
+        const int bx0 = screen_floor(lx, width), bx1 = screen_ceil(hx, width);
+        const int by0 = screen_floor(ly, height), by1 = screen_ceil(hy, height);
+        if (bx1 < bx0 || by1 < by0) continue;
+        total +=
+            static_cast<std::uint64_t>(bx1 - bx0 + 1) * static_cast<std::uint64_t>(by1 - by0 + 1);
+    }
+    return total;
+}
+
 Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
                                         const Mesh& mesh, Camera cam, int width, int height,
                                         int threads) {
     auto view = mesh_view(mesh, req, cam, width, height);
     if (!view) return view.error();
     const MeshView& mv = view.value();
-    const std::size_t nv = mesh.positions.size() / 3;
     const double scale = mv.scale;
-    const Vec3 fwd = mv.fwd, right = mv.right, up = mv.up;
-    const double f = mv.focal, aspect = mv.aspect;
 
-    // Project vertices: screen x, y in pixels, depth along the view.
-    std::vector<double> sx(nv), sy(nv), sz(nv);
-    for (std::size_t v = 0; v < nv; ++v) {
-        const Vec3 p = {mesh.positions[3 * v], mesh.positions[3 * v + 1],
-                        mesh.positions[3 * v + 2]};
-        const Vec3 d = sub(p, mv.eye);
-        const double z = dot(d, fwd);
-        sz[v] = z;
-        const double x = dot(d, right) * f / (z * aspect), y = dot(d, up) * f / z;
-        sx[v] = (x + 1) * 0.5 * width;
-        sy[v] = (1 - y) * 0.5 * height;
-    }
+    std::vector<double> sx, sy, sz;
+    project_vertices(mesh, mv, width, height, sx, sy, sz);
     // Z-buffer of (triangle, barycentrics) per pixel; then one noise evaluation per pixel.
     const std::size_t npx = static_cast<std::size_t>(width) * height;
     std::vector<double> depth(npx, std::numeric_limits<double>::infinity());
@@ -197,10 +238,10 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
         const double x0 = sx[i0], y0 = sy[i0], x1 = sx[i1], y1 = sy[i1], x2 = sx[i2], y2 = sy[i2];
         const double area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
         if (std::fabs(area) < 1e-12) continue;
-        const int bx0 = std::max(0, static_cast<int>(std::floor(std::min({x0, x1, x2}))));
-        const int bx1 = std::min(width - 1, static_cast<int>(std::ceil(std::max({x0, x1, x2}))));
-        const int by0 = std::max(0, static_cast<int>(std::floor(std::min({y0, y1, y2}))));
-        const int by1 = std::min(height - 1, static_cast<int>(std::ceil(std::max({y0, y1, y2}))));
+        const int bx0 = screen_floor(std::min({x0, x1, x2}), width);
+        const int bx1 = screen_ceil(std::max({x0, x1, x2}), width);
+        const int by0 = screen_floor(std::min({y0, y1, y2}), height);
+        const int by1 = screen_ceil(std::max({y0, y1, y2}), height);
         for (int py = by0; py <= by1; ++py)
             for (int px = bx0; px <= bx1; ++px) {
                 const double cx = px + 0.5, cy = py + 0.5;
@@ -256,7 +297,7 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
                 n = cross(sub(b, a), sub(c, a));
                 if (!normalise(n)) continue;
             }
-            if (dot(n, fwd) > 0) n = {-n[0], -n[1], -n[2]}; // face the camera
+            if (dot(n, mv.fwd) > 0) n = {-n[0], -n[1], -n[2]}; // face the camera
             where.push_back(k);
             for (int d = 0; d < 3; ++d) {
                 ys.push_back(p[static_cast<std::size_t>(d)] * scale);

@@ -58,6 +58,11 @@ struct MeshView {
 Result<MeshView> mesh_view(const Mesh& mesh, const SurfaceRequest& req, Camera camera, int width,
                            int height);
 
+// Pixels the rasteriser tests for `mesh` in this view: the sum of its triangles' screen boxes.
+// What a preview costs before the noise, known before any of it runs (the service refuses
+// meshes over its work budget: a few kB of stacked screen-sized quads took 46 s).
+std::uint64_t mesh_raster_tests(const Mesh& mesh, const MeshView& view, int width, int height);
+
 Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
                                         const Mesh& mesh, Camera camera, int width, int height,
                                         int threads = 0);

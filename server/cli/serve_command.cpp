@@ -37,7 +37,9 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --cors-origin O          "*", a comma-separated list of origins, or "" for no CORS   [*]
   --web-dir DIR            the page served at / (built into build/release/web)
 
-  --http-threads N         connection threads (one per open keep-alive connection) [128]
+  --http-threads N         connection threads kept (one per open connection)   [128]
+  --max-connections N      connections served at once; threads past --http-threads start
+                           on demand, so slow clients cannot take them all     [1024]
   --listen-backlog N       pending connections before the kernel drops SYNs    [1024]
   --render-slots N         renders at once, 0 = one per core                   [0]
   --analysis-workers N     analyses at once (each uses every core)             [1]
@@ -54,6 +56,14 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --read-timeout S, --write-timeout S                                          [30]
   --keep-alive-max N       requests per connection                             [1000]
   --keep-alive-timeout S   idle seconds before a kept-alive connection closes  [5]
+  --max-header-kb N        request line and headers, KiB (431 above)           [64]
+  --max-headers N          header lines (431 above)                            [100]
+  --header-timeout S       seconds for a whole request head from its first byte (408) [10]
+  --body-timeout S         seconds for a whole request body (408)              [120]
+  --queue-timeout-ms N     longest wait for a render slot before 429           [10000]
+  --render-queue N         requests waiting for a render slot before 429       [1024]
+  --max-request-cpu-s S    estimated CPU seconds one request may cost (413 above) [20]
+  --body-budget-mb N       request bodies held in memory by all requests, MiB (429) [256]
 
   --log-level L            trace | debug | info | warn | error | off           [info]
   --no-access-log          no log line per request
@@ -86,6 +96,15 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--write-timeout",
                                                 "--keep-alive-max",
                                                 "--keep-alive-timeout",
+                                                "--max-connections",
+                                                "--max-header-kb",
+                                                "--max-headers",
+                                                "--header-timeout",
+                                                "--body-timeout",
+                                                "--queue-timeout-ms",
+                                                "--render-queue",
+                                                "--max-request-cpu-s",
+                                                "--body-budget-mb",
                                                 "--log-level"};
 const std::vector<std::string> kFlagOptions = {"--no-access-log"};
 
@@ -117,7 +136,8 @@ Result<http::ServeConfig> config_from(const Args& a) {
         out = static_cast<std::remove_reference_t<decltype(out)>>(v.value());
         return std::nullopt;
     };
-    long long cache_mb = 256, upload_mb = 32, max_pixels = 16'777'216;
+    long long cache_mb = 256, upload_mb = 32, max_pixels = 16'777'216, header_kb = 64,
+              body_budget_mb = 256, cpu_s = 20;
     for (auto err :
          {num("--port", c.port, 0, 65535, c.port),
           num("--http-threads", c.http_threads, 1, 4096, c.http_threads),
@@ -137,11 +157,27 @@ Result<http::ServeConfig> config_from(const Args& a) {
           num("--read-timeout", c.read_timeout_s, 1, 3600, c.read_timeout_s),
           num("--write-timeout", c.write_timeout_s, 1, 3600, c.write_timeout_s),
           num("--keep-alive-max", c.keep_alive_max, 1, 1000000, c.keep_alive_max),
-          num("--keep-alive-timeout", c.keep_alive_timeout_s, 1, 3600, c.keep_alive_timeout_s)})
+          num("--keep-alive-timeout", c.keep_alive_timeout_s, 1, 3600, c.keep_alive_timeout_s),
+          num("--max-connections", c.max_connections, 1, 65536, c.max_connections),
+          num("--max-header-kb", header_kb, 1, 1024, header_kb),
+          num("--max-headers", c.max_headers, 1, 10000, c.max_headers),
+          num("--header-timeout", c.header_timeout_s, 1, 3600, c.header_timeout_s),
+          num("--body-timeout", c.body_timeout_s, 1, 3600, c.body_timeout_s),
+          num("--queue-timeout-ms", c.queue_timeout_ms, 0, 3'600'000, c.queue_timeout_ms),
+          num("--render-queue", c.render_queue, 0, 1'000'000, c.render_queue),
+          num("--max-request-cpu-s", cpu_s, 1, 86400, cpu_s),
+          num("--body-budget-mb", body_budget_mb, 1, 1 << 20, body_budget_mb)})
         if (err) return *err;
     c.cache_bytes = static_cast<std::size_t>(cache_mb) << 20;
     c.max_upload_bytes = static_cast<std::size_t>(upload_mb) << 20;
     c.max_pixels = static_cast<std::uint64_t>(max_pixels);
+    c.max_header_bytes = static_cast<std::size_t>(header_kb) << 10;
+    c.body_budget_bytes = static_cast<std::size_t>(body_budget_mb) << 20;
+    c.max_request_cpu_s = static_cast<double>(cpu_s);
+    if (c.body_budget_bytes < c.max_upload_bytes)
+        return make_error(ErrorCode::invalid_argument,
+                          "--body-budget-mb must be at least --max-upload-mb");
+    if (c.max_connections < c.http_threads) c.max_connections = c.http_threads;
     c.host = a.get("--host", c.host);
     c.data_dir = a.get("--data", c.data_dir);
     c.store_url = a.get("--store", c.store_url);

@@ -26,15 +26,29 @@ struct ServeConfig {
 
     // cpp-httplib serves one connection per worker thread for as long as it is kept alive, so
     // the pool must cover the connections expected at once; renders are bounded separately.
-    int http_threads = 128;
-    int render_slots = 0;     // renders at once; 0 = one per core
-    int analysis_workers = 1; // analyses at once (each uses every core)
-    int analysis_queue = 4;   // waiting analyses before 429
+    int http_threads = 128;     // connection threads kept
+    int max_connections = 1024; // connection threads at most (more are started on demand)
+    int render_slots = 0;       // renders at once; 0 = one per core
+    int analysis_workers = 1;   // analyses at once (each uses every core)
+    int analysis_queue = 4;     // waiting analyses before 429
     int read_timeout_s = 30;
     int write_timeout_s = 30;
     int keep_alive_max = 1000; // requests per connection
     int keep_alive_timeout_s = 5;
     int listen_backlog = 1024; // pending connections (the kernel caps it at net.core.somaxconn)
+    // Per request (server/http/connection.h): the request line and headers in bytes, lines and
+    // time from their first byte, and the body's time.
+    std::size_t max_header_bytes = 64 * 1024;
+    int max_headers = 100;
+    int header_timeout_s = 10;
+    int body_timeout_s = 120;
+    // Admission (server/http/admission.h): how long a request may wait for a render slot, how
+    // many may wait, the most estimated CPU seconds one request may cost, and the request bodies
+    // held in memory by all requests together.
+    int queue_timeout_ms = 10'000;
+    int render_queue = 1024;
+    double max_request_cpu_s = 20;
+    std::size_t body_budget_bytes = std::size_t{256} << 20;
 
     std::size_t cache_bytes = std::size_t{256} << 20;
     std::size_t max_upload_bytes = std::size_t{32} << 20;

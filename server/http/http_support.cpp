@@ -1,5 +1,7 @@
 #include "server/http/http_support.h"
 
+#include "api/safe_text.h"
+
 #include <atomic>
 #include <cstdio>
 #include <ctime>
@@ -45,23 +47,36 @@ void set_route(const char* route_template) {
     current_request().route = route_template;
 }
 
-void send_error(httplib::Response& res, const api::ApiError& e) {
-    RequestContext& ctx = current_request();
-    if (!ctx.active) begin_request(httplib::Request{});
-    const nlohmann::json body = {{"error", {{"code", e.code}, {"message", e.message}}},
-                                 {"request_id", ctx.id}};
-    res.status = e.status;
-    res.set_header("Cache-Control", "no-store");
-    // The shared store fails fast for a second after it is found down (server/store).
-    if (e.status == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "1");
-    res.set_content(body.dump(), "application/json");
+void send_error(httplib::Response& res, const api::ApiError& e) noexcept {
+    // The error path must not fail in turn: messages echo client bytes (printable() makes them
+    // valid UTF-8, capped), and should anything still throw, a fixed body goes out.
+    try {
+        RequestContext& ctx = current_request();
+        if (!ctx.active) begin_request(httplib::Request{});
+        const nlohmann::json body = {
+            {"error",
+             {{"code", api::printable(e.code, 64)}, {"message", api::printable(e.message, 1024)}}},
+            {"request_id", ctx.id}};
+        res.status = e.status;
+        res.set_header("Cache-Control", "no-store");
+        // The shared store fails fast for a second after it is found down (server/store).
+        if (e.status == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "1");
+        res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
+                        "application/json");
+    } catch (...) {
+        res.status = e.status;
+        res.body = R"({"error": {"code": "internal", "message": "error body unavailable"}})";
+        res.set_header("Content-Type", "application/json");
+    }
 }
 
 void send_json(httplib::Response& res, int status, const nlohmann::json& body,
                const char* cache_control) {
     res.status = status;
     if (cache_control) res.set_header("Cache-Control", cache_control);
-    res.set_content(body.dump(2) + "\n", "application/json");
+    // replace: a string that came from a client and is not UTF-8 becomes U+FFFD, never a throw.
+    res.set_content(body.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n",
+                    "application/json");
 }
 
 api::ApiError to_api_error(const Error& e, std::string code) {

@@ -29,7 +29,7 @@ void begin_request(const httplib::Request& req);
 void set_route(const char* route_template);
 
 // {"error": {"code", "message"}, "request_id"} with the status, and `Cache-Control: no-store`.
-void send_error(httplib::Response& res, const api::ApiError& e);
+void send_error(httplib::Response& res, const api::ApiError& e) noexcept;
 void send_json(httplib::Response& res, int status, const nlohmann::json& body,
                const char* cache_control = "no-cache");
 

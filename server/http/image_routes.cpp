@@ -98,12 +98,17 @@ std::string Service::etag_for(const std::string& key) const {
 
 void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
                            const std::string& id, const std::string& key, api::ImageFormat format,
-                           const std::function<Result<core::Image>()>& produce, bool mix) {
+                           const std::function<Result<core::Image>()>& produce, bool mix,
+                           std::int64_t pixels, double mni) {
+    int order = 1;
     if (mix) {
-        if (auto found = m_mixes->meta(id); !found)
-            return send_error(res, to_api_error(found.error()));
-    } else if (auto found = m_store->find(id); !found) {
-        return send_error(res, to_api_error(found.error()));
+        auto found = m_mixes->meta(id);
+        if (!found) return send_error(res, to_api_error(found.error()));
+        order = found.value().value("order", 3);
+    } else {
+        auto found = m_store->find(id);
+        if (!found) return send_error(res, to_api_error(found.error()));
+        order = found.value().order;
     }
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
@@ -115,12 +120,17 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
         return;
     }
     if (cached) return send_cached(res, std::move(cached));
+    // Render, resample and encode in one slot: the float image and its encoding (230 MB for
+    // the largest region) exist only while a slot is held.
+    auto slot = admit(res, noise_work_s(pixels, mni, order));
+    if (!slot) return;
     auto image = produce();
     if (!image) return send_error(res, to_api_error(image.error()));
     auto bytes =
         io::encode_image_memory(image.value(), encoding_of(format),
                                 {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}},
                                 m_config.png_compression);
+    image = core::Image(); // the pixels go before the bytes are cached
     if (!bytes) return send_error(res, to_api_error(bytes.error()));
     auto entry = std::make_shared<CachedImage>();
     entry->body = std::move(bytes.value());
@@ -138,10 +148,7 @@ Result<core::Image> Service::render_noise(const std::string& id, const render::N
     if (auto err = prepared.value()->check(q)) return *err;
     render::Backend& backend = whole_machine ? *m_region_backend : *m_tile_backend;
     const auto t0 = std::chrono::steady_clock::now();
-    Result<core::Image> image = [&] {
-        SlotGuard slot(m_render_slots);
-        return backend.render(*prepared.value(), q);
-    }();
+    Result<core::Image> image = backend.render(*prepared.value(), q); // in the caller's slot
     m_metrics.render(
         backend.name(), kind,
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
@@ -157,8 +164,7 @@ Result<core::Image> Service::render_mix(const std::string& id, const render::Noi
     // the CPU, which has them all.
     render::Backend* backend = whole_machine ? m_region_backend.get() : m_tile_backend.get();
     const auto t0 = std::chrono::steady_clock::now();
-    Result<core::Image> image = [&] {
-        SlotGuard slot(m_render_slots);
+    Result<core::Image> image = [&] { // in the caller's slot
         auto r = backend->render_mix(*prepared.value(), q);
         if (r || r.error().code != ErrorCode::unsupported) return r;
         backend = whole_machine ? m_mix_region_backend.get() : m_mix_backend.get();
@@ -185,7 +191,8 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
                 return core::resample_periodic(image.value(), job.out_width, job.out_height);
             return image;
         },
-        job.mix);
+        job.mix, static_cast<std::int64_t>(job.request.width) * job.request.height,
+        job.request.mni);
 }
 
 // The exemplar's power spectrum (periodic component, centre crop of at most 512 x 512) next to
@@ -198,36 +205,39 @@ void Service::spectrum(const httplib::Request& req, const std::string& id, httpl
     if (auto e = api::parse_spectrum(id, req.params, noise)) return send_error(res, *e);
     const std::string key =
         "spectrum/" + id + "/s" + std::to_string(noise.seed) + "/m" + mni_text(noise.mni) + ".png";
-    serve_cached(req, res, id, key, api::ImageFormat::png, [&]() -> Result<core::Image> {
-        auto png = m_store->exemplar_png(id);
-        if (!png) return png.error();
-        auto exemplar = io::decode_image_memory(png.value());
-        if (!exemplar) return exemplar.error();
-        const core::Image& u = exemplar.value();
-        const int w = std::min(512, u.width), h = std::min(512, u.height);
-        core::Image crop(w, h, u.channels);
-        for (int c = 0; c < u.channels; ++c)
+    serve_cached(
+        req, res, id, key, api::ImageFormat::png,
+        [&]() -> Result<core::Image> {
+            auto png = m_store->exemplar_png(id);
+            if (!png) return png.error();
+            auto exemplar = io::decode_image_memory(png.value());
+            if (!exemplar) return exemplar.error();
+            const core::Image& u = exemplar.value();
+            const int w = std::min(512, u.width), h = std::min(512, u.height);
+            core::Image crop(w, h, u.channels);
+            for (int c = 0; c < u.channels; ++c)
+                for (int y = 0; y < h; ++y)
+                    for (int x = 0; x < w; ++x)
+                        crop.at(c, x, y) = u.at(c, x + (u.width - w) / 2, y + (u.height - h) / 2);
+            render::NoiseRequest nq = noise_request(0, 0, 0, w, h, noise);
+            auto window = render_noise(id, nq, true, "spectrum");
+            if (!window) return window.error();
+            const core::Image a = core::centred_power_spectrum(core::periodic_component(crop));
+            const core::Image b = core::centred_power_spectrum(window.value());
+            const double top = std::max(core::log10_max(a), core::log10_max(b));
+            constexpr double kDecades = 5.0;
+            const core::Image la = core::log_display(a, top, kDecades);
+            const core::Image lb = core::log_display(b, top, kDecades);
+            constexpr int kGap = 4;
+            core::Image out(2 * w + kGap, h, 1, 1.0f);
             for (int y = 0; y < h; ++y)
-                for (int x = 0; x < w; ++x)
-                    crop.at(c, x, y) = u.at(c, x + (u.width - w) / 2, y + (u.height - h) / 2);
-        render::NoiseRequest nq = noise_request(0, 0, 0, w, h, noise);
-        auto window = render_noise(id, nq, true, "spectrum");
-        if (!window) return window.error();
-        const core::Image a = core::centred_power_spectrum(core::periodic_component(crop));
-        const core::Image b = core::centred_power_spectrum(window.value());
-        const double top = std::max(core::log10_max(a), core::log10_max(b));
-        constexpr double kDecades = 5.0;
-        const core::Image la = core::log_display(a, top, kDecades);
-        const core::Image lb = core::log_display(b, top, kDecades);
-        constexpr int kGap = 4;
-        core::Image out(2 * w + kGap, h, 1, 1.0f);
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) {
-                out.at(0, x, y) = la.at(0, x, y);
-                out.at(0, w + kGap + x, y) = lb.at(0, x, y);
-            }
-        return out;
-    });
+                for (int x = 0; x < w; ++x) {
+                    out.at(0, x, y) = la.at(0, x, y);
+                    out.at(0, w + kGap + x, y) = lb.at(0, x, y);
+                }
+            return out;
+        },
+        false, 512 * 512, noise.mni);
 }
 
 void Service::exemplar(const std::string& id, httplib::Response& res) {

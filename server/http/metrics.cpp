@@ -65,6 +65,11 @@ void Metrics::render(const std::string& backend, const std::string& kind, double
     m_render_ms[{backend, kind}].observe(ms / 1000.0);
 }
 
+void Metrics::not_admitted(const std::string& why) {
+    std::lock_guard lock(m_mutex);
+    ++m_not_admitted[why];
+}
+
 void Metrics::tile_cache(bool hit) {
     std::lock_guard lock(m_mutex);
     ++(hit ? m_cache_hits : m_cache_misses);
@@ -114,6 +119,14 @@ std::string Metrics::prometheus_text() const {
              "# TYPE textond_tile_cache_requests_total counter\n"
           << "textond_tile_cache_requests_total{result=\"hit\"} " << m_cache_hits << "\n"
           << "textond_tile_cache_requests_total{result=\"miss\"} " << m_cache_misses << "\n";
+        o << "# HELP textond_not_admitted_total Work refused before it started: too_large (413), "
+             "busy (429), gone (the client left while it waited).\n"
+             "# TYPE textond_not_admitted_total counter\n";
+        for (const char* why : {"too_large", "busy", "gone"}) {
+            auto it = m_not_admitted.find(why);
+            o << "textond_not_admitted_total{reason=\"" << why << "\"} "
+              << (it == m_not_admitted.end() ? 0 : it->second) << "\n";
+        }
         o << "# HELP textond_analyses_total Texton analyses run (joined uploads are not "
              "counted).\n# TYPE textond_analyses_total counter\n"
           << "textond_analyses_total{result=\"ok\"} " << m_analyses_ok << "\n"

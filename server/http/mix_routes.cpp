@@ -29,25 +29,32 @@ nlohmann::json mix_json(const nlohmann::json& meta) {
 
 } // namespace
 
-void Service::create_mix(const httplib::Request& req, httplib::Response& res) {
+void Service::create_mix(const httplib::Request& req, httplib::Response& res,
+                         const httplib::ContentReader& reader) {
     set_route("/v1/mixes");
     if (!authorised(req, res)) return;
-    const bool has_mask = !req.body.empty();
+    Body body(m_bodies);
+    if (!read_request_body(reader, res, body)) return;
+    const bool has_mask = !body.bytes.empty();
     api::MixRequest m;
     if (auto e = api::parse_mix(req.params, has_mask, m)) return send_error(res, *e);
     if (has_mask) {
         io::DecodeLimits limits;
         limits.max_pixels = m_config.max_pixels;
         limits.formats = m_config.formats;
-        auto img = [&] {
-            SlotGuard slot(m_decode_slots);
-            return io::decode_image_memory(req.body, limits);
-        }();
+        if (m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms)) !=
+            RenderSlots::Admit::granted) {
+            res.set_header("Retry-After", "1");
+            return send_error(res, {429, "overloaded", "every decoder is busy; retry shortly"});
+        }
+        SlotGuard slot(&m_decode_slots);
+        auto img = io::decode_image_memory(body.bytes, limits);
         if (!img) return send_error(res, to_api_error(img.error(), "invalid_mask"));
         m.field.mask = core::mask_from_image(img.value());
         if (auto err = m.field.validate())
             return send_error(res, {400, "invalid_parameter", err->message});
     }
+    body.bytes = std::string();
     auto u = m_store->find(m.u);
     if (!u) return send_error(res, to_api_error(u.error()));
     auto v = m_store->find(m.v);
@@ -55,62 +62,87 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res) {
     const std::string id = io::mix_id(m.u, m.v, m.levels, m.field);
     if (auto meta = m_mixes->meta(id)) return send_json(res, 200, mix_json(meta.value()));
 
-    // One mix analysis at a time: each is R texton analyses.
-    std::lock_guard<std::mutex> lock(m_mix_mutex);
-    if (auto meta = m_mixes->meta(id)) return send_json(res, 200, mix_json(meta.value()));
-    const auto t0 = std::chrono::steady_clock::now();
-    auto pu = m_store->exemplar_png(m.u);
-    if (!pu) return send_error(res, to_api_error(pu.error()));
-    auto pv = m_store->exemplar_png(m.v);
-    if (!pv) return send_error(res, to_api_error(pv.error()));
-    auto eu = io::decode_image_memory(pu.value());
-    auto ev = io::decode_image_memory(pv.value());
-    if (!eu || !ev) return send_error(res, to_api_error(eu ? ev.error() : eu.error()));
-    const api::TextonMeta& mu = u.value();
-    core::AnalysisParams p;
-    p.size = mu.size;
-    p.order = mu.order;
-    p.iterations = mu.iterations;
-    p.seed = mu.seed;
-    p.periodic = mu.periodic;
-    auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
-    if (!pair) return send_error(res, to_api_error(pair.error()));
-    auto levels = core::mix_levels(pair.value(), p, m.levels);
-    if (!levels) return send_error(res, to_api_error(levels.error(), "exemplar_too_small"));
-
-    io::MixRecord record;
-    record.levels = levels.value().levels;
-    record.field = m.field;
-    nlohmann::json means = nlohmann::json::array();
-    for (const auto& t : record.levels) {
-        nlohmann::json mean = nlohmann::json::array();
-        for (int c = 0; c < t.channels; ++c) mean.push_back(t.mean[static_cast<std::size_t>(c)]);
-        means.push_back(mean);
+    // A mix is R texton analyses: it runs on the analysis pool, single flight per id, and a
+    // full pool answers 429 at once (it waited on a mutex before: 15 s became 159 s).
+    TextonStore* store = m_store.get();
+    MixStore* mixes = m_mixes.get();
+    const api::TextonMeta mu = u.value();
+    auto submitted = m_pool->submit(
+        "mix:" + id, [store, mixes, m, mu, id](const core::ProgressFn&) -> Result<AnalysisOutcome> {
+            if (mixes->contains(id)) return AnalysisOutcome{mu, false};
+            const auto t0 = std::chrono::steady_clock::now();
+            auto pu = store->exemplar_png(m.u);
+            if (!pu) return pu.error();
+            auto pv = store->exemplar_png(m.v);
+            if (!pv) return pv.error();
+            auto eu = io::decode_image_memory(pu.value());
+            auto ev = io::decode_image_memory(pv.value());
+            if (!eu || !ev) return eu ? ev.error() : eu.error();
+            core::AnalysisParams p;
+            p.size = mu.size;
+            p.order = mu.order;
+            p.iterations = mu.iterations;
+            p.seed = mu.seed;
+            p.periodic = mu.periodic;
+            auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
+            if (!pair) return pair.error();
+            auto levels = core::mix_levels(pair.value(), p, m.levels);
+            if (!levels) return levels.error();
+            io::MixRecord record;
+            record.levels = levels.value().levels;
+            record.field = m.field;
+            nlohmann::json means = nlohmann::json::array();
+            for (const auto& t : record.levels) {
+                nlohmann::json mean = nlohmann::json::array();
+                for (int c = 0; c < t.channels; ++c)
+                    mean.push_back(t.mean[static_cast<std::size_t>(c)]);
+                means.push_back(mean);
+            }
+            const double ms =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                    .count();
+            record.meta = {{"id", id},
+                           {"version", core::kMixVersion},
+                           {"u", m.u},
+                           {"v", m.v},
+                           {"levels", m.levels},
+                           {"size", p.size},
+                           {"order", p.order},
+                           {"channels", record.levels.front().channels},
+                           {"iterations", p.iterations},
+                           {"seed", p.seed},
+                           {"grid", {pair.value().u.width, pair.value().u.height}},
+                           {"means", means},
+                           {"rme", levels.value().rme},
+                           {"field", io::field_json(m.field)},
+                           {"analysis_ms", ms},
+                           {"created", rfc3339_now()}};
+            auto put = mixes->put(record);
+            if (!put) return put.error();
+            spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms", id, m.u.substr(0, 12),
+                         m.v.substr(0, 12), m.levels, ms);
+            return AnalysisOutcome{mu, put.value()};
+        });
+    if (!submitted.job) {
+        const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
+        res.set_header("Retry-After", std::to_string(wait_s));
+        return send_error(res, {429, "overloaded",
+                                "every analysis worker is busy and the queue is full; retry "
+                                "after " +
+                                    std::to_string(wait_s) + " s"});
     }
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    record.meta = {{"id", id},
-                   {"version", core::kMixVersion},
-                   {"u", m.u},
-                   {"v", m.v},
-                   {"levels", m.levels},
-                   {"size", p.size},
-                   {"order", p.order},
-                   {"channels", record.levels.front().channels},
-                   {"iterations", p.iterations},
-                   {"seed", p.seed},
-                   {"grid", {pair.value().u.width, pair.value().u.height}},
-                   {"means", means},
-                   {"rme", levels.value().rme},
-                   {"field", io::field_json(m.field)},
-                   {"analysis_ms", ms},
-                   {"created", rfc3339_now()}};
-    auto put = m_mixes->put(record);
-    if (!put) return send_error(res, to_api_error(put.error()));
-    spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms", id, m.u.substr(0, 12),
-                 m.v.substr(0, 12), m.levels, ms);
-    res.set_header("Location", "/v1/mixes/" + id);
-    send_json(res, 201, mix_json(record.meta));
+    const Result<AnalysisOutcome>& outcome = submitted.job->wait();
+    if (!outcome) {
+        const Error& err = outcome.error();
+        return send_error(
+            res,
+            to_api_error(err, err.code == ErrorCode::invalid_argument ? "exemplar_too_small" : ""));
+    }
+    auto meta = m_mixes->meta(id);
+    if (!meta) return send_error(res, to_api_error(meta.error()));
+    const bool created = outcome.value().created && !submitted.joined;
+    if (created) res.set_header("Location", "/v1/mixes/" + id);
+    send_json(res, created ? 201 : 200, mix_json(meta.value()));
 }
 
 void Service::get_mix(const std::string& id, httplib::Response& res) {
@@ -124,7 +156,9 @@ void Service::get_mix(const std::string& id, httplib::Response& res) {
 void Service::install_mix_routes() {
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
-    m_http.Post("/v1/mixes", [this](Req req, Res res) { create_mix(req, res); });
+    using Reader = const httplib::ContentReader&;
+    m_http.Post("/v1/mixes",
+                [this](Req req, Res res, Reader reader) { create_mix(req, res, reader); });
     m_http.Get(R"(/v1/mixes/([^/]+))", [this](Req req, Res res) { get_mix(req.matches[1], res); });
     // Anything else under /v1/mixes/: a bad id is a 400 (never a path), a good one a 404.
     auto fallback = [](Req req, Res res) {
@@ -135,7 +169,8 @@ void Service::install_mix_routes() {
         send_error(res, {404, "not_found", "no such endpoint under /v1/mixes/" + first});
     };
     m_http.Get(R"(/v1/mixes/(.*))", fallback);
-    m_http.Post(R"(/v1/mixes/(.*))", fallback);
+    // A content-reader route, so that cpp-httplib never reads a body nobody asked for.
+    m_http.Post(R"(/v1/mixes/(.*))", [fallback](Req req, Res res, Reader) { fallback(req, res); });
 }
 
 } // namespace textond::http

@@ -1,5 +1,8 @@
 #include "server/http/mix_store.h"
 
+#include <spdlog/spdlog.h>
+
+#include <chrono>
 #include <filesystem>
 
 namespace textond::http {
@@ -27,9 +30,20 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
             }
     }
     auto record = io::read_mix_files(m_dir, id);
+    if (!record && record.error().code == ErrorCode::io) {
+        quarantine(id, record.error().message);
+        return make_error(ErrorCode::not_found, "no mix " + id +
+                                                    " (its files were damaged or "
+                                                    "failed validation, and were quarantined)");
+    }
     if (!record) return record.error();
     auto prepared = render::PreparedMix::make(record.value().levels, record.value().field);
-    if (!prepared) return prepared.error();
+    if (!prepared) {
+        quarantine(id, prepared.error().message);
+        return make_error(ErrorCode::not_found, "no mix " + id +
+                                                    " (it failed validation and "
+                                                    "was quarantined)");
+    }
     Entry e{id, record.value().meta, prepared.value()};
     std::lock_guard<std::mutex> lock(m_mutex);
     m_lru.push_front(e);
@@ -47,6 +61,29 @@ Result<std::shared_ptr<const render::PreparedMix>> MixStore::prepared(const std:
     auto e = load(id);
     if (!e) return e.error();
     return e.value().prepared;
+}
+
+void MixStore::quarantine(const std::string& id, const std::string& why) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(m_dir) / "quarantine";
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    const std::string stamp = std::to_string(std::chrono::system_clock::now().time_since_epoch() /
+                                             std::chrono::milliseconds(1));
+    for (const char* suffix : {".exr", ".mask.exr"}) {
+        const fs::path from = fs::path(m_dir) / (id + suffix);
+        if (!fs::exists(from, ec)) continue;
+        fs::rename(from, dir / (id + suffix + "." + stamp), ec);
+        if (ec) fs::remove(from, ec); // never leave it where it could be rendered
+    }
+    spdlog::error("mixes: {} refused at load ({}); moved to {}", id, why, dir.string());
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_quarantined.push_back(id);
+}
+
+std::vector<std::string> MixStore::quarantined() const {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    return m_quarantined;
 }
 
 Result<bool> MixStore::put(const io::MixRecord& record) {

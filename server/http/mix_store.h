@@ -10,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 namespace textond::http {
 
@@ -22,6 +23,9 @@ public:
     Result<std::shared_ptr<const render::PreparedMix>> prepared(const std::string& id);
     // Writes the files (atomically); false when the mix was already there.
     Result<bool> put(const io::MixRecord& record);
+    // Mixes whose files were damaged or failed today's validation at load, moved to
+    // <data>/mixes/quarantine/ instead of being rendered.
+    std::vector<std::string> quarantined() const;
 
 private:
     struct Entry {
@@ -31,8 +35,10 @@ private:
     };
     explicit MixStore(std::string dir) : m_dir(std::move(dir)) {}
     Result<Entry> load(const std::string& id);
+    void quarantine(const std::string& id, const std::string& why);
     std::string m_dir;
-    std::mutex m_mutex;
+    mutable std::mutex m_mutex;
+    std::vector<std::string> m_quarantined;
     std::list<Entry> m_lru; // front = most recent
     static constexpr std::size_t kCapacity = 8;
 };

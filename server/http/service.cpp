@@ -1,6 +1,7 @@
 #include "server/http/service.h"
 
 #include "api/openapi_spec.h"
+#include "api/safe_text.h"
 #include "core/texton_analysis.h"
 #include "render/backend_factory.h"
 #include "render/noise_request.h"
@@ -11,6 +12,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <sys/socket.h>
 #include <thread>
@@ -33,29 +35,6 @@ const std::string& build_id() {
                                   TEXTOND_GIT_COMMIT + " " + render::kNoiseVersion + " " +
                                   core::kAnalysisVersion + " oiio/" OIIO_VERSION_STRING;
     return id;
-}
-
-void RenderSlots::acquire() {
-    std::unique_lock lock(m_mutex);
-    if (m_free > 0 && m_waiters.empty()) {
-        --m_free;
-        return;
-    }
-    Waiter me;
-    m_waiters.push_back(&me);
-    me.cv.wait(lock, [&] { return me.granted; });
-}
-
-void RenderSlots::release() {
-    std::lock_guard lock(m_mutex);
-    if (m_waiters.empty()) {
-        ++m_free;
-        return;
-    }
-    Waiter* next = m_waiters.front();
-    m_waiters.pop_front();
-    next->granted = true; // the slot passes straight to the next waiter
-    next->cv.notify_one();
 }
 
 namespace {
@@ -85,8 +64,10 @@ void apply_cors(bool any, const std::vector<std::string>& listed, const httplib:
 
 Service::Service(ServeConfig config)
     : m_config(std::move(config)), m_cache(m_config.cache_bytes),
-      m_render_slots(m_config.render_slots > 0 ? m_config.render_slots : cores()),
-      m_decode_slots(cores()), m_cors_any(m_config.cors_origin == "*"),
+      m_render_slots(m_config.render_slots > 0 ? m_config.render_slots : cores(),
+                     static_cast<std::size_t>(m_config.render_queue)),
+      m_decode_slots(cores(), static_cast<std::size_t>(m_config.render_queue)),
+      m_bodies(m_config.body_budget_bytes), m_cors_any(m_config.cors_origin == "*"),
       m_cors_origins(m_cors_any ? std::vector<std::string>{} : split_list(m_config.cors_origin)) {}
 
 Service::~Service() {
@@ -151,6 +132,8 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
             [self] { return static_cast<double>(self->m_store->bytes()); });
     m.gauge("textond_store_quarantined", "Damaged texton files moved aside since start.",
             [self] { return static_cast<double>(self->m_store->quarantined().size()); });
+    m.gauge("textond_mixes_quarantined", "Mixes refused at load (damaged or invalid) since start.",
+            [self] { return static_cast<double>(self->m_mixes->quarantined().size()); });
     m.gauge("textond_image_cache_bytes", "Bytes held by the image cache.",
             [self] { return static_cast<double>(self->m_cache.bytes()); });
     m.gauge("textond_image_cache_entries", "Images held by the image cache.",
@@ -171,16 +154,36 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
 void Service::install_hooks() {
     const ServeConfig& c = m_config;
     const std::size_t threads = static_cast<std::size_t>(c.http_threads < 1 ? 1 : c.http_threads);
+    const std::size_t most = static_cast<std::size_t>(std::max(c.max_connections, 1));
     // Debian's prebuilt cpp-httplib ignores CPPHTTPLIB_THREAD_POOL_COUNT in our code.
-    m_http.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+    m_http.new_task_queue = [threads, most] { return new ElasticThreadPool(threads, most); };
     m_http.set_payload_max_length(c.max_upload_bytes);
     m_http.set_read_timeout(c.read_timeout_s, 0);
     m_http.set_write_timeout(c.write_timeout_s, 0);
     m_http.set_keep_alive_max_count(static_cast<std::size_t>(c.keep_alive_max));
     m_http.set_keep_alive_timeout(c.keep_alive_timeout_s);
+    ConnectionLimits& limits = m_http.limits;
+    limits.max_header_bytes = c.max_header_bytes;
+    limits.header_timeout = std::chrono::seconds(c.header_timeout_s);
+    // The routes count the decoded body exactly; this bounds the bytes on the wire (chunk
+    // framing included) for the bodies the library reads itself.
+    limits.max_body_bytes = c.max_upload_bytes + c.max_upload_bytes / 8 + 64 * 1024;
+    limits.body_timeout = std::chrono::seconds(c.body_timeout_s);
+    limits.read_timeout = std::chrono::seconds(c.read_timeout_s);
+    limits.write_timeout = std::chrono::seconds(c.write_timeout_s);
+    limits.keep_alive_timeout = std::chrono::seconds(c.keep_alive_timeout_s);
+    limits.keep_alive_max = c.keep_alive_max;
 
     m_http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
         begin_request(req);
+        ConnectionStream* conn = current_connection();
+        if (conn) conn->begin_body();
+        if (auto e = check_framing(req, static_cast<std::size_t>(m_config.max_headers))) {
+            set_route("framing");
+            if (conn) conn->close_after_response(); // its body, if any, is still on the wire
+            send_error(res, *e);
+            return httplib::Server::HandlerResponse::Handled;
+        }
         if (req.method == "OPTIONS") { // CORS preflight
             set_route("OPTIONS *");
             res.status = 204;
@@ -225,8 +228,9 @@ void Service::install_hooks() {
             what = e.what();
         } catch (...) {
         }
-        spdlog::error("{} {} {}: unhandled exception: {}", current_request().id, req.method,
-                      req.path, what);
+        spdlog::error("{} {} {}: unhandled exception: {}", current_request().id,
+                      api::printable(req.method, 16), api::printable(req.path, 256),
+                      api::printable(what, 512));
         send_error(res,
                    {500, "internal", "internal error (request id " + current_request().id + ")"});
     });
@@ -238,9 +242,9 @@ void Service::install_hooks() {
                        : 0.0;
         m_metrics.request(ctx.route, req.method, res.status, seconds);
         if (m_config.access_log)
-            spdlog::info("{} {} {} {} {}B {:.2f}ms (handler {:.2f}ms)", ctx.id, req.method,
-                         req.path, res.status, res.get_header_value("Content-Length"),
-                         seconds * 1000.0, ctx.handler_ms);
+            spdlog::info("{} {} {} {} {}B {:.2f}ms (handler {:.2f}ms)", ctx.id,
+                         api::printable(req.method, 16), api::printable(req.path, 256), res.status,
+                         res.get_header_value("Content-Length"), seconds * 1000.0, ctx.handler_ms);
         ctx.active = false;
     });
 }
@@ -277,7 +281,8 @@ void Service::install_ops_routes() {
                    {"store",
                     {{"writable", writable},
                      {"textons", m_store->count()},
-                     {"quarantined", m_store->quarantined()}}}},
+                     {"quarantined", m_store->quarantined()},
+                     {"mixes_quarantined", m_mixes->quarantined()}}}},
                   "no-store");
     });
     m_http.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
@@ -333,6 +338,59 @@ void Service::install_web_routes() {
         set_route("/static/{file}");
         serve("/static/" + req.matches[1].str(), res);
     });
+    // Installed last: every other POST, as a content-reader route so that cpp-httplib never
+    // reads into memory a body that no route asked for.
+    m_http.Post(R"(.*)",
+                [](const httplib::Request&, httplib::Response& res, const httplib::ContentReader&) {
+                    set_route("unmatched");
+                    send_error(res, {404, "not_found", "no such endpoint"});
+                });
+}
+
+bool Service::within_budget(httplib::Response& res, double work_s) {
+    if (!(work_s <= m_config.max_request_cpu_s)) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "this request would take about %.3g CPU seconds, over the server's budget "
+                      "of %.3g (--max-request-cpu-s): ask for fewer pixels, points or a lower mni",
+                      work_s, m_config.max_request_cpu_s);
+        m_metrics.not_admitted("too_large");
+        send_error(res, {413, "work_too_large", buf});
+        return false;
+    }
+    return true;
+}
+
+std::optional<SlotGuard> Service::admit(httplib::Response& res, double work_s) {
+    if (!within_budget(res, work_s)) return std::nullopt;
+    ConnectionStream* conn = current_connection();
+    const auto gone = [conn] { return conn && conn->client_gone(); };
+    switch (m_render_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms), gone)) {
+    case RenderSlots::Admit::granted:
+        return SlotGuard(&m_render_slots);
+    case RenderSlots::Admit::gone:
+        m_metrics.not_admitted("gone");
+        send_error(res, {408, "client_gone", "the client left before the work started"});
+        return std::nullopt;
+    case RenderSlots::Admit::busy:
+        break;
+    }
+    m_metrics.not_admitted("busy");
+    res.set_header("Retry-After", "1");
+    send_error(res, {429, "overloaded",
+                     "every render slot is busy and the wait is too long; "
+                     "retry shortly"});
+    return std::nullopt;
+}
+
+bool Service::read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
+                                Body& body) {
+    if (auto e = read_body(reader, m_config.max_upload_bytes, body)) {
+        if (e->status == 429) res.set_header("Retry-After", "1");
+        send_error(res, *e);
+        return false;
+    }
+    return true;
 }
 
 Result<int> Service::bind() {

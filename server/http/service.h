@@ -4,8 +4,10 @@
 #include "core/result.h"
 #include "render/backend.h"
 #include "render/cpu_backend.h"
+#include "server/http/admission.h"
 #include "server/http/analysis_pool.h"
 #include "server/http/config.h"
+#include "server/http/connection.h"
 #include "server/http/image_cache.h"
 #include "server/http/metrics.h"
 #include "server/http/mix_store.h"
@@ -20,49 +22,11 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace textond::http {
-
-// Bounds how many renders run at once, first come first served, waking exactly the next
-// waiter: a shared condition variable wakes every waiter on each release, and on a busy machine
-// that storm of wake-ups preempts the renders themselves (tail latency x10, measured).
-class RenderSlots {
-public:
-    explicit RenderSlots(int n) : m_free(n < 1 ? 1 : n) {}
-    void acquire();
-    void release();
-
-private:
-    struct Waiter {
-        std::condition_variable cv;
-        bool granted = false;
-    };
-    std::mutex m_mutex;
-    int m_free;
-    std::deque<Waiter*> m_waiters;
-};
-
-// Holds one slot for a scope, whatever is thrown.
-class SlotGuard {
-public:
-    explicit SlotGuard(RenderSlots& slots) : m_slots(slots) { m_slots.acquire(); }
-    ~SlotGuard() { m_slots.release(); }
-    SlotGuard(const SlotGuard&) = delete;
-    SlotGuard& operator=(const SlotGuard&) = delete;
-
-private:
-    RenderSlots& m_slots;
-};
-
-// cpp-httplib 0.11 listens with a backlog of 5: a burst of connections (64 clients starting at
-// once) overflows it and the kernel drops SYNs, which clients retry after a second. Linux lets
-// listen() be called again on a listening socket to enlarge the backlog; this exposes the socket.
-class HttpServer : public httplib::Server {
-public:
-    socket_t listening_socket() const { return svr_sock_; }
-};
 
 class Service {
 public:
@@ -92,11 +56,14 @@ private:
     void install_surface_routes();
 
     // surface_routes.cpp
-    void surface_points(const httplib::Request& req, const std::string& id, httplib::Response& res);
-    void surface_mesh(const httplib::Request& req, const std::string& id, httplib::Response& res);
+    void surface_points(const httplib::Request& req, const std::string& id, httplib::Response& res,
+                        const httplib::ContentReader& reader);
+    void surface_mesh(const httplib::Request& req, const std::string& id, httplib::Response& res,
+                      const httplib::ContentReader& reader);
 
     // mix_routes.cpp
-    void create_mix(const httplib::Request& req, httplib::Response& res);
+    void create_mix(const httplib::Request& req, httplib::Response& res,
+                    const httplib::ContentReader& reader);
     void get_mix(const std::string& id, httplib::Response& res);
 
     // texton_routes.cpp
@@ -116,7 +83,8 @@ private:
     // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format,
-                      const std::function<Result<core::Image>()>& produce, bool mix = false);
+                      const std::function<Result<core::Image>()>& produce, bool mix,
+                      std::int64_t pixels, double mni);
     Result<core::Image> render_noise(const std::string& id, const render::NoiseRequest& q,
                                      bool whole_machine, const char* kind);
     Result<core::Image> render_mix(const std::string& id, const render::NoiseRequest& q,
@@ -127,6 +95,13 @@ private:
     void tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res,
                   bool mix = false);
     std::string etag_for(const std::string& key) const;
+    // A render slot for work estimated at `work_s` CPU seconds, or the error already sent:
+    // 413 over --max-request-cpu-s, 429 when no slot frees within --queue-timeout-ms.
+    std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
+    bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
+    // The body of a POST route, read with the upload limit (sends the error on failure).
+    bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
+                           Body& body);
     std::string base_url(const httplib::Request& req) const;
 
     ServeConfig m_config;
@@ -135,7 +110,6 @@ private:
     std::unique_ptr<TextonStore> m_store;
     std::unique_ptr<AnalysisPool> m_pool;
     std::unique_ptr<MixStore> m_mixes;
-    std::mutex m_mix_mutex; // one mix analysis at a time
     // What a GL backend leaves to the CPU (a mix's limit levels).
     std::shared_ptr<render::CpuBackend> m_mix_backend;        // tiles: one thread each
     std::shared_ptr<render::CpuBackend> m_mix_region_backend; // regions: every core
@@ -153,7 +127,8 @@ private:
     // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
     // so that many simultaneous large uploads cannot exhaust memory.
     RenderSlots m_decode_slots;
-    const bool m_cors_any;                         // --cors-origin "*"
+    BodyBudget m_bodies;   // request bodies held in memory, all requests together
+    const bool m_cors_any; // --cors-origin "*"
     const std::vector<std::string> m_cors_origins; // else the listed origins, parsed once
     std::atomic<bool> m_stopping{false};
     int m_port = 0;

@@ -19,12 +19,12 @@ bool wants_binary(const httplib::Request& req) {
 }
 
 // {"points": [[x, y, z], ...], "normals": [[x, y, z], ...]} or 6 little-endian float32 a point.
-std::optional<api::ApiError> read_points(const httplib::Request& req, std::vector<float>& points,
-                                         std::vector<float>& normals) {
+std::optional<api::ApiError> read_points(const httplib::Request& req, const std::string& body,
+                                         std::vector<float>& points, std::vector<float>& normals) {
     const std::string type = req.get_header_value("Content-Type");
     if (type.find("application/json") != std::string::npos) {
         try {
-            const auto j = nlohmann::json::parse(req.body);
+            const auto j = nlohmann::json::parse(body);
             const auto& p = j.at("points");
             const auto& n = j.at("normals");
             if (!p.is_array() || !n.is_array() || p.size() != n.size())
@@ -45,15 +45,15 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, std::vecto
         }
         return std::nullopt;
     }
-    if (req.body.size() % 24 != 0)
+    if (body.size() % 24 != 0)
         return api::ApiError{400, "invalid_body",
                              "a binary body is 6 little-endian float32 a point (x y z nx ny nz), "
                              "or send application/json"};
-    const std::size_t n = req.body.size() / 24;
+    const std::size_t n = body.size() / 24;
     if (n > render::kMaxSurfacePoints)
         return api::ApiError{413, "payload_too_large", "at most 1000000 points"};
     std::vector<float> all(n * 6);
-    std::memcpy(all.data(), req.body.data(), req.body.size());
+    std::memcpy(all.data(), body.data(), body.size());
     for (std::size_t i = 0; i < n; ++i)
         for (int d = 0; d < 3; ++d) {
             points.push_back(all[6 * i + static_cast<std::size_t>(d)]);
@@ -65,19 +65,26 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, std::vecto
 } // namespace
 
 void Service::surface_points(const httplib::Request& req, const std::string& id,
-                             httplib::Response& res) {
+                             httplib::Response& res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/surface");
+    Body body(m_bodies);
+    if (!read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, false, p)) return send_error(res, *e);
     auto prepared = m_store->prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    // Parsing a million JSON points takes hundreds of MB: inside the slot, like the evaluation.
+    auto slot = admit(res, 0.0);
+    if (!slot) return;
     std::vector<float> points, normals;
-    if (auto e = read_points(req, points, normals)) return send_error(res, *e);
+    if (auto e = read_points(req, body.bytes, points, normals)) return send_error(res, *e);
+    body.bytes = std::string();
+    if (!within_budget(res, surface_work_s(points.size() / 3, p.mni, prepared.value()->order())))
+        return;
     render::SurfaceRequest sr{p.seed, p.mni, p.scale};
     const int nc = prepared.value()->channels();
     std::string evaluated_on = "cpu";
     auto colours = [&] {
-        SlotGuard slot(m_render_slots);
         auto cpu = [&] {
             return render::evaluate_surface(prepared.value()->texton(), sr, points, normals, 1);
         };
@@ -102,9 +109,9 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
     res.set_header("X-Textond-Channels", std::to_string(nc));
     res.set_header("X-Textond-Backend", evaluated_on);
     if (wants_binary(req)) {
-        std::string body(colours.value().size() * sizeof(float), '\0');
-        std::memcpy(body.data(), colours.value().data(), body.size());
-        return res.set_content(body, "application/octet-stream");
+        std::string out(colours.value().size() * sizeof(float), '\0');
+        std::memcpy(out.data(), colours.value().data(), out.size());
+        return res.set_content(out, "application/octet-stream");
     }
     nlohmann::json list = nlohmann::json::array();
     const auto& c = colours.value();
@@ -118,14 +125,19 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
 }
 
 void Service::surface_mesh(const httplib::Request& req, const std::string& id,
-                           httplib::Response& res) {
+                           httplib::Response& res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/mesh.png");
+    Body body(m_bodies);
+    if (!read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, true, p)) return send_error(res, *e);
     auto prepared = m_store->prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
-    auto mesh = io::parse_obj(req.body);
+    auto slot = admit(res, 0.0); // parsing, the view, rasterising and encoding
+    if (!slot) return;
+    auto mesh = io::parse_obj(body.bytes);
     if (!mesh) return send_error(res, to_api_error(mesh.error(), "invalid_mesh"));
+    body.bytes = std::string();
     render::Camera cam;
     cam.fov_degrees = p.fov;
     if (p.camera) {
@@ -134,9 +146,18 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
         cam.target = {p.target[0], p.target[1], p.target[2]};
     }
     render::SurfaceRequest sr{p.seed, p.mni, p.scale};
+    {
+        // What the preview costs is known before it runs: triangles x the pixels they cover.
+        auto view = render::mesh_view(mesh.value(), sr, cam, p.width, p.height);
+        if (!view) return send_error(res, to_api_error(view.error(), "invalid_mesh"));
+        const std::uint64_t tests =
+            render::mesh_raster_tests(mesh.value(), view.value(), p.width, p.height);
+        if (!within_budget(res, mesh_work_s(tests, std::int64_t{p.width} * p.height, p.mni,
+                                            prepared.value()->order())))
+            return;
+    }
     std::string evaluated_on = "cpu";
     auto image = [&] {
-        SlotGuard slot(m_render_slots);
         // On a GL backend OpenGL draws it (glsl/mesh_preview.*), else the CPU rasteriser.
         if (auto gl = std::dynamic_pointer_cast<render::GlBackend>(m_region_backend)) {
             auto view = render::mesh_view(mesh.value(), sr, cam, p.width, p.height);
@@ -158,10 +179,13 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
 void Service::install_surface_routes() {
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
-    m_http.Post(R"(/v1/textons/([^/]+)/surface)",
-                [this](Req req, Res res) { surface_points(req, req.matches[1], res); });
-    m_http.Post(R"(/v1/textons/([^/]+)/mesh\.png)",
-                [this](Req req, Res res) { surface_mesh(req, req.matches[1], res); });
+    using Reader = const httplib::ContentReader&;
+    m_http.Post(R"(/v1/textons/([^/]+)/surface)", [this](Req req, Res res, Reader reader) {
+        surface_points(req, req.matches[1], res, reader);
+    });
+    m_http.Post(R"(/v1/textons/([^/]+)/mesh\.png)", [this](Req req, Res res, Reader reader) {
+        surface_mesh(req, req.matches[1], res, reader);
+    });
 }
 
 } // namespace textond::http

@@ -85,27 +85,47 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     }
     // The body is read here rather than by cpp-httplib, which would parse a body sent as
     // application/x-www-form-urlencoded (curl --data-binary's default) as form fields.
-    std::string body;
+    // Every byte is counted here, chunked or not: cpp-httplib checks its limit against
+    // Content-Length alone (a chunked 300 MB upload was read whole into memory).
+    Body counted(m_bodies);
+    std::string& body = counted.bytes;
     std::vector<httplib::MultipartFormData> parts;
     const bool multipart = req.is_multipart_form_data();
-    const bool read_ok = multipart ? reader(
-                                         [&](const httplib::MultipartFormData& part) {
-                                             parts.push_back(part);
-                                             return true;
-                                         },
-                                         [&](const char* data, std::size_t n) {
-                                             parts.back().content.append(data, n);
-                                             return true;
-                                         })
-                                   : reader([&](const char* data, std::size_t n) {
-                                         body.append(data, n);
-                                         return true;
-                                     });
+    const std::size_t limit = m_config.max_upload_bytes;
+    bool read_ok = true;
+    if (multipart) {
+        read_ok = reader(
+            [&](const httplib::MultipartFormData& part) {
+                parts.push_back(part);
+                return parts.size() <= 64 && counted.count(part.name.size(), limit);
+            },
+            [&](const char* data, std::size_t n) {
+                if (!counted.count(n, limit)) return false;
+                parts.back().content.append(data, n);
+                return true;
+            });
+        if (!read_ok && (counted.over_limit() || counted.over_budget())) {
+            if (ConnectionStream* c = current_connection()) c->close_after_response();
+            if (counted.over_budget()) {
+                res.set_header("Retry-After", "1");
+                return send_error(res, {429, "overloaded",
+                                        "the server holds too many request "
+                                        "bodies now; retry shortly"});
+            }
+            return send_error(res, {413, "payload_too_large",
+                                    "request body is over the upload limit of " +
+                                        std::to_string(limit) + " bytes"});
+        }
+    } else if (auto e = read_body(reader, limit, counted)) {
+        if (e->status == 429) res.set_header("Retry-After", "1");
+        return send_error(res, *e);
+    }
     if (!read_ok) {
+        if (ConnectionStream* c = current_connection()) c->close_after_response();
         if (res.status == 413)
             return send_error(res, {413, "payload_too_large",
                                     "request body is over the upload limit of " +
-                                        std::to_string(m_config.max_upload_bytes) + " bytes"});
+                                        std::to_string(limit) + " bytes"});
         return send_error(res, {400, "bad_request", "could not read the request body"});
     }
     // Parameters come from the query and, for multipart uploads, from the other form fields.
@@ -140,8 +160,13 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     io::DecodeLimits limits;
     limits.max_pixels = m_config.max_pixels;
     limits.formats = m_config.formats;
+    if (m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms)) !=
+        RenderSlots::Admit::granted) {
+        res.set_header("Retry-After", "1");
+        return send_error(res, {429, "overloaded", "every decoder is busy; retry shortly"});
+    }
     auto image = [&] {
-        SlotGuard slot(m_decode_slots);
+        SlotGuard slot(&m_decode_slots);
         return io::decode_image_memory(bytes, limits);
     }();
     if (!image) {
@@ -357,7 +382,10 @@ void Service::install_texton_routes() {
     };
     m_http.Get(R"(/v1/textons/(.*))", fallback);
     m_http.Delete(R"(/v1/textons/(.*))", fallback);
-    m_http.Post(R"(/v1/textons/(.*))", fallback);
+    // A content-reader route, so that cpp-httplib never reads a body nobody asked for.
+    using Reader = const httplib::ContentReader&;
+    m_http.Post(R"(/v1/textons/(.*))",
+                [fallback](Req req, Res res, Reader) { fallback(req, res); });
 }
 
 } // namespace textond::http

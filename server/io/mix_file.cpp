@@ -93,6 +93,12 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
     try {
         r.meta = nlohmann::json::parse(spec.get_string_attribute(kMixAttribute));
         const int n = r.meta.at("size"), nl = r.meta.at("levels"), nc = r.meta.at("channels");
+        const int order = r.meta.at("order");
+        // Today's rules, not the writer's: a file from an older build (or edited on disk) that
+        // they refuse is never rendered (server/http/mix_store.cpp quarantines it).
+        if (n < 8 || n > 256 || nl < 2 || nl > core::kMaxMixLevels || (nc != 1 && nc != 3) ||
+            !(order == 0 || order == 1 || order == 3))
+            return bad(path, "size, levels, channels or order out of range");
         if (r.meta.at("id") != id || spec.width != n || spec.height != n * nl ||
             spec.nchannels != nc)
             return bad(path, "size, levels or id disagree with the metadata");
@@ -130,6 +136,7 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
             if (mask_sha256(r.field.mask) != f.at("sha256").get<std::string>())
                 return bad(path, "mask checksum mismatch");
         }
+        if (auto err = r.field.validate()) return bad(path, "field: " + err->message);
         if (mix_id(r.meta.at("u"), r.meta.at("v"), nl, r.field) != id)
             return bad(path, "content does not hash to its id");
     } catch (const std::exception& e) {

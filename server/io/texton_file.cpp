@@ -6,6 +6,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <cinttypes>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -115,6 +116,15 @@ Result<TextonRecord> read_texton_file(const std::string& path) {
         for (int c = 0; c < m.channels; ++c) r.texton.alpha.plane(c)[k] = buf[k * m.channels + c];
     if (coefficients_sha256(r.texton) != m.coefficients_sha256)
         return bad_file(path, "coefficient checksum mismatch (damaged file)");
+    // Today's rules for what may be rendered, whatever build wrote the file: the store
+    // quarantines a file that fails them instead of serving it.
+    if (m.size < 8 || m.size > 256 || !(m.order == 0 || m.order == 1 || m.order == 3))
+        return bad_file(path, "size or interpolation order out of range");
+    for (int c = 0; c < m.channels; ++c)
+        if (!std::isfinite(m.mean[static_cast<std::size_t>(c)]))
+            return bad_file(path, "mean colour is not finite");
+    for (float v : r.texton.alpha.data)
+        if (!std::isfinite(v)) return bad_file(path, "coefficients are not finite");
     return r;
 }
 

@@ -1,0 +1,160 @@
+#include "server/http/admission.h"
+
+#include "server/http/connection.h"
+
+#include <algorithm>
+#include <cctype>
+
+namespace textond::http {
+
+int taps_of_order(int order) {
+    return order == 3 ? 16 : order == 1 ? 4 : 1;
+}
+
+double noise_work_s(std::int64_t pixels, double mni, int order) {
+    return static_cast<double>(pixels) * mni * taps_of_order(order) * 1.5e-9;
+}
+
+double surface_work_s(std::size_t points, double mni, int order) {
+    return static_cast<double>(points) * mni * taps_of_order(order) * 55e-9;
+}
+
+double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, int order) {
+    return static_cast<double>(raster_tests) * 10e-9 +
+           surface_work_s(static_cast<std::size_t>(pixels), mni, order);
+}
+
+RenderSlots::Admit RenderSlots::acquire(std::chrono::milliseconds max_wait,
+                                        const std::function<bool()>& gone) {
+    std::unique_lock lock(m_mutex);
+    if (m_free > 0 && m_waiters.empty()) {
+        --m_free;
+        return Admit::granted;
+    }
+    if (m_waiters.size() >= m_max_waiters) return Admit::busy;
+    Waiter me;
+    m_waiters.push_back(&me);
+    const auto end = std::chrono::steady_clock::now() + max_wait;
+    Admit outcome = Admit::granted;
+    while (!me.granted) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now >= end) {
+            outcome = Admit::busy;
+            break;
+        }
+        me.cv.wait_until(lock, std::min(end, now + std::chrono::milliseconds(100)));
+        if (me.granted) break;
+        if (gone) {
+            lock.unlock();
+            const bool left = gone();
+            lock.lock();
+            if (left && !me.granted) {
+                outcome = Admit::gone;
+                break;
+            }
+        }
+    }
+    if (me.granted) return Admit::granted; // granted while deciding to leave: keep it
+    m_waiters.erase(std::find(m_waiters.begin(), m_waiters.end(), &me));
+    return outcome;
+}
+
+void RenderSlots::release() {
+    std::lock_guard lock(m_mutex);
+    if (m_waiters.empty()) {
+        ++m_free;
+        return;
+    }
+    Waiter* next = m_waiters.front();
+    m_waiters.pop_front();
+    next->granted = true; // the slot passes straight to the next waiter
+    next->cv.notify_one();
+}
+
+std::size_t RenderSlots::waiting() const {
+    std::lock_guard lock(m_mutex);
+    return m_waiters.size();
+}
+
+bool BodyBudget::reserve(std::size_t n) {
+    std::size_t used = m_used.load();
+    do {
+        if (used + n > m_cap) return false;
+    } while (!m_used.compare_exchange_weak(used, used + n));
+    return true;
+}
+
+bool Body::count(std::size_t n, std::size_t limit) {
+    if (m_counted + n > limit) {
+        m_over_limit = true;
+        return false;
+    }
+    if (m_counted + n > m_reserved) {
+        const std::size_t step = std::size_t{1} << 20;
+        const std::size_t want = std::min(limit, (m_counted + n + step - 1) / step * step);
+        if (!m_budget.reserve(want - m_reserved)) {
+            m_over_budget = true;
+            return false;
+        }
+        m_reserved = want;
+    }
+    m_counted += n;
+    return true;
+}
+
+bool Body::append(const char* data, std::size_t n, std::size_t limit) {
+    if (!count(n, limit)) return false;
+    bytes.append(data, n);
+    return true;
+}
+
+std::optional<api::ApiError> read_body(const httplib::ContentReader& reader, std::size_t limit,
+                                       Body& body) {
+    const bool ok =
+        reader([&](const char* data, std::size_t n) { return body.append(data, n, limit); });
+    if (ok) return std::nullopt;
+    if (ConnectionStream* c = current_connection()) c->close_after_response();
+    if (body.over_limit())
+        return api::ApiError{413, "payload_too_large",
+                             "request body is over the limit of " + std::to_string(limit) +
+                                 " bytes"};
+    if (body.over_budget())
+        return api::ApiError{429, "overloaded",
+                             "the server holds too many request bodies now; retry shortly"};
+    return api::ApiError{400, "bad_request", "could not read the request body"};
+}
+
+std::optional<api::ApiError> check_framing(const httplib::Request& req, std::size_t max_headers) {
+    auto bad = [](std::string m) { return api::ApiError{400, "bad_framing", std::move(m)}; };
+    if (req.headers.size() > max_headers)
+        return api::ApiError{431, "too_many_headers",
+                             "more than " + std::to_string(max_headers) + " header lines"};
+    const std::size_t lengths = req.get_header_value_count("Content-Length");
+    const std::size_t encodings = req.get_header_value_count("Transfer-Encoding");
+    if (lengths > 1) return bad("more than one Content-Length header");
+    if (lengths == 1) {
+        const std::string v = req.get_header_value("Content-Length");
+        if (v.empty() || v.size() > 18 ||
+            !std::all_of(v.begin(), v.end(), [](unsigned char c) { return std::isdigit(c); }))
+            return bad("Content-Length must be one decimal number");
+    }
+    if (encodings > 1) return bad("more than one Transfer-Encoding header");
+    if (encodings == 1) {
+        std::string te = req.get_header_value("Transfer-Encoding");
+        std::transform(te.begin(), te.end(), te.begin(),
+                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+        if (te != "chunked")
+            return api::ApiError{400, "unsupported_transfer_encoding",
+                                 "only Transfer-Encoding: chunked is supported"};
+        if (lengths == 1) return bad("both Content-Length and Transfer-Encoding");
+        if (req.method != "POST") return bad("a chunked body is only accepted on POST routes");
+    }
+    // cpp-httplib reads such a body until the client closes its side: ask for a length instead.
+    if (lengths == 0 && encodings == 0 &&
+        (req.method == "POST" || req.method == "PUT" || req.method == "PATCH"))
+        return api::ApiError{411, "length_required",
+                             "a POST needs Content-Length (0 for no body) or a chunked body"};
+    return std::nullopt;
+}
+
+} // namespace textond::http

@@ -1,0 +1,284 @@
+#include "server/http/connection.h"
+
+#include <netdb.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <thread>
+
+namespace textond::http {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+thread_local ConnectionStream* t_connection = nullptr;
+
+void address_of(int sock, bool peer, std::string& ip, int& port) {
+    sockaddr_storage addr{};
+    socklen_t len = sizeof addr;
+    const int rc = peer ? ::getpeername(sock, reinterpret_cast<sockaddr*>(&addr), &len)
+                        : ::getsockname(sock, reinterpret_cast<sockaddr*>(&addr), &len);
+    if (rc != 0) return;
+    char host[NI_MAXHOST], serv[NI_MAXSERV];
+    if (::getnameinfo(reinterpret_cast<sockaddr*>(&addr), len, host, sizeof host, serv, sizeof serv,
+                      NI_NUMERICHOST | NI_NUMERICSERV) != 0)
+        return;
+    ip = host;
+    port = std::atoi(serv);
+}
+
+} // namespace
+
+ConnectionStream::ConnectionStream(int sock, const ConnectionLimits& limits)
+    : m_sock(sock), m_limits(limits) {}
+
+bool ConnectionStream::wait(short events, milliseconds timeout) const {
+    pollfd p{m_sock, events, 0};
+    const auto end = Clock::now() + timeout;
+    for (;;) {
+        const auto left = std::chrono::duration_cast<milliseconds>(end - Clock::now()).count();
+        const int rc = ::poll(&p, 1, static_cast<int>(std::max<long long>(0, left)));
+        if (rc > 0) return (p.revents & (events | POLLHUP | POLLERR)) != 0;
+        if (rc == 0) return false;
+        if (errno != EINTR) return false;
+    }
+}
+
+milliseconds ConnectionStream::read_wait() const {
+    if (m_phase == Phase::idle) return m_limits.read_timeout;
+    const auto left = std::chrono::duration_cast<milliseconds>(m_deadline - Clock::now());
+    return std::max(milliseconds(0), std::min(left, m_limits.read_timeout));
+}
+
+bool ConnectionStream::is_readable() const {
+    return m_off < m_len || wait(POLLIN, read_wait());
+}
+
+bool ConnectionStream::is_writable() const {
+    return m_failure == Failure::none && wait(POLLOUT, m_limits.write_timeout);
+}
+
+ssize_t ConnectionStream::read(char* ptr, size_t size) {
+    if (m_failure != Failure::none || size == 0) return -1;
+    // Everything a phase reads counts against its budget, buffered bytes included.
+    const std::size_t budget = m_phase == Phase::head   ? m_limits.max_header_bytes
+                               : m_phase == Phase::body ? m_limits.max_body_bytes
+                                                        : static_cast<std::size_t>(-1);
+    if (m_phase_bytes >= budget) {
+        m_failure = m_phase == Phase::head ? Failure::head_too_large : Failure::body_too_large;
+        return -1;
+    }
+    size = std::min(size, budget - m_phase_bytes);
+    if (m_off == m_len) {
+        if (!wait(POLLIN, read_wait())) {
+            if (m_phase != Phase::idle && Clock::now() >= m_deadline)
+                m_failure = m_phase == Phase::head ? Failure::head_timeout : Failure::body_timeout;
+            return -1;
+        }
+        ssize_t n;
+        do {
+            n = ::recv(m_sock, m_buf.data(), m_buf.size(), 0);
+        } while (n < 0 && errno == EINTR);
+        if (n <= 0) return -1;
+        m_off = 0;
+        m_len = static_cast<std::size_t>(n);
+    }
+    const std::size_t n = std::min(size, m_len - m_off);
+    std::memcpy(ptr, m_buf.data() + m_off, n);
+    m_off += n;
+    m_phase_bytes += n;
+    return static_cast<ssize_t>(n);
+}
+
+ssize_t ConnectionStream::write(const char* ptr, size_t size) {
+    // After a limit tripped, the library's own answer (a 400 for a head it could not finish)
+    // is swallowed; the connection loop sends the precise one (431, 408, 413).
+    if (m_failure != Failure::none) return -1;
+    if (!wait(POLLOUT, m_limits.write_timeout)) return -1;
+    ssize_t n;
+    do {
+        n = ::send(m_sock, ptr, size, MSG_NOSIGNAL);
+    } while (n < 0 && errno == EINTR);
+    return n;
+}
+
+void ConnectionStream::get_remote_ip_and_port(std::string& ip, int& port) const {
+    address_of(m_sock, true, ip, port);
+}
+
+void ConnectionStream::get_local_ip_and_port(std::string& ip, int& port) const {
+    address_of(m_sock, false, ip, port);
+}
+
+bool ConnectionStream::next_request(milliseconds timeout, const std::function<bool()>& stop) {
+    m_phase = Phase::idle;
+    m_phase_bytes = 0;
+    if (m_off == m_len) {
+        // In short waits, so that a stopping server does not wait out every idle connection.
+        const auto end = Clock::now() + timeout;
+        for (;;) {
+            if (stop()) return false;
+            const auto left = std::chrono::duration_cast<milliseconds>(end - Clock::now());
+            if (left <= milliseconds(0)) return false;
+            if (wait(POLLIN, std::min(left, milliseconds(250)))) break;
+        }
+        if (stop()) return false;
+    }
+    m_phase = Phase::head;
+    m_deadline = Clock::now() + m_limits.header_timeout;
+    return true;
+}
+
+void ConnectionStream::begin_body() {
+    m_phase = Phase::body;
+    m_phase_bytes = 0;
+    m_deadline = Clock::now() + m_limits.body_timeout;
+}
+
+bool ConnectionStream::client_gone() const {
+    pollfd p{m_sock, POLLRDHUP, 0};
+    if (::poll(&p, 1, 0) <= 0) return false;
+    return (p.revents & (POLLRDHUP | POLLHUP | POLLERR | POLLNVAL)) != 0;
+}
+
+ConnectionStream* current_connection() {
+    return t_connection;
+}
+
+ConnectionScope::ConnectionScope(ConnectionStream* c) {
+    t_connection = c;
+}
+
+ConnectionScope::~ConnectionScope() {
+    t_connection = nullptr;
+}
+
+void send_connection_error(ConnectionStream& strm, int status, const char* code,
+                           const char* message) {
+    const char* reason = status == 408   ? "Request Timeout"
+                         : status == 413 ? "Content Too Large"
+                         : status == 431 ? "Request Header Fields Too Large"
+                                         : "Bad Request";
+    const std::string body =
+        std::string(R"({"error": {"code": ")") + code + R"(", "message": ")" + message + "\"}}";
+    const std::string head =
+        "HTTP/1.1 " + std::to_string(status) + " " + reason +
+        "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) +
+        "\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n";
+    const std::string all = head + body;
+    // Straight to the socket, once, without waiting: the client is misbehaving already.
+    [[maybe_unused]] const ssize_t n =
+        ::send(strm.socket(), all.data(), all.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+}
+
+bool HttpServer::process_and_close_socket(socket_t sock) {
+    ConnectionStream strm(sock, limits);
+    ConnectionScope scope(&strm);
+    const auto stopping = [this] { return svr_sock_ == INVALID_SOCKET; };
+    bool ok = false;
+    for (int left = limits.keep_alive_max; left > 0; --left) {
+        if (!strm.next_request(limits.keep_alive_timeout, stopping)) break;
+        bool closed = false;
+        ok = process_request(strm, left == 1, closed, nullptr);
+        switch (strm.failure()) {
+        case ConnectionStream::Failure::none:
+            break;
+        case ConnectionStream::Failure::head_too_large:
+            send_connection_error(strm, 431, "header_too_large",
+                                  "request line and headers are over the server's limit");
+            break;
+        case ConnectionStream::Failure::head_timeout:
+            send_connection_error(strm, 408, "header_timeout",
+                                  "request line and headers did not arrive in time");
+            break;
+        case ConnectionStream::Failure::body_too_large:
+            send_connection_error(strm, 413, "payload_too_large",
+                                  "request body is over the upload limit");
+            break;
+        case ConnectionStream::Failure::body_timeout:
+            send_connection_error(strm, 408, "body_timeout", "request body did not arrive in time");
+            break;
+        }
+        if (!ok || closed || strm.must_close() || strm.failure() != ConnectionStream::Failure::none)
+            break;
+    }
+    ::shutdown(sock, SHUT_RDWR);
+    ::close(sock);
+    return ok;
+}
+
+ElasticThreadPool::ElasticThreadPool(std::size_t core, std::size_t max)
+    : m_core(std::max<std::size_t>(1, core)), m_max(std::max(max, m_core)) {
+    std::lock_guard lock(m_mutex);
+    for (std::size_t i = 0; i < m_core; ++i) {
+        ++m_threads;
+        std::thread([this] { worker(true); }).detach();
+    }
+}
+
+ElasticThreadPool::~ElasticThreadPool() {
+    shutdown();
+}
+
+void ElasticThreadPool::start_thread_locked() {
+    ++m_threads;
+    std::thread([this] { worker(false); }).detach();
+}
+
+void ElasticThreadPool::enqueue(std::function<void()> fn) {
+    std::lock_guard lock(m_mutex);
+    m_queue.push_back(std::move(fn));
+    if (m_idle < m_queue.size() && m_threads < m_max) start_thread_locked();
+    m_work.notify_one();
+}
+
+void ElasticThreadPool::worker(bool core) {
+    std::unique_lock lock(m_mutex);
+    for (;;) {
+        ++m_idle;
+        const bool woke = m_work.wait_for(lock, std::chrono::seconds(60),
+                                          [this] { return m_shutdown || !m_queue.empty(); });
+        --m_idle;
+        if (m_queue.empty()) {
+            if (m_shutdown || (!woke && !core)) break;
+            continue;
+        }
+        std::function<void()> fn = std::move(m_queue.front());
+        m_queue.pop_front();
+        lock.unlock();
+        fn();
+        lock.lock();
+    }
+    --m_threads;
+    m_exited.notify_all();
+}
+
+void ElasticThreadPool::shutdown() {
+    std::unique_lock lock(m_mutex);
+    m_shutdown = true;
+    m_work.notify_all();
+    m_exited.wait(lock, [this] { return m_threads == 0; });
+}
+
+std::size_t ElasticThreadPool::threads() const {
+    std::lock_guard lock(m_mutex);
+    return m_threads;
+}
+
+std::size_t ElasticThreadPool::busy() const {
+    std::lock_guard lock(m_mutex);
+    return m_threads - m_idle;
+}
+
+std::size_t ElasticThreadPool::queued() const {
+    std::lock_guard lock(m_mutex);
+    return m_queue.size();
+}
+
+} // namespace textond::http

@@ -1,0 +1,138 @@
+#pragma once
+// One client connection, with the limits cpp-httplib 0.11 (Debian 12) does not have. The library
+// reads a request line and headers of any length and count, at any pace, and its per-request
+// socket stream forgets bytes it had already read (pipelined requests were dropped). Its
+// protected Server::process_request takes any httplib::Stream, so the connection loop is ours
+// (HttpServer::process_and_close_socket) and the stream below enforces, per request:
+//   - the request head (request line and headers): at most max_header_bytes, all of it within
+//     header_timeout from its first byte (slow-header clients get 408 and are dropped);
+//   - the body: at most max_body_bytes on the wire (chunked framing included) within
+//     body_timeout; the routes count the decoded bytes exactly (server/http/admission.h).
+// Parsing stays the library's: this layer only counts, times and buffers bytes.
+#include <httplib.h>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <string>
+
+namespace textond::http {
+
+struct ConnectionLimits {
+    std::size_t max_header_bytes = 64 * 1024;
+    std::chrono::milliseconds header_timeout{10'000};
+    std::size_t max_body_bytes = std::size_t{33} << 20;
+    std::chrono::milliseconds body_timeout{120'000};
+    std::chrono::milliseconds read_timeout{30'000};  // any one wait for bytes
+    std::chrono::milliseconds write_timeout{30'000}; // any one wait for the client to take bytes
+    std::chrono::milliseconds keep_alive_timeout{5'000};
+    int keep_alive_max = 1000;
+};
+
+class ConnectionStream final : public httplib::Stream {
+public:
+    enum class Phase { idle, head, body };
+    enum class Failure { none, head_too_large, head_timeout, body_too_large, body_timeout };
+
+    ConnectionStream(int sock, const ConnectionLimits& limits);
+
+    bool is_readable() const override;
+    bool is_writable() const override;
+    ssize_t read(char* ptr, size_t size) override;
+    ssize_t write(const char* ptr, size_t size) override;
+    void get_remote_ip_and_port(std::string& ip, int& port) const override;
+    void get_local_ip_and_port(std::string& ip, int& port) const override;
+    int socket() const override { return m_sock; }
+
+    // Waits up to `timeout` for the first byte of the next request (buffered bytes of a
+    // pipelined one count), giving up early when `stop` turns true. Then the head phase starts.
+    bool next_request(std::chrono::milliseconds timeout, const std::function<bool()>& stop);
+    // The head has been parsed (pre-routing): from here on bytes count against the body.
+    void begin_body();
+    // The client closed its side or reset the connection (it will never read the answer).
+    bool client_gone() const;
+    // Ask for the connection to be closed after the response being written (the request's body
+    // was not read to its end, so the bytes that follow are not a request).
+    void close_after_response() { m_close = true; }
+    bool must_close() const { return m_close; }
+    Failure failure() const { return m_failure; }
+    const ConnectionLimits& limits() const { return m_limits; }
+
+private:
+    bool wait(short events, std::chrono::milliseconds timeout) const;
+    std::chrono::milliseconds read_wait() const; // the shorter of read timeout and phase deadline
+
+    int m_sock;
+    const ConnectionLimits& m_limits;
+    std::array<char, 16 * 1024> m_buf{};
+    std::size_t m_off = 0, m_len = 0;
+    Phase m_phase = Phase::idle;
+    std::size_t m_phase_bytes = 0;
+    std::chrono::steady_clock::time_point m_deadline{};
+    Failure m_failure = Failure::none;
+    bool m_close = false;
+};
+
+// The connection the calling thread is serving (null outside a request): the routes use it to
+// read bodies with limits, to notice a client that left, and to close after a partial read.
+ConnectionStream* current_connection();
+
+class ConnectionScope {
+public:
+    explicit ConnectionScope(ConnectionStream* c);
+    ~ConnectionScope();
+    ConnectionScope(const ConnectionScope&) = delete;
+    ConnectionScope& operator=(const ConnectionScope&) = delete;
+};
+
+// A canned answer for a request the library could not be given (head too large or too slow):
+// status line, a JSON body and Connection: close, written straight to the socket.
+void send_connection_error(ConnectionStream& strm, int status, const char* code,
+                           const char* message);
+
+// Connection threads: `core` kept, more started on demand up to `max` so that clients that hold
+// a thread without sending (slowloris) do not stop new clients from being served; extra threads
+// end after a minute idle. cpp-httplib's ThreadPool is fixed-size: 128 slow clients took every
+// one of its threads.
+class ElasticThreadPool final : public httplib::TaskQueue {
+public:
+    ElasticThreadPool(std::size_t core, std::size_t max);
+    ~ElasticThreadPool() override;
+    void enqueue(std::function<void()> fn) override;
+    void shutdown() override;
+
+    std::size_t threads() const;
+    std::size_t busy() const;
+    std::size_t queued() const;
+
+private:
+    void start_thread_locked();
+    void worker(bool core);
+
+    const std::size_t m_core, m_max;
+    mutable std::mutex m_mutex;
+    std::condition_variable m_work;
+    std::condition_variable m_exited;
+    std::deque<std::function<void()>> m_queue;
+    std::size_t m_threads = 0, m_idle = 0;
+    bool m_shutdown = false;
+};
+
+// cpp-httplib's server with our connection loop (above) and, because cpp-httplib 0.11 listens
+// with a backlog of 5 (a burst of 64 clients overflowed it and the kernel dropped SYNs), access
+// to its listening socket: Linux lets listen() be called again on it to enlarge the backlog.
+class HttpServer : public httplib::Server {
+public:
+    socket_t listening_socket() const { return svr_sock_; }
+    ConnectionLimits limits; // set before listening
+
+private:
+    bool process_and_close_socket(socket_t sock) override;
+};
+
+} // namespace textond::http
