@@ -84,6 +84,19 @@ private:
     std::atomic<std::size_t> m_used{0};
 };
 
+// Bytes of the budget held by one response until it has been written.
+class BudgetLease {
+public:
+    BudgetLease(BodyBudget& budget, std::size_t n) : m_budget(budget), m_n(n) {}
+    ~BudgetLease() { m_budget.release(m_n); }
+    BudgetLease(const BudgetLease&) = delete;
+    BudgetLease& operator=(const BudgetLease&) = delete;
+
+private:
+    BodyBudget& m_budget;
+    std::size_t m_n;
+};
+
 // A request's body in memory, its bytes counted in the budget until it is dropped.
 class Body {
 public:

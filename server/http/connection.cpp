@@ -75,9 +75,18 @@ ssize_t ConnectionStream::read(char* ptr, size_t size) {
         return -1;
     }
     size = std::min(size, budget - m_phase_bytes);
+    // The phase's deadline holds however the bytes trickle in (one every second never lets a
+    // wait time out) and whether or not they are buffered already.
+    const auto timed_out = [this] {
+        if (m_phase == Phase::idle || Clock::now() < m_deadline) return false;
+        m_failure = m_phase == Phase::head ? Failure::head_timeout : Failure::body_timeout;
+        return true;
+    };
+    if (timed_out()) return -1;
     if (m_off == m_len) {
         if (!wait(POLLIN, read_wait())) {
-            if (m_phase != Phase::idle && Clock::now() >= m_deadline)
+            // Within a request, a wait that ran out is a timeout whichever limit ended it.
+            if (m_phase != Phase::idle)
                 m_failure = m_phase == Phase::head ? Failure::head_timeout : Failure::body_timeout;
             return -1;
         }
@@ -207,6 +216,24 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
         }
         if (!ok || closed || strm.must_close() || strm.failure() != ConnectionStream::Failure::none)
             break;
+    }
+    if (strm.must_close() || strm.failure() != ConnectionStream::Failure::none) {
+        // Lingering close: the client may still be sending the body we did not read; closing
+        // now would answer it with a reset, and a reset discards our answer in its buffers.
+        // Half-close, then discard what comes for a short while.
+        ::shutdown(sock, SHUT_WR);
+        const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+        std::size_t drained = 0;
+        char scratch[16384];
+        while (drained < (std::size_t{64} << 20)) {
+            const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                end - std::chrono::steady_clock::now());
+            pollfd p{sock, POLLIN, 0};
+            if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
+            const ssize_t n = ::recv(sock, scratch, sizeof scratch, 0);
+            if (n <= 0) break;
+            drained += static_cast<std::size_t>(n);
+        }
     }
     ::shutdown(sock, SHUT_RDWR);
     ::close(sock);

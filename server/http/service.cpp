@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <sys/socket.h>
 #include <thread>
@@ -182,6 +183,18 @@ void Service::install_hooks() {
             set_route("framing");
             if (conn) conn->close_after_response(); // its body, if any, is still on the wire
             send_error(res, *e);
+            return httplib::Server::HandlerResponse::Handled;
+        }
+        // Over the limit by its own account: answered before a byte of it is read (cpp-httplib
+        // would read and discard it all first), and the connection closed after the answer.
+        if (req.has_header("Content-Length") &&
+            std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) >
+                m_config.max_upload_bytes) {
+            set_route("framing");
+            if (conn) conn->close_after_response();
+            send_error(res, {413, "payload_too_large",
+                             "request body is over the upload limit of " +
+                                 std::to_string(m_config.max_upload_bytes) + " bytes"});
             return httplib::Server::HandlerResponse::Handled;
         }
         if (req.method == "OPTIONS") { // CORS preflight
@@ -381,6 +394,30 @@ std::optional<SlotGuard> Service::admit(httplib::Response& res, double work_s) {
                      "every render slot is busy and the wait is too long; "
                      "retry shortly"});
     return std::nullopt;
+}
+
+std::shared_ptr<BudgetLease> Service::lease_transfer(httplib::Response& res, std::size_t bytes) {
+    ConnectionStream* conn = current_connection();
+    const auto end =
+        std::chrono::steady_clock::now() + std::chrono::milliseconds(m_config.queue_timeout_ms);
+    bytes = std::min(bytes, m_bodies.cap()); // one response alone always fits
+    while (!m_bodies.reserve(bytes)) {
+        if (conn && conn->client_gone()) {
+            m_metrics.not_admitted("gone");
+            send_error(res, {408, "client_gone", "the client left before the work started"});
+            return nullptr;
+        }
+        if (std::chrono::steady_clock::now() >= end) {
+            m_metrics.not_admitted("busy");
+            res.set_header("Retry-After", "1");
+            send_error(res, {429, "overloaded",
+                             "too many large responses in flight; retry "
+                             "shortly"});
+            return nullptr;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return std::make_shared<BudgetLease>(m_bodies, bytes);
 }
 
 bool Service::read_request_body(const httplib::ContentReader& reader, httplib::Response& res,

@@ -99,6 +99,8 @@ private:
     // 413 over --max-request-cpu-s, 429 when no slot frees within --queue-timeout-ms.
     std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
     bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
+    // `bytes` of the transfer budget for a large response, waiting like admit() (429 sent).
+    std::shared_ptr<BudgetLease> lease_transfer(httplib::Response& res, std::size_t bytes);
     // The body of a POST route, read with the upload limit (sends the error on failure).
     bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
                            Body& body);

@@ -1,0 +1,451 @@
+#!/usr/bin/python3
+"""Hostile clients against the real binary (issue 21): every attack of the adversarial run and
+the classes they stand for. Each case asserts no crash, no 5xx, the right 4xx and error code,
+bounded memory (RSS from /proc) and a healthy server afterwards.
+
+usage: hostile_clients_test.py TEXTOND EXEMPLARS_DIR [CASE ...]
+Prints one line per case and "N passed, M failed"; exits non-zero on any failure.
+"""
+import http.client
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+BINARY = sys.argv[1] if len(sys.argv) > 1 else "build/release/textond"
+EXEMPLARS = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/exemplars"
+MIB = 1 << 20
+
+# Small limits so that each attack is quick; the bounds below are derived from them.
+SLOTS = 2
+UPLOAD_MB = 4
+CACHE_MB = 16
+BUDGET_MB = 64  # request bodies and large responses in flight
+ARGS = ["--render-slots", str(SLOTS), "--max-upload-mb", str(UPLOAD_MB), "--cache-mb",
+        str(CACHE_MB), "--http-threads", "16", "--header-timeout", "2", "--body-timeout", "4",
+        "--keep-alive-timeout", "2", "--analysis-workers", "1", "--analysis-queue", "0",
+        "--queue-timeout-ms", "60000", "--max-request-cpu-s", "8",
+        "--body-budget-mb", str(BUDGET_MB)]
+
+
+def rss_bytes(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+class Server:
+    def __init__(self, data, extra=()):
+        self.data = data
+        self.log = open(os.path.join(data, "server.log"), "w+")
+        self.proc = subprocess.Popen([BINARY, "serve", "--port", "0", "--data", data, *ARGS,
+                                      *extra], stdout=subprocess.PIPE, stderr=self.log,
+                                     env={**os.environ, "OMP_WAIT_POLICY": "PASSIVE"})
+        line = self.proc.stdout.readline().decode()
+        assert "listening on" in line, line
+        self.port = int(line.rsplit(":", 1)[1].strip("/\n "))
+
+    def alive(self):
+        return self.proc.poll() is None
+
+    def stop(self):
+        self.proc.terminate()
+        try:
+            self.proc.wait(20)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self.log.close()
+
+    def request(self, method, path, body=None, headers=None, timeout=60):
+        c = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
+        c.request(method, path, body=body, headers=headers or {})
+        r = c.getresponse()
+        data = r.read()
+        c.close()
+        return r.status, dict(r.getheaders()), data
+
+    def raw(self, data, timeout=10, chunks=None):
+        """Sends raw bytes (or an iterator of chunks), returns everything the server answered."""
+        s = socket.create_connection(("127.0.0.1", self.port), timeout=timeout)
+        try:
+            if chunks is None:
+                s.sendall(data)
+            else:
+                for c in chunks:
+                    s.sendall(c)
+        except OSError:
+            pass  # the server may close on us mid-send: what it answered is still there
+        out = b""
+        try:
+            while True:
+                c = s.recv(65536)
+                if not c:
+                    break
+                out += c
+        except OSError:
+            pass
+        s.close()
+        return out
+
+
+class PeakRss:
+    """Samples the server's RSS every 10 ms while a load runs."""
+
+    def __init__(self, pid):
+        self.pid, self.peak, self.base = pid, 0, rss_bytes(pid)
+        self._stop = threading.Event()
+        self._t = threading.Thread(target=self._run)
+
+    def _run(self):
+        while not self._stop.is_set():
+            self.peak = max(self.peak, rss_bytes(self.pid))
+            time.sleep(0.01)
+
+    def __enter__(self):
+        self._t.start()
+        return self
+
+    def __exit__(self, *a):
+        self._stop.set()
+        self._t.join()
+
+
+def status_of(answer):
+    line = answer.split(b"\r\n", 1)[0].split()
+    return int(line[1]) if len(line) > 1 else None
+
+
+def error_code(body):
+    return json.loads(body)["error"]["code"]
+
+
+class HostileClients(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = tempfile.mkdtemp(prefix="textond-security-")
+        cls.s = Server(cls.dir)
+        cls.ids = []
+        for name in ("etr_sand01.png", "etr_pebbles04.png"):
+            with open(os.path.join(EXEMPLARS, name), "rb") as f:
+                st, _, body = cls.s.request("POST", "/v1/textons?size=32&iterations=10", f.read(),
+                                            {"Content-Type": "image/png"})
+            assert st in (200, 201), body
+            cls.ids.append(json.loads(body)["id"])
+        cls.statuses = []
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.s.stop()
+        shutil.rmtree(cls.dir, ignore_errors=True)
+
+    def setUp(self):
+        self.assertTrue(self.s.alive(), "the server died in an earlier case")
+
+    def tearDown(self):
+        self.assertTrue(self.s.alive(), "the server died")
+        st, _, _ = self.s.request("GET", "/healthz", timeout=10)
+        self.assertEqual(st, 200, "unhealthy after the case")
+
+    def get(self, path, **kw):
+        st, h, body = self.s.request("GET", path, **kw)
+        self.assertLess(st, 500, f"{path}: {st} {body[:200]!r}")
+        return st, h, body
+
+    def post(self, path, body=b"", headers=None, **kw):
+        st, h, data = self.s.request("POST", path, body, headers, **kw)
+        self.assertLess(st, 500, f"{path}: {st} {data[:200]!r}")
+        return st, h, data
+
+    # 1. The remote crash that survived restarts, and stored parameters that fail validation.
+    def test_mix_with_huge_direction_renders_or_is_refused(self):
+        u, v = self.ids
+        st, _, body = self.post(f"/v1/mixes?u={u}&v={v}&dx=1e308&dy=1e308&levels=2")
+        self.assertIn(st, (200, 201))
+        mix = json.loads(body)["id"]
+        for t in ("0/0/0", "0/-3/7", "3/1000/-1000", "24/0/0"):
+            st, _, _ = self.get(f"/v1/mixes/{mix}/tiles/{t}.png")
+            self.assertEqual(st, 200)
+        for q in ("dx=1.7e308&dy=1.7e308", "dx=nan&dy=1", "dx=inf&dy=0", "dx=0&dy=0",
+                  "width=1e-300", "width=inf", "x0=1e300", "dx=1e-320&dy=0"):
+            st, _, body = self.post(f"/v1/mixes?u={u}&v={v}&levels=2&{q}")
+            if q == "dx=1e-320&dy=0":  # denormal but a direction: accepted
+                self.assertIn(st, (200, 201), body)
+            else:
+                self.assertEqual(st, 400, q)
+
+    def test_stored_mix_that_fails_validation_is_quarantined(self):
+        u, v = self.ids
+        st, _, body = self.post(f"/v1/mixes?u={u}&v={v}&levels=3&dx=1&dy=2")
+        mix = json.loads(body)["id"]
+        path = os.path.join(self.dir, "mixes", mix + ".exr")
+        info = subprocess.run(["oiiotool", "--info", "-v", path], capture_output=True, text=True)
+        line = next(l for l in info.stdout.splitlines() if "textond:mix:" in l)
+        meta = json.loads(line.split(': "', 1)[1].rsplit('"', 1)[0])
+        meta["field"]["dx"] = meta["field"]["dy"] = 1.7e308  # what an older build stored
+        s2 = Server(tempfile.mkdtemp(prefix="textond-security-q-"))
+        try:
+            shutil.copytree(os.path.join(self.dir, "textons"), os.path.join(s2.data, "textons"),
+                            dirs_exist_ok=True)
+            os.makedirs(os.path.join(s2.data, "mixes"), exist_ok=True)
+            subprocess.run(["oiiotool", path, "--attrib", "textond:mix", json.dumps(meta), "-o",
+                            os.path.join(s2.data, "mixes", mix + ".exr")], check=True)
+            st, _, body = s2.request("GET", f"/v1/mixes/{mix}/tiles/0/0/0.png")
+            self.assertEqual(st, 404, body)
+            self.assertTrue(s2.alive())
+            self.assertFalse(os.path.exists(os.path.join(s2.data, "mixes", mix + ".exr")))
+            st, _, body = s2.request("GET", "/readyz")
+            self.assertIn(mix, json.loads(body)["store"]["mixes_quarantined"])
+        finally:
+            s2.stop()
+            shutil.rmtree(s2.data, ignore_errors=True)
+
+    # 2. Invalid UTF-8 everywhere a message echoes the input: 400, valid JSON, never 500.
+    def test_invalid_utf8_gets_400_with_valid_json(self):
+        u = self.ids[0]
+        cases = [("GET", f"/v1/textons/{u}/tiles/0/0/0.png?seed=%ff", None, {}),
+                 ("GET", f"/v1/textons/{u}/tiles/0/0/0.png?%ff=1", None, {}),
+                 ("GET", "/v1/textons?limit=%ff", None, {}),
+                 ("GET", f"/v1/textons/{u}/region.png?x=" + "%e2%82" * 30, None, {}),
+                 ("GET", "/v1/textons/%ff%fe/tiles/0/0/0.png", None, {}),
+                 ("POST", "/v1/textons?size=%ff", b"\x89PNG", {"Content-Type": "image/png"}),
+                 ("POST", f"/v1/textons/{u}/surface", b'{"points": [[0,0,"\x89"]]}',
+                  {"Content-Type": "application/json"}),
+                 ("POST", f"/v1/textons/{u}/mesh.png", b"v 0 0 0\nv 1 0 \xff\nf 1 2 3\n",
+                  {"Content-Type": "model/obj"}),
+                 ("POST", "/v1/textons", b"--b\r\nContent-Disposition: form-data; name=\"\xff\"\r\n"
+                  b"\r\nx\r\n--b--\r\n", {"Content-Type": "multipart/form-data; boundary=b"})]
+        for method, path, body, headers in cases:
+            st, _, data = self.s.request(method, path, body, headers)
+            self.assertGreaterEqual(st, 400, path)
+            self.assertLess(st, 500, f"{path}: {data[:200]!r}")
+            data.decode("utf-8")  # strict: raises on invalid UTF-8
+            self.assertIn("error", json.loads(data))
+
+    def test_log_lines_cannot_be_forged(self):
+        self.get("/v1/textons/x%0aFORGED%20line%0d/tiles/0/0/0.png")
+        time.sleep(0.2)
+        self.s.log.flush()
+        with open(self.s.log.name, "rb") as f:
+            lines = f.read().splitlines()
+        self.assertFalse(any(l.startswith(b"FORGED") for l in lines))
+        self.assertTrue(any(b"\\x0aFORGED" in l for l in lines))
+
+    # 3. Limits that hold for every transfer encoding; headers; framing; pipelining.
+    def chunked(self, path, total, content_type="application/octet-stream"):
+        head = (f"POST {path} HTTP/1.1\r\nHost: x\r\nContent-Type: {content_type}\r\n"
+                "Transfer-Encoding: chunked\r\n\r\n").encode()
+        piece = b"a" * 65536
+
+        def chunks():
+            yield head
+            for _ in range(total // len(piece)):
+                yield b"10000\r\n" + piece + b"\r\n"
+            yield b"0\r\n\r\n"
+        return self.s.raw(None, chunks=chunks(), timeout=30)
+
+    def test_chunked_bodies_are_held_to_the_upload_limit(self):
+        u, v = self.ids
+        for path in ("/v1/textons", f"/v1/textons/{u}/surface", f"/v1/textons/{u}/mesh.png",
+                     f"/v1/mixes?u={u}&v={v}", "/no/such/route"):
+            with PeakRss(self.s.proc.pid) as m:
+                answer = self.chunked(path, 64 * MIB)
+            st = status_of(answer)
+            self.assertEqual(st, 404 if path == "/no/such/route" else 413, answer[:300])
+            self.assertLess(m.peak - m.base, 3 * UPLOAD_MB * MIB, path)
+
+    def test_headers_are_bounded(self):
+        with PeakRss(self.s.proc.pid) as m:
+            answers = []
+
+            def flood():
+                answers.append(self.s.raw(b"GET /healthz HTTP/1.1\r\nHost: x\r\n" +
+                                          b"X-Pad: " + b"p" * 4000 + b"\r\n" * 1 +
+                                          b"X-A: b\r\n" * 300000 + b"\r\n"))
+            ts = [threading.Thread(target=flood) for _ in range(4)]
+            [t.start() for t in ts]
+            [t.join() for t in ts]
+        self.assertEqual([status_of(a) for a in answers], [431] * 4)
+        self.assertLess(m.peak - m.base, 32 * MIB)
+        # A request line of megabytes is cut at the same limit.
+        self.assertEqual(status_of(self.s.raw(b"GET /" + b"a" * (2 * MIB) + b" HTTP/1.1\r\n\r\n")),
+                         431)
+        # More header lines than --max-headers (100), within the byte limit.
+        many = b"GET /healthz HTTP/1.1\r\nHost: x\r\n" + b"X-A: b\r\n" * 150 + b"\r\n"
+        self.assertEqual(status_of(self.s.raw(many)), 431)
+
+    def test_ambiguous_framing_is_refused(self):
+        for lengths in ([b"26, 26"], [b"+26"], [b"0x1a"], [b"26", b"26"], [b"-1"]):
+            req = b"POST /v1/textons HTTP/1.1\r\nHost: x\r\n"
+            req += b"".join(b"Content-Length: " + l + b"\r\n" for l in lengths)
+            st = status_of(self.s.raw(req + b"\r\n" + b"a" * 26))
+            self.assertEqual(st, 400, lengths)
+        both = (b"POST /v1/textons HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n"
+                b"Transfer-Encoding: chunked\r\n\r\n0\r\n\r\n")
+        self.assertEqual(status_of(self.s.raw(both)), 400)
+        gzip = b"POST /v1/textons HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: gzip, chunked\r\n\r\n"
+        self.assertEqual(status_of(self.s.raw(gzip)), 400)
+        no_length = b"POST /v1/textons HTTP/1.1\r\nHost: x\r\n\r\nabc"
+        self.assertEqual(status_of(self.s.raw(no_length)), 411)
+
+    def test_pipelined_requests_are_all_answered(self):
+        one = b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n"
+        answer = self.s.raw(one * 9 + b"GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+        self.assertEqual(answer.count(b"HTTP/1.1 200 OK"), 10)
+
+    # 4. Slow clients: with 16 kept threads, 128 slow connections must not stop new clients.
+    def test_slow_clients_do_not_block_new_ones(self):
+        stop = threading.Event()
+        socks = []
+        for _ in range(128):
+            s = socket.create_connection(("127.0.0.1", self.s.port), timeout=10)
+            s.sendall(b"GET /healthz HTTP/1.1\r\n")
+            socks.append(s)
+
+        def drip():
+            while not stop.is_set():
+                for s in socks:
+                    try:
+                        s.sendall(b"X")
+                    except OSError:
+                        pass
+                stop.wait(0.5)
+        t = threading.Thread(target=drip)
+        t.start()
+        try:
+            time.sleep(0.5)
+            worst = 0.0
+            for _ in range(10):
+                t0 = time.monotonic()
+                st, _, _ = self.s.request("GET", "/healthz", timeout=5)
+                worst = max(worst, time.monotonic() - t0)
+                self.assertEqual(st, 200)
+            self.assertLess(worst, 1.0)
+            time.sleep(2.5)  # past --header-timeout: the slow clients are answered 408 and cut
+            stop.set()
+            t.join()
+            cut = 0
+            for s in socks:
+                try:
+                    s.settimeout(2)
+                    got = s.recv(4096)
+                    cut += got == b"" or got.startswith(b"HTTP/1.1 408")
+                except socket.timeout:
+                    pass  # still open: not cut
+                except OSError:
+                    cut += 1  # reset: the server closed while we were still sending
+            self.assertEqual(cut, len(socks))
+        finally:
+            stop.set()
+            t.join()
+            for s in socks:
+                s.close()
+
+    # 5. Memory and CPU bounded by admission, not by the number of clients.
+    def bound(self, largest):
+        # README "Limits": slots x the largest single request + the image cache + the transfer
+        # budget, over the memory the server held before the load.
+        return SLOTS * largest + (CACHE_MB + BUDGET_MB) * MIB
+
+    def concurrent(self, n, fn):
+        out = [None] * n
+        ts = [threading.Thread(target=lambda i=i: out.__setitem__(i, fn(i))) for i in range(n)]
+        [t.start() for t in ts]
+        [t.join() for t in ts]
+        return out
+
+    def test_concurrent_largest_regions_stay_within_the_bound(self):
+        u = self.ids[0]
+        with PeakRss(self.s.proc.pid) as m:
+            sts = self.concurrent(10, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/region.exr?w=4096&h=1024&seed={i}", timeout=120)[0])
+        self.assertEqual(sts, [200] * 10)
+        largest = 4096 * 1024 * 3 * 4 * 2.5  # float image, EXR bytes, encoder scratch
+        self.assertLess(m.peak - m.base, self.bound(largest),
+                        f"peak {(m.peak - m.base) / MIB:.0f} MiB")
+        print(f"  regions: peak +{(m.peak - m.base) / MIB:.0f} MiB, bound "
+              f"{self.bound(largest) / MIB:.0f} MiB", file=sys.stderr)
+
+    def test_concurrent_large_surface_bodies_stay_within_the_bound(self):
+        u = self.ids[0]
+        pts = [[i * 0.37, i * 0.11, 1.0] for i in range(50000)]
+        body = json.dumps({"points": pts, "normals": [[0, 0, 1]] * len(pts)}).encode()
+        with PeakRss(self.s.proc.pid) as m:
+            sts = self.concurrent(6, lambda i: self.s.request(
+                "POST", f"/v1/textons/{u}/surface?seed={i}", body,
+                {"Content-Type": "application/json"}, timeout=120)[0])
+        self.assertEqual(sts, [200] * 6)
+        largest = 50000 * 600 + 4 * len(body)  # the parsed DOM, the body and the answer
+        self.assertLess(m.peak - m.base, self.bound(largest))
+        print(f"  surface: peak +{(m.peak - m.base) / MIB:.0f} MiB", file=sys.stderr)
+
+    def test_mesh_over_the_work_budget_is_refused_before_it_runs(self):
+        u = self.ids[0]
+        # 600 stacked screen-sized quads: 20 kB that took 46 s before.
+        lines = []
+        for k in range(600):
+            z = k * 1e-3
+            lines += [f"v -1 -1 {z}", f"v 1 -1 {z}", f"v 1 1 {z}", f"v -1 1 {z}"]
+        for k in range(600):
+            b = 4 * k + 1
+            lines.append(f"f {b} {b + 1} {b + 2} {b + 3}")
+        obj = ("\n".join(lines) + "\n").encode()
+        t0 = time.monotonic()
+        st, _, body = self.post(f"/v1/textons/{u}/mesh.png?width=2048&height=2048&eye=0,0,1.2"
+                                "&target=0,0,0&fov=120", obj, {"Content-Type": "model/obj"})
+        self.assertEqual(st, 413, body)
+        self.assertEqual(error_code(body), "work_too_large")
+        self.assertLess(time.monotonic() - t0, 5)
+        st, _, _ = self.post(f"/v1/textons/{u}/mesh.png?width=256&height=256",
+                             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", {"Content-Type": "model/obj"})
+        self.assertEqual(st, 200)
+
+    def test_region_over_the_work_budget_is_413(self):
+        u = self.ids[0]
+        st, _, body = self.get(f"/v1/textons/{u}/region.png?w=4096&h=2048&mni=200")
+        self.assertEqual((st, error_code(body)), (413, "work_too_large"))
+
+    def test_mixes_answer_429_when_the_analysis_pool_is_full(self):
+        u, v = self.ids
+        results = self.concurrent(3, lambda i: self.s.request(
+            "POST", f"/v1/mixes?u={u}&v={v}&levels=40&x0={i}", b"", timeout=120)[0])
+        self.assertIn(429, results)
+        self.assertTrue(all(r in (200, 201, 429) for r in results), results)
+
+    def test_a_client_that_left_while_queued_is_dropped(self):
+        # Fill both slots with large regions, queue one whose client then leaves.
+        u = self.ids[0]
+        busy = [threading.Thread(target=lambda i=i: self.s.request(
+            "GET", f"/v1/textons/{u}/region.exr?w=4096&h=2048&seed={100 + i}", timeout=120))
+            for i in range(4)]
+        [t.start() for t in busy]
+        time.sleep(0.3)
+        s = socket.create_connection(("127.0.0.1", self.s.port))
+        s.sendall(f"GET /v1/textons/{u}/region.exr?w=4096&h=2048&seed=999 HTTP/1.1\r\n"
+                  "Host: x\r\n\r\n".encode())
+        s.close()
+        [t.join() for t in busy]
+        time.sleep(0.3)
+        _, _, text = self.get("/metrics")
+        gone = [l for l in text.decode().splitlines()
+                if l.startswith('textond_not_admitted_total{reason="gone"}')]
+        self.assertGreaterEqual(float(gone[0].split()[-1]), 1)
+
+
+if __name__ == "__main__":
+    names = sys.argv[3:]
+    loader = unittest.TestLoader()
+    suite = (loader.loadTestsFromNames([f"HostileClients.{n}" for n in names], sys.modules[__name__])
+             if names else loader.loadTestsFromTestCase(HostileClients))
+    result = unittest.TextTestRunner(verbosity=2).run(suite)
+    failed = len(result.failures) + len(result.errors)
+    print(f"{result.testsRun - failed} passed, {failed} failed")
+    sys.exit(1 if failed else 0)
