@@ -4,7 +4,7 @@ BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 ARGS   ?= serve
 
-.PHONY: deps build run test bench load load-replicas image-check format clean
+.PHONY: deps build run run-edge test bench load load-replicas image-check format clean
 
 deps:
 	bash docker/install-deps.sh
@@ -17,6 +17,11 @@ build: deps
 # `make run ARGS="serve --port 9000"` or any other command (`make run ARGS="analyze ..."`).
 run: build
 	./$(BUILD)/textond $(ARGS)
+
+# The service behind the nginx edge of deploy/ on :8080 (textond itself on 127.0.0.1:8081):
+# how one machine should face a network (README "Hostile clients").
+run-edge: build
+	deploy/local/run-edge.sh 8080 -- $(filter-out serve,$(ARGS))
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the fuzz preset (clang, libFuzzer, address + UB sanitizers), makes the seed corpus and
-# runs decode_analyze_fuzzer for SECONDS (default 60, the CI smoke). Prints executions and
+# runs decode_analyze_fuzzer, then request_fuzzer (api/ parsers, mix fields, surface
+# parameters), each for SECONDS (default 60, the CI smoke). Prints executions and
 # coverage; a crash leaves its input in build/fuzz/crashes/ and fails the script. Make every
 # crash a regression test in tests/fuzz/regressions/ (replayed by this script first).
 #
@@ -44,6 +45,25 @@ if [ $status -ne 0 ]; then
     echo "fuzz: the fuzzer failed (status $status); inputs in build/fuzz/crashes/:" >&2
     ls build/fuzz/crashes >&2
     grep -m 20 -E "ERROR|SUMMARY|runtime error" build/fuzz/last-run.log >&2 || true
+    exit 1
+fi
+# The request parsers: seeds are a few real paths and queries (selector byte first).
+rcorpus=build/fuzz/request-work
+mkdir -p "$rcorpus"
+printf '\0000/3/-7/png|seed=42&mni=30' >"$rcorpus/tile"
+printf '\003|u=%064d&v=%064d&dx=1e308&dy=1e308&levels=2' 0 0 >"$rcorpus/mix"
+printf '\0022/exr|x=-500&y=200&w=1920&h=1080&z=1' >"$rcorpus/region"
+printf '\004mesh|width=512&height=512&eye=0,0,3&target=0,0,0&fov=35' >"$rcorpus/mesh"
+printf '\005|size=64&order=3&iterations=50&periodic=true' >"$rcorpus/analysis"
+set +e
+build/fuzz/request_fuzzer "$rcorpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=20 \
+    -artifact_prefix=build/fuzz/crashes/ -print_final_stats=1 >build/fuzz/last-request-run.log 2>&1
+status=$?
+set -e
+grep -E "stat::number_of_executed_units|cov:" build/fuzz/last-request-run.log | tail -n 2
+if [ $status -ne 0 ]; then
+    echo "fuzz: request_fuzzer failed (status $status); inputs in build/fuzz/crashes/:" >&2
+    grep -m 20 -E "ERROR|SUMMARY|runtime error|deadly" build/fuzz/last-request-run.log >&2 || true
     exit 1
 fi
 echo "fuzz: ${seconds}s clean"
