@@ -293,19 +293,4 @@ void ElasticThreadPool::shutdown() {
     m_exited.wait(lock, [this] { return m_threads == 0; });
 }
 
-std::size_t ElasticThreadPool::threads() const {
-    std::lock_guard lock(m_mutex);
-    return m_threads;
-}
-
-std::size_t ElasticThreadPool::busy() const {
-    std::lock_guard lock(m_mutex);
-    return m_threads - m_idle;
-}
-
-std::size_t ElasticThreadPool::queued() const {
-    std::lock_guard lock(m_mutex);
-    return m_queue.size();
-}
-
 } // namespace textond::http

@@ -106,16 +106,12 @@ public:
     void enqueue(std::function<void()> fn) override;
     void shutdown() override;
 
-    std::size_t threads() const;
-    std::size_t busy() const;
-    std::size_t queued() const;
-
 private:
     void start_thread_locked();
     void worker(bool core);
 
     const std::size_t m_core, m_max;
-    mutable std::mutex m_mutex;
+    std::mutex m_mutex;
     std::condition_variable m_work;
     std::condition_variable m_exited;
     std::deque<std::function<void()>> m_queue;

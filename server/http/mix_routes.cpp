@@ -42,12 +42,8 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
         io::DecodeLimits limits;
         limits.max_pixels = m_config.max_pixels;
         limits.formats = m_config.formats;
-        if (m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms)) !=
-            RenderSlots::Admit::granted) {
-            res.set_header("Retry-After", "1");
-            return send_error(res, {429, "overloaded", "every decoder is busy; retry shortly"});
-        }
-        SlotGuard slot(&m_decode_slots);
+        auto slot = admit_decode(res);
+        if (!slot) return;
         auto img = io::decode_image_memory(body.bytes, limits);
         if (!img) return send_error(res, to_api_error(img.error(), "invalid_mask"));
         m.field.mask = core::mask_from_image(img.value());
@@ -123,14 +119,7 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
                          m.v.substr(0, 12), m.levels, ms);
             return AnalysisOutcome{mu, put.value()};
         });
-    if (!submitted.job) {
-        const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
-        res.set_header("Retry-After", std::to_string(wait_s));
-        return send_error(res, {429, "overloaded",
-                                "every analysis worker is busy and the queue is full; retry "
-                                "after " +
-                                    std::to_string(wait_s) + " s"});
-    }
+    if (!submitted.job) return send_pool_full(res);
     const Result<AnalysisOutcome>& outcome = submitted.job->wait();
     if (!outcome) {
         const Error& err = outcome.error();

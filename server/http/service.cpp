@@ -374,26 +374,40 @@ bool Service::within_budget(httplib::Response& res, double work_s) {
     return true;
 }
 
+void Service::refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy) {
+    if (why == RenderSlots::Admit::gone) {
+        m_metrics.not_admitted("gone");
+        return send_error(res, {408, "client_gone", "the client left before the work started"});
+    }
+    m_metrics.not_admitted("busy");
+    res.set_header("Retry-After", "1");
+    send_error(res, {429, "overloaded", busy});
+}
+
 std::optional<SlotGuard> Service::admit(httplib::Response& res, double work_s) {
     if (!within_budget(res, work_s)) return std::nullopt;
     ConnectionStream* conn = current_connection();
     const auto gone = [conn] { return conn && conn->client_gone(); };
-    switch (m_render_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms), gone)) {
-    case RenderSlots::Admit::granted:
-        return SlotGuard(&m_render_slots);
-    case RenderSlots::Admit::gone:
-        m_metrics.not_admitted("gone");
-        send_error(res, {408, "client_gone", "the client left before the work started"});
-        return std::nullopt;
-    case RenderSlots::Admit::busy:
-        break;
-    }
-    m_metrics.not_admitted("busy");
-    res.set_header("Retry-After", "1");
-    send_error(res, {429, "overloaded",
-                     "every render slot is busy and the wait is too long; "
-                     "retry shortly"});
+    const auto why =
+        m_render_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms), gone);
+    if (why == RenderSlots::Admit::granted) return SlotGuard(&m_render_slots);
+    refuse(res, why, "every render slot is busy and the wait is too long; retry shortly");
     return std::nullopt;
+}
+
+std::optional<SlotGuard> Service::admit_decode(httplib::Response& res) {
+    const auto why = m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms));
+    if (why == RenderSlots::Admit::granted) return SlotGuard(&m_decode_slots);
+    refuse(res, why, "every decoder is busy; retry shortly");
+    return std::nullopt;
+}
+
+void Service::send_pool_full(httplib::Response& res) {
+    const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
+    res.set_header("Retry-After", std::to_string(wait_s));
+    send_error(res, {429, "overloaded",
+                     "every analysis worker is busy and the queue is full; retry after " +
+                         std::to_string(wait_s) + " s"});
 }
 
 std::shared_ptr<BudgetLease> Service::lease_transfer(httplib::Response& res, std::size_t bytes) {

@@ -99,6 +99,12 @@ private:
     // 413 over --max-request-cpu-s, 429 when no slot frees within --queue-timeout-ms.
     std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
     bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
+    // A decoder slot (uploads, masks), waiting like admit(): 429 sent when none frees.
+    std::optional<SlotGuard> admit_decode(httplib::Response& res);
+    // The answer for work not admitted: 408 when the client left, else 429 with `busy`.
+    void refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy);
+    // 429 with a Retry-After from the analysis pool's queue (uploads and mixes).
+    void send_pool_full(httplib::Response& res);
     // `bytes` of the transfer budget for a large response, waiting like admit() (429 sent).
     std::shared_ptr<BudgetLease> lease_transfer(httplib::Response& res, std::size_t bytes);
     // The body of a POST route, read with the upload limit (sends the error on failure).

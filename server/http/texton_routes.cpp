@@ -160,15 +160,10 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     io::DecodeLimits limits;
     limits.max_pixels = m_config.max_pixels;
     limits.formats = m_config.formats;
-    if (m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms)) !=
-        RenderSlots::Admit::granted) {
-        res.set_header("Retry-After", "1");
-        return send_error(res, {429, "overloaded", "every decoder is busy; retry shortly"});
-    }
-    auto image = [&] {
-        SlotGuard slot(&m_decode_slots);
-        return io::decode_image_memory(bytes, limits);
-    }();
+    auto slot = admit_decode(res);
+    if (!slot) return;
+    auto image = io::decode_image_memory(bytes, limits);
+    slot.reset();
     if (!image) {
         const Error& err = image.error();
         const char* code = err.code == ErrorCode::too_large     ? "image_too_large"
@@ -214,14 +209,7 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
                          put.value() ? "" : " (another replica stored it first)");
             return AnalysisOutcome{meta.value(), put.value()};
         });
-    if (!submitted.job) {
-        const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
-        res.set_header("Retry-After", std::to_string(wait_s));
-        return send_error(res, {429, "overloaded",
-                                "every analysis worker is busy and the queue is full; retry "
-                                "after " +
-                                    std::to_string(wait_s) + " s"});
-    }
+    if (!submitted.job) return send_pool_full(res);
     const std::string status_url = "/v1/textons/" + id + "/status";
     // RFC 7240: a client that prefers not to wait gets 202 and polls the status URL.
     if (req.get_header_value("Prefer").find("respond-async") != std::string::npos) {
