@@ -20,6 +20,8 @@ const char* to_string(ErrorCode code) {
         return "no_space";
     case ErrorCode::unavailable:
         return "unavailable";
+    case ErrorCode::cancelled:
+        return "cancelled";
     case ErrorCode::internal:
         return "internal";
     }

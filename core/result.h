@@ -15,6 +15,7 @@ enum class ErrorCode {
     io,               // the filesystem failed us (500)
     no_space,         // the disk (or quota, or file-size limit) is full (507)
     unavailable,      // a service we depend on (the shared store) cannot be reached (503)
+    cancelled,        // abandoned: the client left or the request's deadline passed (503)
     internal,
 };
 

@@ -3,6 +3,7 @@
 #include "core/fft2d.h"
 #include "core/grid_poisson.h"
 #include "core/noise_levels.h"
+#include "render/cancel.h"
 
 #include <algorithm>
 #include <atomic>
@@ -419,7 +420,7 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
 }
 
 // The limit model of a mix: each pixel takes the model of the level at its footprint's centre.
-void render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads,
+bool render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads,
                       core::Image& out) {
     const int nc = mix.channels();
     LevelGeometry geo;
@@ -436,8 +437,13 @@ void render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads
         for (int x = 0; x < zw; ++x)
             core::noise::pixel_normals(q.seed, q.level, q.x0 - 2 + x, q.y0 - 2 + y, nc,
                                        &z[(static_cast<std::size_t>(y) * zw + x) * 3]);
+    std::atomic<bool> skipped{false};
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < q.height; ++y) {
+        if (stopped(q.cancel)) {
+            skipped = true;
+            continue;
+        }
         const double ty = pixel_texel(geo, q.y0 + y);
         for (int x = 0; x < q.width; ++x) {
             const double tx = pixel_texel(geo, q.x0 + x);
@@ -461,9 +467,10 @@ void render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads
             }
         }
     }
+    return !skipped;
 }
 
-void render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads, core::Image& out) {
+bool render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads, core::Image& out) {
     const int nc = tex.channels();
     const core::noise::LimitModel& lm = tex.limit(q.level);
     const int zw = q.width + 4, zh = q.height + 4;
@@ -486,8 +493,13 @@ void render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads,
         for (int d = 0; d < nc; ++d) a[c][d] = static_cast<float>(lm.a(c, d));
     }
     const int w = q.width;
+    std::atomic<bool> skipped{false};
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < q.height; ++y) {
+        if (stopped(q.cancel)) {
+            skipped = true;
+            continue;
+        }
         std::vector<float> s(static_cast<std::size_t>(w) * nc, 0.0f);
         for (int c = 0; c < nc; ++c) {
             float* sc = s.data() + static_cast<std::size_t>(w) * c;
@@ -510,6 +522,13 @@ void render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads,
             }
         }
     }
+    return !skipped;
+}
+
+Error abandoned(const NoiseRequest& q) {
+    return make_error(ErrorCode::cancelled, q.cancel && q.cancel->deadline_passed()
+                                                ? "the render passed its deadline"
+                                                : "the client left during the render");
 }
 
 } // namespace
@@ -529,7 +548,7 @@ Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseReq
     if (auto err = tex.check(q)) return *err;
     if (q.level >= tex.limit_level()) {
         core::Image out(q.width, q.height, tex.channels());
-        render_limit(tex, q, m_threads, out);
+        if (!render_limit(tex, q, m_threads, out)) return abandoned(q);
         if (stats) {
             stats->limit_model = true;
             stats->points = 0;
@@ -548,7 +567,7 @@ Result<core::Image> CpuBackend::render_mix(const PreparedMix& mix, const NoiseRe
     const PreparedTexton& first = mix.level(0);
     if (q.level >= first.limit_level()) {
         core::Image out(q.width, q.height, mix.channels());
-        render_limit_mix(mix, q, m_threads, out);
+        if (!render_limit_mix(mix, q, m_threads, out)) return abandoned(q);
         if (stats) {
             stats->limit_model = true;
             stats->points = 0;
@@ -583,8 +602,13 @@ Result<core::Image> CpuBackend::render_exact(const PreparedTexton& tex,
     const int bs = m_block;
     const int nbx = (q.width + bs - 1) / bs, nby = (q.height + bs - 1) / bs;
     std::atomic<std::uint64_t> points{0}, evaluations{0};
+    std::atomic<bool> skipped{false};
 #pragma omp parallel for schedule(dynamic) num_threads(m_threads)
     for (int b = 0; b < nbx * nby; ++b) {
+        if (stopped(q.cancel)) {
+            skipped = true;
+            continue;
+        }
         const int bx = b % nbx, by = b / nbx;
         Block blk{q.x0 + static_cast<std::int64_t>(bx) * bs,
                   q.y0 + static_cast<std::int64_t>(by) * bs, std::min(bs, q.width - bx * bs),
@@ -594,11 +618,12 @@ Result<core::Image> CpuBackend::render_exact(const PreparedTexton& tex,
         points += p;
         evaluations += e;
     }
-    if (stats) {
+    if (stats) { // also when abandoned: what was done before it stopped
         stats->limit_model = false;
         stats->points = points;
         stats->evaluations = evaluations;
     }
+    if (skipped) return abandoned(q);
     return out;
 }
 

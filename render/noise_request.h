@@ -5,6 +5,8 @@
 
 namespace textond::render {
 
+class Cancel;
+
 // Part of every tile's identity (ETag): bump it whenever NOISE_SPEC.md changes a pixel.
 inline constexpr const char* kNoiseVersion = "textond-noise/1";
 
@@ -21,12 +23,15 @@ struct NoiseRequest {
     std::int64_t x0 = 0, y0 = 0;
     int width = 256, height = 256;
     std::array<std::int64_t, 2> period{0, 0}; // tileable mode, in cells; 0 = unbounded plane
+    // Not part of the window: when to give up (render/cancel.h); none = run to the end.
+    const Cancel* cancel = nullptr;
 };
 
 // What an evaluation cost, in units that do not depend on the machine (tests compare them).
 struct RenderStats {
     std::uint64_t points = 0;      // Poisson points generated
     std::uint64_t evaluations = 0; // (pixel, point) kernel evaluations, or limit-model taps
+    // (an abandoned exact render still reports what it did before it stopped)
     bool limit_model = false;
 };
 

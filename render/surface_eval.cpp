@@ -3,6 +3,7 @@
 #include "core/fft2d.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -28,6 +29,12 @@ bool normalise(Vec3& v) {
     if (!(n > 0) || !std::isfinite(n)) return false;
     for (double& c : v) c /= n;
     return true;
+}
+
+Error abandoned(const SurfaceRequest& req) {
+    return make_error(ErrorCode::cancelled, req.cancel && req.cancel->deadline_passed()
+                                                ? "the evaluation passed its deadline"
+                                                : "the client left during the evaluation");
 }
 
 std::optional<Error> check_request(const SurfaceRequest& req) {
@@ -78,14 +85,18 @@ Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const Su
     const core::SurfaceNoise noise(texton, req.mni);
     const int nc = texton.channels;
     std::vector<float> out(n * static_cast<std::size_t>(nc));
+    std::atomic<bool> skipped{false};
 #pragma omp parallel for schedule(dynamic, 64) num_threads(core::resolve_threads(threads))
     for (std::size_t i = 0; i < n; ++i) {
+        if (i % 64 == 0 && stopped(req.cancel)) skipped = true;
+        if (skipped) continue;
         Vec3 nn = {normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]};
         normalise(nn); // finite and non-zero: check_surface_input said so
         const Vec3 y = {points[3 * i] * scale, points[3 * i + 1] * scale,
                         points[3 * i + 2] * scale};
         noise.eval(req.seed, y, nn, &out[i * static_cast<std::size_t>(nc)]);
     }
+    if (skipped) return abandoned(req);
     return out;
 }
 
@@ -232,6 +243,7 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
     std::vector<double> bary(npx * 3, 0.0);
     const std::size_t nt = mesh.triangles.size() / 3;
     for (std::size_t t = 0; t < nt; ++t) {
+        if (stopped(req.cancel)) return abandoned(req);
         const std::uint32_t i0 = mesh.triangles[3 * t], i1 = mesh.triangles[3 * t + 1],
                             i2 = mesh.triangles[3 * t + 2];
         if (sz[i0] <= 1e-9 || sz[i1] <= 1e-9 || sz[i2] <= 1e-9) continue; // behind the eye
@@ -309,11 +321,16 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
     const int stride = nc;
     std::vector<float> colours(where.size() * static_cast<std::size_t>(nc));
     const core::SurfaceNoise noise(texton, req.mni);
+    std::atomic<bool> skipped{false};
 #pragma omp parallel for schedule(dynamic, 256) num_threads(core::resolve_threads(threads))
-    for (std::size_t i = 0; i < where.size(); ++i)
+    for (std::size_t i = 0; i < where.size(); ++i) {
+        if (i % 256 == 0 && stopped(req.cancel)) skipped = true;
+        if (skipped) continue;
         noise.eval(req.seed, {ys[3 * i], ys[3 * i + 1], ys[3 * i + 2]},
                    {ns[3 * i], ns[3 * i + 1], ns[3 * i + 2]},
                    &colours[i * static_cast<std::size_t>(nc)]);
+    }
+    if (skipped) return abandoned(req);
     core::Image out(width, height, 4);
     for (std::size_t i = 0; i < where.size(); ++i) {
         const int px = static_cast<int>(where[i] % static_cast<std::size_t>(width));

@@ -7,6 +7,7 @@
 #include "core/surface_noise.h"
 #include "core/texton.h"
 #include "core/triangle_mesh.h"
+#include "render/cancel.h"
 
 #include <array>
 #include <cstdint>
@@ -20,7 +21,8 @@ inline constexpr std::size_t kMaxSurfacePoints = 1'000'000;
 struct SurfaceRequest {
     std::uint64_t seed = 0;
     double mni = core::kDefaultSurfaceMni;
-    double scale = 1.0; // texels per unit of the positions
+    double scale = 1.0;             // texels per unit of the positions
+    const Cancel* cancel = nullptr; // when to give up (render/cancel.h); none = run to the end
 };
 
 // Why `points` and `normals` cannot be evaluated (lengths, limits, NaN, zero normals), or nothing.

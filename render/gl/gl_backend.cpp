@@ -2,6 +2,7 @@
 
 #include "core/grid_poisson.h"
 #include "core/surface_noise.h"
+#include "render/cancel.h"
 #include "render/gl/gl_api.h"
 #include "render/gl/glsl_sources.h"
 
@@ -360,8 +361,13 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
     out = core::Image(q.width, q.height, nc);
     std::vector<float> rgba(static_cast<std::size_t>(cw) * ch * 4);
     g.PixelStorei(GL_PACK_ALIGNMENT, 4);
-    for (int y0 = 0; y0 < q.height; y0 += ch)
-        for (int x0 = 0; x0 < q.width; x0 += cw) {
+    bool skipped = false;
+    for (int y0 = 0; y0 < q.height && !skipped; y0 += ch)
+        for (int x0 = 0; x0 < q.width && !skipped; x0 += cw) {
+            if (stopped(q.cancel)) {
+                skipped = true;
+                break;
+            }
             const int w = std::min(cw, q.width - x0), h = std::min(ch, q.height - y0);
             g.Viewport(0, 0, w, h);
             g.Uniform2i(uniform("u_offset"), x0, y0);
@@ -381,6 +387,10 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
     if (err != GL_NO_ERROR)
         return make_error(ErrorCode::internal,
                           m_name + ": GL error " + std::to_string(static_cast<int>(err)));
+    if (skipped)
+        return make_error(ErrorCode::cancelled, q.cancel->deadline_passed()
+                                                    ? "the render passed its deadline"
+                                                    : "the client left during the render");
     return out;
 }
 

@@ -63,6 +63,7 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --queue-timeout-ms N     longest wait for a render slot before 429           [10000]
   --render-queue N         requests waiting for a render slot before 429       [1024]
   --max-request-cpu-s S    estimated CPU seconds one request may cost (413 above) [20]
+  --render-deadline-s S    admitted work is abandoned after S seconds (503)    [60]
   --body-budget-mb N       request bodies held in memory by all requests, MiB (429) [256]
 
   --log-level L            trace | debug | info | warn | error | off           [info]
@@ -104,6 +105,7 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--queue-timeout-ms",
                                                 "--render-queue",
                                                 "--max-request-cpu-s",
+                                                "--render-deadline-s",
                                                 "--body-budget-mb",
                                                 "--log-level"};
 const std::vector<std::string> kFlagOptions = {"--no-access-log"};
@@ -166,6 +168,7 @@ Result<http::ServeConfig> config_from(const Args& a) {
           num("--queue-timeout-ms", c.queue_timeout_ms, 0, 3'600'000, c.queue_timeout_ms),
           num("--render-queue", c.render_queue, 0, 1'000'000, c.render_queue),
           num("--max-request-cpu-s", cpu_s, 1, 86400, cpu_s),
+          num("--render-deadline-s", c.render_deadline_s, 1, 86400, c.render_deadline_s),
           num("--body-budget-mb", body_budget_mb, 1, 1 << 20, body_budget_mb)})
         if (err) return *err;
     c.cache_bytes = static_cast<std::size_t>(cache_mb) << 20;

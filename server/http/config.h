@@ -48,6 +48,9 @@ struct ServeConfig {
     int queue_timeout_ms = 10'000;
     int render_queue = 1024;
     double max_request_cpu_s = 20;
+    // Admitted work is abandoned this long after it started (503 deadline_exceeded), and as soon
+    // as its client leaves (render/cancel.h).
+    int render_deadline_s = 60;
     std::size_t body_budget_bytes = std::size_t{256} << 20;
 
     std::size_t cache_bytes = std::size_t{256} << 20;

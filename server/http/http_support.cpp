@@ -98,6 +98,8 @@ api::ApiError to_api_error(const Error& e, std::string code) {
         return pick(507, "insufficient_storage");
     case ErrorCode::unavailable:
         return pick(503, "store_unavailable");
+    case ErrorCode::cancelled:
+        return pick(503, "deadline_exceeded");
     case ErrorCode::io:
         return pick(500, "storage_error");
     case ErrorCode::internal:

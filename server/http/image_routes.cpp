@@ -106,8 +106,8 @@ std::string Service::etag_for(const std::string& key) const {
 
 void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
                            const std::string& id, const std::string& key, api::ImageFormat format,
-                           const std::function<Result<core::Image>()>& produce, bool mix,
-                           std::int64_t pixels, double mni) {
+                           const std::function<Result<core::Image>(const render::Cancel&)>& produce,
+                           bool mix, std::int64_t pixels, double mni) {
     int order = 1;
     if (mix) {
         auto found = m_mixes->meta(id);
@@ -140,8 +140,9 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
     }
     auto slot = admit(res, noise_work_s(pixels, mni, order));
     if (!slot) return;
-    auto image = produce();
-    if (!image) return send_error(res, to_api_error(image.error()));
+    const render::Cancel cancel = work_cancel();
+    auto image = produce(cancel);
+    if (!image) return send_work_error(res, image.error(), cancel);
     auto bytes =
         io::encode_image_memory(image.value(), encoding_of(format),
                                 {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}},
@@ -198,10 +199,11 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
         noise_key(job.id, job.request, job.format, job.kind, job.out_width, job.out_height);
     serve_cached(
         req, res, job.id, key, job.format,
-        [&]() -> Result<core::Image> {
-            auto image = job.mix
-                             ? render_mix(job.id, job.request, job.use_region_backend, job.kind)
-                             : render_noise(job.id, job.request, job.use_region_backend, job.kind);
+        [&](const render::Cancel& cancel) -> Result<core::Image> {
+            render::NoiseRequest q = job.request;
+            q.cancel = &cancel;
+            auto image = job.mix ? render_mix(job.id, q, job.use_region_backend, job.kind)
+                                 : render_noise(job.id, q, job.use_region_backend, job.kind);
             if (image &&
                 (job.out_width != job.request.width || job.out_height != job.request.height))
                 return core::resample_periodic(image.value(), job.out_width, job.out_height);
@@ -223,7 +225,7 @@ void Service::spectrum(const httplib::Request& req, const std::string& id, httpl
         "spectrum/" + id + "/s" + std::to_string(noise.seed) + "/m" + mni_text(noise.mni) + ".png";
     serve_cached(
         req, res, id, key, api::ImageFormat::png,
-        [&]() -> Result<core::Image> {
+        [&](const render::Cancel& cancel) -> Result<core::Image> {
             auto png = m_store->exemplar_png(id);
             if (!png) return png.error();
             auto exemplar = io::decode_image_memory(png.value());
@@ -236,6 +238,7 @@ void Service::spectrum(const httplib::Request& req, const std::string& id, httpl
                     for (int x = 0; x < w; ++x)
                         crop.at(c, x, y) = u.at(c, x + (u.width - w) / 2, y + (u.height - h) / 2);
             render::NoiseRequest nq = noise_request(0, 0, 0, w, h, noise);
+            nq.cancel = &cancel;
             auto window = render_noise(id, nq, true, "spectrum");
             if (!window) return window.error();
             const core::Image a = core::centred_power_spectrum(core::periodic_component(crop));

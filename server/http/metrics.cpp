@@ -70,6 +70,11 @@ void Metrics::not_admitted(const std::string& why) {
     ++m_not_admitted[why];
 }
 
+void Metrics::abandoned(bool deadline) {
+    std::lock_guard lock(m_mutex);
+    ++(deadline ? m_abandoned_deadline : m_abandoned_gone);
+}
+
 void Metrics::tile_cache(bool hit) {
     std::lock_guard lock(m_mutex);
     ++(hit ? m_cache_hits : m_cache_misses);
@@ -127,6 +132,11 @@ std::string Metrics::prometheus_text() const {
             o << "textond_not_admitted_total{reason=\"" << why << "\"} "
               << (it == m_not_admitted.end() ? 0 : it->second) << "\n";
         }
+        o << "# HELP textond_abandoned_total Admitted work stopped before its end: deadline "
+             "(--render-deadline-s, 503), gone (the client left during the work).\n"
+             "# TYPE textond_abandoned_total counter\n"
+          << "textond_abandoned_total{reason=\"deadline\"} " << m_abandoned_deadline << "\n"
+          << "textond_abandoned_total{reason=\"gone\"} " << m_abandoned_gone << "\n";
         o << "# HELP textond_analyses_total Texton analyses run (joined uploads are not "
              "counted).\n# TYPE textond_analyses_total counter\n"
           << "textond_analyses_total{result=\"ok\"} " << m_analyses_ok << "\n"

@@ -22,6 +22,8 @@ public:
     void tile_cache(bool hit);
     // Work not admitted: "too_large" (413), "busy" (429), "gone" (client left while waiting).
     void not_admitted(const std::string& why);
+    // Admitted work stopped before its end: its deadline passed, or its client left.
+    void abandoned(bool deadline);
     void analysis(bool ok, double ms);
     // Values read when /metrics is scraped (queue depth, store size, cache bytes).
     void gauge(const std::string& name, const std::string& help, std::function<double()> read);
@@ -46,6 +48,7 @@ private:
     std::map<std::array<std::string, 2>, Histogram> m_render_ms;    // backend, kind (seconds)
     std::uint64_t m_cache_hits = 0, m_cache_misses = 0;
     std::map<std::string, std::uint64_t> m_not_admitted;
+    std::uint64_t m_abandoned_deadline = 0, m_abandoned_gone = 0;
     std::uint64_t m_analyses_ok = 0, m_analyses_failed = 0;
     Histogram m_analysis_seconds;
     std::map<std::string, Gauge> m_gauges;

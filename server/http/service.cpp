@@ -395,6 +395,27 @@ std::optional<SlotGuard> Service::admit(httplib::Response& res, double work_s) {
     return std::nullopt;
 }
 
+render::Cancel Service::work_cancel() const {
+    ConnectionStream* conn = current_connection();
+    return render::Cancel(std::chrono::steady_clock::now() +
+                              std::chrono::seconds(m_config.render_deadline_s),
+                          [conn] { return conn && conn->client_gone(); });
+}
+
+void Service::send_work_error(httplib::Response& res, const Error& e, const render::Cancel& cancel,
+                              const std::string& code) {
+    if (e.code == ErrorCode::cancelled) {
+        const bool deadline = cancel.deadline_passed();
+        m_metrics.abandoned(deadline);
+        if (!deadline) {
+            if (ConnectionStream* conn = current_connection()) conn->close_after_response();
+            return send_error(res, {408, "client_gone", "the client left during the work"});
+        }
+        res.set_header("Retry-After", "1");
+    }
+    send_error(res, to_api_error(e, code));
+}
+
 std::optional<SlotGuard> Service::admit_decode(httplib::Response& res) {
     const auto why = m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms));
     if (why == RenderSlots::Admit::granted) return SlotGuard(&m_decode_slots);

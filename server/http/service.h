@@ -3,6 +3,7 @@
 // texton store, the analysis pool, the render backends and the image cache.
 #include "core/result.h"
 #include "render/backend.h"
+#include "render/cancel.h"
 #include "render/cpu_backend.h"
 #include "server/http/admission.h"
 #include "server/http/analysis_pool.h"
@@ -83,8 +84,8 @@ private:
     // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format,
-                      const std::function<Result<core::Image>()>& produce, bool mix,
-                      std::int64_t pixels, double mni);
+                      const std::function<Result<core::Image>(const render::Cancel&)>& produce,
+                      bool mix, std::int64_t pixels, double mni);
     Result<core::Image> render_noise(const std::string& id, const render::NoiseRequest& q,
                                      bool whole_machine, const char* kind);
     Result<core::Image> render_mix(const std::string& id, const render::NoiseRequest& q,
@@ -99,6 +100,12 @@ private:
     // 413 over --max-request-cpu-s, 429 when no slot frees within --queue-timeout-ms.
     std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
     bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
+    // What stops admitted work: its client leaving, or --render-deadline-s from now.
+    render::Cancel work_cancel() const;
+    // The answer for work that failed: an abandoned one is counted (and gets 503 when its
+    // deadline passed; a client that left reads nothing), any other error as to_api_error.
+    void send_work_error(httplib::Response& res, const Error& e, const render::Cancel& cancel,
+                         const std::string& code = {});
     // A decoder slot (uploads, masks), waiting like admit(): 429 sent when none frees.
     std::optional<SlotGuard> admit_decode(httplib::Response& res);
     // The answer for work not admitted: 408 when the client left, else 429 with `busy`.

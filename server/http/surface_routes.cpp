@@ -81,7 +81,8 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
     body.bytes = std::string();
     if (!within_budget(res, surface_work_s(points.size() / 3, p.mni, prepared.value()->order())))
         return;
-    render::SurfaceRequest sr{p.seed, p.mni, p.scale};
+    const render::Cancel cancel = work_cancel();
+    render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
     const int nc = prepared.value()->channels();
     std::string evaluated_on = "cpu";
     auto colours = [&] {
@@ -105,7 +106,7 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
                     got.value()[3 * i + static_cast<std::size_t>(c)];
         return Result<std::vector<float>>(std::move(out));
     }();
-    if (!colours) return send_error(res, to_api_error(colours.error()));
+    if (!colours) return send_work_error(res, colours.error(), cancel);
     res.set_header("X-Textond-Channels", std::to_string(nc));
     res.set_header("X-Textond-Backend", evaluated_on);
     if (wants_binary(req)) {
@@ -145,7 +146,8 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
         cam.eye = {p.eye[0], p.eye[1], p.eye[2]};
         cam.target = {p.target[0], p.target[1], p.target[2]};
     }
-    render::SurfaceRequest sr{p.seed, p.mni, p.scale};
+    const render::Cancel cancel = work_cancel();
+    render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
     {
         // What the preview costs is known before it runs: triangles x the pixels they cover.
         auto view = render::mesh_view(mesh.value(), sr, cam, p.width, p.height);
@@ -169,7 +171,7 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
         return render::render_mesh_preview(prepared.value()->texton(), sr, mesh.value(), cam,
                                            p.width, p.height, 0);
     }();
-    if (!image) return send_error(res, to_api_error(image.error()));
+    if (!image) return send_work_error(res, image.error(), cancel);
     auto png = io::encode_image_memory(image.value(), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_header("X-Textond-Backend", evaluated_on);

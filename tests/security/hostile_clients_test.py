@@ -439,6 +439,41 @@ class HostileClients(unittest.TestCase):
                 if l.startswith('textond_not_admitted_total{reason="gone"}')]
         self.assertGreaterEqual(float(gone[0].split()[-1]), 1)
 
+    def test_work_is_abandoned_when_its_client_leaves_or_its_deadline_passes(self):
+        # A server of its own: a budget that admits a render of several seconds, a 2 s deadline.
+        data = tempfile.mkdtemp(prefix="textond-deadline-")
+        s = Server(data, ("--max-request-cpu-s", "1000", "--render-deadline-s", "2"))
+        try:
+            with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
+                st, _, body = s.request("POST", "/v1/textons?size=32&iterations=10&order=3",
+                                        f.read(), {"Content-Type": "image/png"})
+            u = json.loads(body)["id"]
+            heavy = f"/v1/textons/{u}/region.exr?w=4096&h=2048&mni=200"  # several seconds
+            # The client leaves 0.3 s into the render: both slots are free again at once.
+            for seed in (1, 2):
+                c = socket.create_connection(("127.0.0.1", s.port))
+                c.sendall(f"GET {heavy}&seed={seed} HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+                time.sleep(0.3)
+                c.close()
+            t0 = time.monotonic()
+            st, _, _ = s.request("GET", f"/v1/textons/{u}/tiles/0/0/0.png", timeout=30)
+            self.assertEqual(st, 200)
+            self.assertLess(time.monotonic() - t0, 1.5, "the abandoned renders held the slots")
+            # The deadline: 503 deadline_exceeded after about 2 s, not the render's end.
+            t0 = time.monotonic()
+            st, h, body = s.request("GET", heavy + "&seed=3", timeout=120)
+            self.assertEqual((st, error_code(body)), (503, "deadline_exceeded"), body[:200])
+            self.assertIn("Retry-After", h)
+            self.assertLess(time.monotonic() - t0, 5)
+            _, _, text = s.request("GET", "/metrics")
+            counts = {l.split('"')[1]: float(l.split()[-1]) for l in text.decode().splitlines()
+                      if l.startswith("textond_abandoned_total{")}
+            self.assertEqual(counts, {"deadline": 1, "gone": 2})
+            self.assertTrue(s.alive())
+        finally:
+            s.stop()
+            shutil.rmtree(data, ignore_errors=True)
+
 
 if __name__ == "__main__":
     names = sys.argv[3:]
