@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the fuzz preset (clang, libFuzzer, address + UB sanitizers), makes the seed corpus and
 # runs decode_analyze_fuzzer, then request_fuzzer (api/ parsers, mix fields, surface
-# parameters), each for SECONDS (default 60, the CI smoke). Prints executions and
+# parameters), then render_fuzzer (what the parsers accept, rendered: a tiny mix, surface
+# points, a mesh preview), each for SECONDS (default 60, the CI smoke). Prints executions and
 # coverage; a crash leaves its input in build/fuzz/crashes/ and fails the script. Make every
 # crash a regression test in tests/fuzz/regressions/ (replayed by this script first).
 #
@@ -64,6 +65,21 @@ grep -E "stat::number_of_executed_units|cov:" build/fuzz/last-request-run.log | 
 if [ $status -ne 0 ]; then
     echo "fuzz: request_fuzzer failed (status $status); inputs in build/fuzz/crashes/:" >&2
     grep -m 20 -E "ERROR|SUMMARY|runtime error|deadly" build/fuzz/last-request-run.log >&2 || true
+    exit 1
+fi
+# Parsed values into small renders: seeds in tests/fuzz/seeds/render (selector byte first).
+wcorpus=build/fuzz/render-work
+mkdir -p "$wcorpus"
+cp -n tests/fuzz/seeds/render/* "$wcorpus"/
+set +e
+build/fuzz/render_fuzzer "$wcorpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=20 \
+    -artifact_prefix=build/fuzz/crashes/ -print_final_stats=1 >build/fuzz/last-render-run.log 2>&1
+status=$?
+set -e
+grep -E "stat::number_of_executed_units|cov:" build/fuzz/last-render-run.log | tail -n 2
+if [ $status -ne 0 ]; then
+    echo "fuzz: render_fuzzer failed (status $status); inputs in build/fuzz/crashes/:" >&2
+    grep -m 20 -E "ERROR|SUMMARY|runtime error|deadly" build/fuzz/last-render-run.log >&2 || true
     exit 1
 fi
 echo "fuzz: ${seconds}s clean"
