@@ -4,7 +4,103 @@
 #include "render/egl_backend.h"
 #include "render/osmesa_backend.h"
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <thread>
+
 namespace textond::render {
+
+namespace {
+
+// A fixed r = 64 texton (smooth coefficients, no analysis): what the calibration renders. The
+// cost of texton noise depends on r, the order and the MNI, not on the coefficients.
+std::shared_ptr<const PreparedTexton> calibration_texton() {
+    static const std::shared_ptr<const PreparedTexton> t = [] {
+        core::Texton x;
+        x.size = 64;
+        x.channels = 3;
+        x.order = 1;
+        x.mean = {0.5, 0.5, 0.5};
+        x.alpha = core::Image(64, 64, 3);
+        for (int c = 0; c < 3; ++c)
+            for (int y = 0; y < 64; ++y)
+                for (int i = 0; i < 64; ++i)
+                    x.alpha.at(c, i, y) =
+                        static_cast<float>(0.01 * std::sin(0.3 * i + 0.7 * y + c));
+        return PreparedTexton::make(x).value();
+    }();
+    return t;
+}
+
+template <class F> Result<double> median_ms(F&& f) {
+    double ms[3];
+    for (double& m : ms) {
+        const auto t0 = std::chrono::steady_clock::now();
+        if (auto e = f()) return *e;
+        m = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+    }
+    std::sort(ms, ms + 3);
+    return ms[1];
+}
+
+std::string figures_text(const std::vector<Calibration>& figures) {
+    std::string s;
+    for (const auto& f : figures) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "%s%s 16 tiles %.1f ms, HD frame %.1f ms",
+                      s.empty() ? "" : "; ", f.backend.c_str(), f.tile_ms, f.frame_ms);
+        s += buf;
+    }
+    return s;
+}
+
+} // namespace
+
+Result<Calibration> calibrate(Backend& b, int cpu_slots, bool quick) {
+    const int tile = quick ? 64 : 256;
+    const auto tex = calibration_texton();
+    Calibration out;
+    out.backend = b.name();
+    std::uint64_t seed = 1000;
+    NoiseRequest frame;
+    frame.width = quick ? 480 : 1920;
+    frame.height = quick ? 270 : 1080;
+    auto render = [&](NoiseRequest q) -> std::optional<Error> {
+        q.seed = ++seed;
+        auto r = b.render(*tex, q);
+        if (!r) return r.error();
+        return std::nullopt;
+    };
+    if (auto warm = render(frame)) return *warm; // tables, textures, shader compilation
+    auto tiles = median_ms([&]() -> std::optional<Error> {
+        for (int t = 0; t < 16; ++t) {
+            NoiseRequest q;
+            q.width = q.height = tile;
+            q.x0 = tile * (t % 4);
+            q.y0 = tile * (t / 4);
+            if (auto e = render(q)) return e;
+        }
+        return std::nullopt;
+    });
+    if (!tiles) return tiles.error();
+    auto whole = median_ms([&] { return render(frame); });
+    if (!whole) return whole.error();
+    out.tile_ms = tiles.value() / std::max(1, cpu_slots);
+    out.frame_ms = whole.value();
+    return out;
+}
+
+std::pair<std::size_t, std::size_t> pick_fastest(const std::vector<Calibration>& figures) {
+    std::size_t tiles = 0, frames = 0;
+    for (std::size_t i = 1; i < figures.size(); ++i) {
+        if (figures[i].tile_ms < figures[tiles].tile_ms) tiles = i;
+        if (figures[i].frame_ms < figures[frames].frame_ms) frames = i;
+    }
+    return {tiles, frames};
+}
 
 Result<BackendKind> parse_backend_kind(std::string_view name) {
     if (name == "auto") return BackendKind::automatic;
@@ -32,7 +128,7 @@ const char* to_string(BackendKind kind) {
 Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& options) {
     auto cpu = [&](std::string reason) {
         auto b = std::make_shared<CpuBackend>(options.threads);
-        return BackendChoice{b, reason + b->renderer()};
+        return BackendChoice{b, nullptr, reason + b->renderer(), {}};
     };
     switch (kind) {
     case BackendKind::cpu:
@@ -40,17 +136,43 @@ Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& optio
     case BackendKind::osmesa: {
         auto b = make_osmesa_backend();
         if (!b) return b.error();
-        return BackendChoice{b.value(), "asked for osmesa: " + b.value()->renderer()};
+        return BackendChoice{b.value(), nullptr, "asked for osmesa: " + b.value()->renderer(), {}};
     }
     case BackendKind::egl: {
         auto b = make_egl_backend(options.allow_software_egl);
         if (!b) return b.error();
-        return BackendChoice{b.value(), "asked for egl: " + b.value()->renderer()};
+        return BackendChoice{b.value(), nullptr, "asked for egl: " + b.value()->renderer(), {}};
     }
     case BackendKind::automatic: {
-        auto b = make_egl_backend(false);
-        if (b) return BackendChoice{b.value(), "auto: GPU found, " + b.value()->renderer()};
-        return cpu("auto: no GPU (" + b.error().message + "), so ");
+        auto b = make_egl_backend(options.allow_software_egl);
+        if (!b) return cpu("auto: no GPU (" + b.error().message + "), so ");
+        // Measure: the CPU path as the server runs it (tiles on one thread each, as many at
+        // once as it has slots; frames on every thread) against the GPU.
+        const int slots = options.tile_slots > 0
+                              ? options.tile_slots
+                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+        auto all = std::make_shared<CpuBackend>(options.threads);
+        auto one = std::make_shared<CpuBackend>(1);
+        const bool quick = options.quick_calibration;
+        auto cpu_tiles = calibrate(*one, slots, quick);
+        auto cpu_frame = calibrate(*all, 0, quick);
+        auto gpu = calibrate(*b.value(), 0, quick);
+        if (!cpu_tiles || !cpu_frame)
+            return make_error(ErrorCode::internal, "auto: the CPU calibration failed");
+        if (!gpu)
+            return cpu("auto: the GPU (" + b.value()->renderer() +
+                       ") failed its calibration: " + gpu.error().message + "; so ");
+        std::vector<Calibration> figures = {
+            {"cpu", cpu_tiles.value().tile_ms, cpu_frame.value().frame_ms}, gpu.value()};
+        const auto [t, f] = pick_fastest(figures);
+        BackendChoice c;
+        c.backend = f == 0 ? std::static_pointer_cast<Backend>(all) : b.value();
+        c.tiles = t == 0 ? std::static_pointer_cast<Backend>(one) : b.value();
+        c.calibration = figures;
+        c.reason = std::string("auto, measured (") + figures_text(figures) + "): tiles on " +
+                   c.tiles->name() + ", frames on " + c.backend->name() + "; " +
+                   b.value()->renderer();
+        return c;
     }
     }
     return make_error(ErrorCode::internal, "unknown backend kind");

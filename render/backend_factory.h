@@ -1,12 +1,16 @@
 #pragma once
-// Picks a backend by name and says why: `auto` takes a real GPU through EGL when there is one,
-// else the CPU path (on the same cores it is far faster than OSMesa's llvmpipe).
+// Picks a backend by name and says why. `auto` measures: where EGL finds a GPU, a short
+// calibration renders the same tiles and frame on it and on the CPU path, and each kind of work
+// goes to the faster (never to a backend slower than the CPU); without a GPU it is the CPU path
+// (on the same cores it is far faster than OSMesa's llvmpipe).
 #include "core/result.h"
 #include "render/backend.h"
 
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace textond::render {
 
@@ -20,12 +24,34 @@ struct BackendOptions {
     // EGL normally refuses software renderers (llvmpipe) so they are never mistaken for a GPU;
     // tests set this to run the EGL code path on machines without one.
     bool allow_software_egl = false;
+    // The CPU renders this many tiles at once (one thread each), so its tile throughput is this
+    // many times one thread's; 0 = one per core.
+    int tile_slots = 0;
+    // Tests: calibrate on 64x64 tiles and a 480x270 frame (the same code, 1/16 of the work).
+    bool quick_calibration = false;
+};
+
+// What the calibration of `auto` measured for one backend (milliseconds, median of 3).
+struct Calibration {
+    std::string backend;
+    double tile_ms = 0;  // sixteen 256x256 tiles, one call each (the CPU: one thread each,
+                         // divided by the tiles it renders at once)
+    double frame_ms = 0; // one 1920x1080 frame (the CPU: every thread)
 };
 
 struct BackendChoice {
-    std::shared_ptr<Backend> backend;
-    std::string reason; // what was tried and why this one was taken
+    std::shared_ptr<Backend> backend; // large windows (regions, tileable, spectra)
+    std::shared_ptr<Backend> tiles;   // tiles; null = `backend` (the CPU path's tiles: one thread)
+    std::string reason;               // what was tried and why this one was taken
+    std::vector<Calibration> calibration; // auto with a GPU: every candidate's figures
 };
+
+// The calibration set rendered on `b` (`cpu_slots` > 0: b renders that many tiles at once).
+Result<Calibration> calibrate(Backend& b, int cpu_slots, bool quick = false);
+
+// Which calibrated backend serves tiles and which frames: the fastest of each, the CPU's (entry 0)
+// unless another beats it. Returns indices into `figures`.
+std::pair<std::size_t, std::size_t> pick_fastest(const std::vector<Calibration>& figures);
 
 Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& options = {});
 

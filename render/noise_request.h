@@ -33,6 +33,7 @@ struct RenderStats {
     std::uint64_t evaluations = 0; // (pixel, point) kernel evaluations, or limit-model taps
     // (an abandoned exact render still reports what it did before it stopped)
     bool limit_model = false;
+    double gpu_ms = -1; // GPU time of the dispatches (GL timer queries); -1 on the CPU
 };
 
 } // namespace textond::render

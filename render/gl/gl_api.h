@@ -75,7 +75,14 @@ namespace textond::render::gl {
     X(PFNGLFRAMEBUFFERRENDERBUFFERPROC, FramebufferRenderbuffer)                                   \
     X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)                                                 \
     X(PFNGLUNIFORM2FPROC, Uniform2f)                                                               \
-    X(PFNGLTEXIMAGE3DPROC, TexImage3D)
+    X(PFNGLTEXIMAGE3DPROC, TexImage3D)                                                             \
+    X(PFNGLBINDIMAGETEXTUREPROC, BindImageTexture)                                                 \
+    X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                                       \
+    X(PFNGLGENQUERIESPROC, GenQueries)                                                             \
+    X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                       \
+    X(PFNGLBEGINQUERYPROC, BeginQuery)                                                             \
+    X(PFNGLENDQUERYPROC, EndQuery)                                                                 \
+    X(PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v)
 
 struct GlApi {
 #define TEXTOND_GL_DECLARE(type, name) type name = nullptr;

@@ -97,15 +97,19 @@ GlBackend::~GlBackend() {
     CurrentScope scope(*m_context);
     if (!scope.ok || !m_gl->DeleteProgram) return;
     for (auto& [key, t] : m_tables) m_gl->DeleteTextures(1, &t.texture);
+    for (auto& [key, t] : m_table_buffers) m_gl->DeleteBuffers(1, &t.texture);
     if (m_program) m_gl->DeleteProgram(m_program);
     if (m_probe_program) m_gl->DeleteProgram(m_probe_program);
     if (m_surface_program) m_gl->DeleteProgram(m_surface_program);
     if (m_mesh_program) m_gl->DeleteProgram(m_mesh_program);
     if (m_vao) m_gl->DeleteVertexArrays(1, &m_vao);
+    if (m_out_fbo) m_gl->DeleteFramebuffers(1, &m_out_fbo);
+    if (m_point_buffers[0]) m_gl->DeleteBuffers(3, m_point_buffers);
+    if (m_out_texture) m_gl->DeleteTextures(1, &m_out_texture);
 }
 
 GlslSources GlslSources::embedded() {
-    return {glsl::kFullscreenVert, glsl::kNoiseLib, glsl::kTextonNoiseFrag};
+    return {glsl::kNoiseLib, glsl::kTextonEval, "", ""};
 }
 
 Result<std::shared_ptr<GlBackend>> GlBackend::create(std::string name,
@@ -135,12 +139,23 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
         return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
                                                       m_renderer + "), not a GPU");
     const std::string head = "#version 450 core\n";
-    auto prog = link(*m_gl, {{GL_VERTEX_SHADER, head + sources.vert},
-                             {GL_FRAGMENT_SHADER, head + sources.lib + sources.frag}});
+    auto prog =
+        link(*m_gl, {{GL_COMPUTE_SHADER, head + "#define TEXTOND_TABLE_BUFFER\n" + sources.lib +
+                                             sources.eval + glsl::kTextonNoiseComp}});
     if (!prog)
         return make_error(ErrorCode::unsupported,
                           m_name + " (" + m_renderer + "): " + prog.error().message);
     m_program = prog.value();
+    if (!sources.frag.empty()) {
+        auto frag =
+            link(*m_gl, {{GL_VERTEX_SHADER, head + sources.vert},
+                         {GL_FRAGMENT_SHADER, head + sources.lib + sources.eval + sources.frag}});
+        if (!frag)
+            return make_error(ErrorCode::unsupported,
+                              m_name + " (" + m_renderer +
+                                  "), fragment entry point: " + frag.error().message);
+        m_gl->DeleteProgram(frag.value());
+    }
     m_gl->GenVertexArrays(1, &m_vao);
     return true;
 }
@@ -156,6 +171,28 @@ int GlBackend::uniform(const char* name) {
     const int loc = m_gl->GetUniformLocation(m_program, name);
     m_uniforms.emplace(name, loc);
     return loc;
+}
+
+unsigned GlBackend::table_buffer(const std::shared_ptr<const LevelTable>& t) {
+    auto it = m_table_buffers.find(t.get());
+    if (it != m_table_buffers.end()) return it->second.texture;
+    if (m_table_buffers.size() >= kMaxCachedTables) {
+        m_gl->DeleteBuffers(1, &m_table_buffers.begin()->second.texture);
+        m_table_buffers.erase(m_table_buffers.begin());
+    }
+    const int n = t->side();
+    std::vector<float> texels(static_cast<std::size_t>(n) * n * 4, 0.0f);
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x)
+            for (int c = 0; c < t->channels; ++c)
+                texels[(static_cast<std::size_t>(y) * n + x) * 4 + c] = t->row(c, y)[x];
+    GLuint buf = 0;
+    m_gl->GenBuffers(1, &buf);
+    m_gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, buf);
+    m_gl->BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(texels.size() * 4),
+                     texels.data(), GL_STATIC_DRAW);
+    m_table_buffers.emplace(t.get(), CachedTable{t, buf});
+    return buf;
 }
 
 unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
@@ -202,8 +239,6 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
     if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
     const gl::GlApi& g = *m_gl;
     g.UseProgram(m_program);
-    g.BindVertexArray(m_vao);
-    g.Disable(GL_BLEND);
 
     const bool limit = q.level >= tex.limit_level();
     const int nc = tex.channels();
@@ -261,9 +296,8 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
         int ox, oy;
         base(q.x0, bcx, ox);
         base(q.y0, bcy, oy);
-        g.ActiveTexture(GL_TEXTURE0);
-        g.BindTexture(GL_TEXTURE_2D, table_texture(table));
-        g.Uniform1i(uniform("u_table"), 0);
+        g.Uniform1i(uniform("u_side"), table->side());
+        if (!mix) g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, table_buffer(table));
         g.Uniform1i(uniform("u_st"), static_cast<int>(st));
         g.Uniform1i(uniform("u_sub_log2"), sub_log2);
         g.Uniform1i(uniform("u_L"), table->length);
@@ -279,6 +313,55 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
                     tileable ? static_cast<int>(floor_mod(bcx, q.period[0])) : 0,
                     tileable ? static_cast<int>(floor_mod(bcy, q.period[1])) : 0);
         g.Uniform2i(uniform("u_origin"), ox, oy);
+        // The window's cells from the base cell: up to the last pixel's reach (the shader's
+        // reach_cells, in the same integers).
+        auto last_cell = [&](int origin, int n) -> std::int64_t {
+            if (q.level >= 0) return (origin + std::int64_t{n - 1} * st + st - 1 + reach) / a;
+            return (((origin + std::int64_t{n - 1}) >> sub_log2) + 1 + reach) / a;
+        };
+        const std::int64_t ncx = last_cell(ox, q.width) + 1, ncy = last_cell(oy, q.height) + 1;
+        // Listing the window's points pays while there are far fewer of them than pixels
+        // (levels <= 1); above, each pixel regenerates its own.
+        const bool listed = static_cast<double>(ncx) * static_cast<double>(ncy) * grid.mu <=
+                            std::max(65536.0, static_cast<double>(q.width) * q.height / 8);
+        g.Uniform1i(uniform("u_list"), listed ? 1 : 0);
+        if (listed) {
+            // Rows of cells in parallel, then one run: cells by y then x, points in draw order.
+            std::vector<std::vector<std::uint32_t>> rows(static_cast<std::size_t>(ncy));
+            std::vector<std::uint32_t> counts(static_cast<std::size_t>(ncx * ncy));
+#pragma omp parallel for schedule(dynamic)
+            for (std::int64_t cy = 0; cy < ncy; ++cy) {
+                std::vector<core::noise::CellPoint> pts;
+                auto& row = rows[static_cast<std::size_t>(cy)];
+                for (std::int64_t cx = 0; cx < ncx; ++cx) {
+                    const int n = grid.cell_points(q.seed, bcx + cx, bcy + cy, pts);
+                    counts[static_cast<std::size_t>(cy * ncx + cx)] = static_cast<std::uint32_t>(n);
+                }
+                row.reserve(pts.size() * 4);
+                for (const auto& p : pts) {
+                    const int layer =
+                        mix ? mix->level_at(static_cast<double>(p.bx) + p.fx / 16777216.0,
+                                            static_cast<double>(p.by) + p.fy / 16777216.0)
+                            : 0;
+                    row.push_back(static_cast<std::uint32_t>(p.bx - bcx * a));
+                    row.push_back(static_cast<std::uint32_t>(p.by - bcy * a));
+                    row.push_back(p.fx | (p.eps < 0 ? 0x80000000u : 0u));
+                    row.push_back(p.fy | (static_cast<std::uint32_t>(layer) << 24));
+                }
+            }
+            std::vector<std::uint32_t> starts(counts.size() + 1, 0), points;
+            for (std::size_t i = 0; i < counts.size(); ++i) starts[i + 1] = starts[i] + counts[i];
+            points.reserve(static_cast<std::size_t>(starts.back()) * 4 + 4);
+            for (const auto& row : rows) points.insert(points.end(), row.begin(), row.end());
+            if (points.empty()) points.assign(4, 0); // a buffer may not be empty
+            upload_points(0, starts.data(), starts.size() * 4);
+            upload_points(1, points.data(), points.size() * 4);
+            g.Uniform2i(uniform("u_cells"), static_cast<int>(ncx), static_cast<int>(ncy));
+        } else {
+            const std::uint32_t none[4] = {0, 0, 0, 0}; // every binding the program names is bound
+            upload_points(0, none, sizeof none);
+            upload_points(1, none, sizeof none);
+        }
         g.Uniform1f(uniform("u_scale"), static_cast<float>(1.0 / std::sqrt(grid.lambda)));
         g.Uniform1uiv(uniform("u_thresholds[0]"), static_cast<GLsizei>(grid.thresholds.size()),
                       grid.thresholds.data());
@@ -288,21 +371,16 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
             // All level tables as one array, and the field as an affine map (or a mask) of the
             // position relative to the base cell's origin (NOISE_SPEC.md section 9).
             const int side = table->side(), nl = mix->levels();
-            std::vector<float> texels(static_cast<std::size_t>(side) * side * 3 * nl, 0.0f);
+            std::vector<float> texels(static_cast<std::size_t>(side) * side * 4 * nl, 0.0f);
             for (int l = 0; l < nl; ++l) {
                 const auto t = mix->level(l).table(q.level);
                 for (int y = 0; y < side; ++y)
                     for (int x = 0; x < side; ++x)
                         for (int c = 0; c < t->channels; ++c)
-                            texels[((static_cast<std::size_t>(l) * side + y) * side + x) * 3 +
+                            texels[((static_cast<std::size_t>(l) * side + y) * side + x) * 4 +
                                    static_cast<std::size_t>(c)] = t->row(c, y)[x];
             }
-            g.ActiveTexture(GL_TEXTURE2);
-            g.GenTextures(1, &mix_tables);
-            g.BindTexture(GL_TEXTURE_2D_ARRAY, mix_tables);
-            g.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGB32F, side, side, nl, 0, GL_RGB, GL_FLOAT,
-                         texels.data());
-            texel_fetch_only(g, GL_TEXTURE_2D_ARRAY);
+            upload_points(2, texels.data(), texels.size() * 4); // binding 3, as one texton's
             const core::MixField& f = mix->field();
             const double bx = static_cast<double>(bcx) * a, by = static_cast<double>(bcy) * a;
             g.Uniform1i(uniform("u_nlevels"), nl);
@@ -341,26 +419,32 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
         }
     }
 
-    const int cw = std::min(q.width, kChunk), ch = std::min(q.height, kChunk);
-    GLuint target = 0, fbo = 0;
-    g.ActiveTexture(GL_TEXTURE1); // unit 0 holds the table
-    g.GenTextures(1, &target);
-    g.BindTexture(GL_TEXTURE_2D, target);
-    g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, cw, ch, 0, GL_RGBA, GL_FLOAT, nullptr);
-    g.GenFramebuffers(1, &fbo);
-    g.BindFramebuffer(GL_FRAMEBUFFER, fbo);
-    g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target, 0);
-    core::Image out;
-    if (g.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-        g.DeleteFramebuffers(1, &fbo);
-        g.DeleteTextures(1, &target);
-        if (mix_tables) g.DeleteTextures(1, &mix_tables);
-        if (mix_mask) g.DeleteTextures(1, &mix_mask);
-        return make_error(ErrorCode::internal, m_name + ": float framebuffer incomplete");
+    if (!m_out_texture) {
+        // One output image for every dispatch, read back through a framebuffer.
+        g.ActiveTexture(GL_TEXTURE1); // unit 0 holds the table
+        g.GenTextures(1, &m_out_texture);
+        g.BindTexture(GL_TEXTURE_2D, m_out_texture);
+        g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, kChunk, kChunk, 0, GL_RGBA, GL_FLOAT, nullptr);
+        texel_fetch_only(g, GL_TEXTURE_2D);
+        g.GenFramebuffers(1, &m_out_fbo);
+        g.BindFramebuffer(GL_FRAMEBUFFER, m_out_fbo);
+        g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, m_out_texture,
+                               0);
+        if (g.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+            if (mix_tables) g.DeleteTextures(1, &mix_tables);
+            if (mix_mask) g.DeleteTextures(1, &mix_mask);
+            return make_error(ErrorCode::internal, m_name + ": float framebuffer incomplete");
+        }
     }
-    out = core::Image(q.width, q.height, nc);
+    g.BindImageTexture(0, m_out_texture, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+    g.BindFramebuffer(GL_FRAMEBUFFER, m_out_fbo);
+    const int cw = std::min(q.width, kChunk), ch = std::min(q.height, kChunk);
+    core::Image out(q.width, q.height, nc);
     std::vector<float> rgba(static_cast<std::size_t>(cw) * ch * 4);
     g.PixelStorei(GL_PACK_ALIGNMENT, 4);
+    GLuint timer = 0;
+    g.GenQueries(1, &timer);
+    double gpu_ms = 0;
     bool skipped = false;
     for (int y0 = 0; y0 < q.height && !skipped; y0 += ch)
         for (int x0 = 0; x0 < q.width && !skipped; x0 += cw) {
@@ -369,19 +453,27 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
                 break;
             }
             const int w = std::min(cw, q.width - x0), h = std::min(ch, q.height - y0);
-            g.Viewport(0, 0, w, h);
             g.Uniform2i(uniform("u_offset"), x0, y0);
-            g.DrawArrays(GL_TRIANGLES, 0, 3);
+            g.Uniform2i(uniform("u_size"), w, h);
+            g.BeginQuery(GL_TIME_ELAPSED, timer);
+            g.DispatchCompute(static_cast<GLuint>((w + 15) / 16),
+                              static_cast<GLuint>((h + 15) / 16), 1);
+            g.EndQuery(GL_TIME_ELAPSED);
+            g.MemoryBarrier(GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
             g.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
+            GLuint64 ns = 0;
+            g.GetQueryObjectui64v(timer, GL_QUERY_RESULT, &ns);
+            gpu_ms += static_cast<double>(ns) * 1e-6;
             for (int c = 0; c < nc; ++c)
-                for (int y = 0; y < h; ++y)
-                    for (int x = 0; x < w; ++x)
-                        out.at(c, x0 + x, y0 + y) =
-                            rgba[(static_cast<std::size_t>(y) * w + x) * 4 + c];
+                for (int y = 0; y < h; ++y) {
+                    const float* src = &rgba[static_cast<std::size_t>(y) * w * 4 + c];
+                    float* dst = &out.at(c, x0, y0 + y);
+                    for (int x = 0; x < w; ++x) dst[x] = src[static_cast<std::size_t>(x) * 4];
+                }
         }
+    g.DeleteQueries(1, &timer);
+    if (stats) stats->gpu_ms = gpu_ms;
     const GLenum err = g.GetError();
-    g.DeleteFramebuffers(1, &fbo);
-    g.DeleteTextures(1, &target);
     if (mix_tables) g.DeleteTextures(1, &mix_tables);
     if (mix_mask) g.DeleteTextures(1, &mix_mask);
     if (err != GL_NO_ERROR)
@@ -392,6 +484,19 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
                                                     ? "the render passed its deadline"
                                                     : "the client left during the render");
     return out;
+}
+
+void GlBackend::upload_points(int k, const void* data, std::size_t bytes) {
+    const gl::GlApi& g = *m_gl;
+    if (!m_point_buffers[0]) g.GenBuffers(3, m_point_buffers);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, m_point_buffers[k]);
+    if (bytes > m_point_capacity[k]) {
+        m_point_capacity[k] = std::max(bytes, 2 * m_point_capacity[k]);
+        g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(m_point_capacity[k]),
+                     nullptr, GL_DYNAMIC_DRAW);
+    }
+    g.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(bytes), data);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, static_cast<GLuint>(1 + k), m_point_buffers[k]);
 }
 
 Result<std::vector<float>> GlBackend::surface(const PreparedTexton& tex, std::uint64_t seed,

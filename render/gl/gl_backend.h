@@ -28,9 +28,11 @@ public:
     virtual std::string platform() const = 0; // e.g. "EGL device 0 (EGL_EXT_platform_device)"
 };
 
-// The noise program's GLSL: render/glsl/ by default; the engine kit's copy in its test.
+// The noise's GLSL: render/glsl/ by default; the engine kit's copy in its test. The backend runs
+// lib + eval as compute (texton_noise.comp); a fragment entry point (vert, frag), when given, is
+// compiled against the same lib + eval and linked as a check only.
 struct GlslSources {
-    std::string vert, lib, frag;
+    std::string lib, eval, vert, frag;
     static GlslSources embedded();
 };
 
@@ -87,6 +89,17 @@ private:
     std::mutex m_mutex;
     unsigned m_program = 0, m_probe_program = 0, m_surface_program = 0, m_mesh_program = 0,
              m_vao = 0;
+    // The output image of every noise dispatch (kChunk^2 RGBA32F, made once) and the
+    // framebuffer it is read back through.
+    unsigned m_out_texture = 0, m_out_fbo = 0;
+    // The window's points and each cell's first point (texton_noise.comp, u_list = 1), grown as
+    // needed and reused.
+    unsigned m_point_buffers[3] = {0, 0, 0};
+    std::size_t m_point_capacity[3] = {0, 0, 0};
+    // Copies `bytes` into buffer k (0 the cell starts, 1 the points, 2 a mix's level tables) and
+    // binds it to 1 + k.
+    void upload_points(int k, const void* data, std::size_t bytes);
+
     // Uniforms shared by surface_lib.glsl's users (the compute and the mesh programs).
     void set_surface_uniforms(unsigned program, const PreparedTexton& texton, std::uint64_t seed,
                               double mni);
@@ -95,7 +108,9 @@ private:
         std::shared_ptr<const LevelTable> table; // keeps the key alive while cached
         unsigned texture = 0;
     };
-    std::map<const LevelTable*, CachedTable> m_tables;
+    std::map<const LevelTable*, CachedTable> m_tables;        // textures (surface, mesh)
+    std::map<const LevelTable*, CachedTable> m_table_buffers; // buffers (noise; `texture` = buffer)
+    unsigned table_buffer(const std::shared_ptr<const LevelTable>& table);
 };
 
 } // namespace textond::render

@@ -5,6 +5,8 @@ namespace textond::render::glsl {
 extern const char* const kNoiseLib;
 extern const char* const kFullscreenVert;
 extern const char* const kTextonNoiseFrag;
+extern const char* const kTextonEval;
+extern const char* const kTextonNoiseComp;
 extern const char* const kSpecProbeComp;
 extern const char* const kTextonNoiseHlsl;
 extern const char* const kNoiseSpec;

@@ -28,13 +28,16 @@ show is what this shader computes: same seed, same position, same colour (to flo
 | `textond_kit.json` | every parameter: r, order, mean, MNI, cell size a, lambda, scale, the Poisson threshold table, the seed rule |
 | `texton.exr` | the coefficients alpha, float32, r x r (Y or R,G,B): what the shader samples |
 | `texton16.png` | the same as 16-bit PNG for engines without EXR: alpha = offset + scale * v / 65535 (`png16_decode` in the JSON; quantised to 2^-16 of the range, so not bit-exact) |
-| `glsl/noise_lib.glsl`, `glsl/texton_noise.frag`, `glsl/fullscreen.vert` | the exact GLSL the server's OpenGL backends run (GLSL 4.50) |
+| `glsl/noise_lib.glsl`, `glsl/texton_eval.glsl` | the exact GLSL the server's OpenGL backends run (GLSL 4.50): the hash, the point process and the evaluation of one pixel |
+| `glsl/texton_noise.frag`, `glsl/fullscreen.vert` | a fragment entry point over them (a full-screen pass); `glsl/texton_noise.comp` is the server's compute one |
 | `hlsl/texton_noise.hlsl` | its HLSL (SM 5) translation, same uniforms (arrays packed by four) |
 | `NOISE_SPEC.md` | the function itself, step by step, with every rounding fixed |
 
 ## Use (GLSL)
 
-Compile `#version 450 core` + `noise_lib.glsl` + `texton_noise.frag` as one fragment shader.
+Compile `#version 450 core` + `noise_lib.glsl` + `texton_eval.glsl` + `texton_noise.frag` as one
+fragment shader (or `texton_noise.comp` in place of the last, as a compute shader of 16 x 16
+groups writing the `rgba32f` image `u_out`, with `u_size` the pixels of the dispatch).
 Upload the table once: an `RGB32F` texture of side `r + 2 pad` (`table_pad` in the JSON: 1, or 3
 for order 3), zeros except texel `(x + pad, y + pad)` = alpha(x, y) from `texton.exr` (row 0 =
 the file's first row), `GL_NEAREST`; the shader reads it with `texelFetch` only.
@@ -138,7 +141,9 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
                             {dir + "texton.exr", texton_exr},
                             {dir + "texton16.png", png16.value()},
                             {dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
+                            {dir + "glsl/texton_eval.glsl", render::glsl::kTextonEval},
                             {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},
+                            {dir + "glsl/texton_noise.comp", render::glsl::kTextonNoiseComp},
                             {dir + "glsl/fullscreen.vert", render::glsl::kFullscreenVert},
                             {dir + "hlsl/texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
                             {dir + "NOISE_SPEC.md", render::glsl::kNoiseSpec}});

@@ -75,6 +75,14 @@ void Metrics::abandoned(bool deadline) {
     ++(deadline ? m_abandoned_deadline : m_abandoned_gone);
 }
 
+void Metrics::backends(const std::string& tiles, const std::string& frames,
+                       std::vector<CalibrationFigure> figures) {
+    std::lock_guard lock(m_mutex);
+    m_tiles_backend = tiles;
+    m_frames_backend = frames;
+    m_calibration = std::move(figures);
+}
+
 void Metrics::tile_cache(bool hit) {
     std::lock_guard lock(m_mutex);
     ++(hit ? m_cache_hits : m_cache_misses);
@@ -131,6 +139,21 @@ std::string Metrics::prometheus_text() const {
             auto it = m_not_admitted.find(why);
             o << "textond_not_admitted_total{reason=\"" << why << "\"} "
               << (it == m_not_admitted.end() ? 0 : it->second) << "\n";
+        }
+        o << "# HELP textond_backend_info The backends serving tiles and large frames.\n"
+             "# TYPE textond_backend_info gauge\n"
+          << "textond_backend_info{tiles=\"" << esc(m_tiles_backend) << "\",frames=\""
+          << esc(m_frames_backend) << "\"} 1\n";
+        if (!m_calibration.empty()) {
+            o << "# HELP textond_backend_calibration_ms What --backend auto measured at start: "
+                 "16 tiles of 256x256 (the CPU: divided by the tiles it renders at once) and one "
+                 "1920x1080 frame, per candidate backend.\n"
+                 "# TYPE textond_backend_calibration_ms gauge\n";
+            for (const auto& f : m_calibration)
+                o << "textond_backend_calibration_ms{backend=\"" << esc(f.backend)
+                  << "\",work=\"tiles16\"} " << f.tiles16_ms << "\n"
+                  << "textond_backend_calibration_ms{backend=\"" << esc(f.backend)
+                  << "\",work=\"hd_frame\"} " << f.hd_frame_ms << "\n";
         }
         o << "# HELP textond_abandoned_total Admitted work stopped before its end: deadline "
              "(--render-deadline-s, 503), gone (the client left during the work).\n"

@@ -25,6 +25,14 @@ public:
     // Admitted work stopped before its end: its deadline passed, or its client left.
     void abandoned(bool deadline);
     void analysis(bool ok, double ms);
+    // The backends serving tiles and frames, and what `auto` measured to pick them (backend,
+    // 16 tiles ms, HD frame ms).
+    struct CalibrationFigure {
+        std::string backend;
+        double tiles16_ms, hd_frame_ms;
+    };
+    void backends(const std::string& tiles, const std::string& frames,
+                  std::vector<CalibrationFigure> figures);
     // Values read when /metrics is scraped (queue depth, store size, cache bytes).
     void gauge(const std::string& name, const std::string& help, std::function<double()> read);
 
@@ -52,6 +60,8 @@ private:
     std::uint64_t m_analyses_ok = 0, m_analyses_failed = 0;
     Histogram m_analysis_seconds;
     std::map<std::string, Gauge> m_gauges;
+    std::string m_tiles_backend, m_frames_backend;
+    std::vector<CalibrationFigure> m_calibration;
 };
 
 } // namespace textond::http

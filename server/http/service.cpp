@@ -94,22 +94,28 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
 
     render::BackendOptions options;
     options.threads = 0;
+    options.tile_slots = s->m_config.render_slots > 0 ? s->m_config.render_slots : cores();
     auto choice = render::make_backend(s->m_config.backend, options);
     if (!choice) return choice.error();
     s->m_region_backend = choice.value().backend;
     s->m_backend_reason = choice.value().reason;
-    if (s->m_region_backend->name() == "cpu") {
+    s->m_calibration = choice.value().calibration;
+    if (choice.value().tiles) {
+        s->m_tile_backend = choice.value().tiles; // auto measured which is faster for tiles
+    } else if (s->m_region_backend->name() == "cpu") {
         // Tiles are small: one thread each, as many at once as there are render slots.
-        render::BackendOptions one;
-        one.threads = 1;
-        auto tiles = render::make_backend(render::BackendKind::cpu, one);
-        if (!tiles) return tiles.error();
-        s->m_tile_backend = tiles.value().backend;
-        s->m_backend_identity = "cpu"; // bit-identical for any thread count and instruction set
+        s->m_tile_backend = std::make_shared<render::CpuBackend>(1);
     } else {
         s->m_tile_backend = s->m_region_backend;
-        s->m_backend_identity = s->m_region_backend->name() + ":" + s->m_region_backend->renderer();
     }
+    // The CPU's bits are the same for any thread count and instruction set.
+    auto identity = [](const render::Backend& b) {
+        return b.name() == "cpu" ? std::string("cpu") : b.name() + ":" + b.renderer();
+    };
+    s->m_backend_identity = identity(*s->m_tile_backend);
+    if (s->m_tile_backend != s->m_region_backend &&
+        identity(*s->m_region_backend) != s->m_backend_identity)
+        s->m_backend_identity += "+" + identity(*s->m_region_backend);
     s->m_pool =
         std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
     auto mixes = MixStore::open(s->m_config.data_dir);
@@ -119,6 +125,9 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     s->m_mix_region_backend = std::make_shared<render::CpuBackend>(0);
 
     Metrics& m = s->m_metrics;
+    std::vector<Metrics::CalibrationFigure> figures;
+    for (const auto& c : s->m_calibration) figures.push_back({c.backend, c.tile_ms, c.frame_ms});
+    m.backends(s->m_tile_backend->name(), s->m_region_backend->name(), std::move(figures));
     Service* self = s.get();
     m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
             [self] { return static_cast<double>(self->m_pool->queued()); });
@@ -282,6 +291,10 @@ void Service::install_ops_routes() {
             shared = {{"url", r->describe()}, {"up", ping.ok()}};
             if (!ping) shared["error"] = ping.error().message;
         }
+        nlohmann::json calibration = nlohmann::json::array();
+        for (const auto& c : m_calibration)
+            calibration.push_back(
+                {{"backend", c.backend}, {"tiles16_ms", c.tile_ms}, {"hd_frame_ms", c.frame_ms}});
         send_json(res, ready ? 200 : 503,
                   {{"ready", ready},
                    {"degraded", degraded},
@@ -289,8 +302,10 @@ void Service::install_ops_routes() {
                    {"stopping", m_stopping.load()},
                    {"backend",
                     {{"name", m_region_backend->name()},
+                     {"tiles", m_tile_backend->name()},
                      {"renderer", m_region_backend->renderer()},
-                     {"reason", m_backend_reason}}},
+                     {"reason", m_backend_reason},
+                     {"calibration", calibration}}},
                    {"store",
                     {{"writable", writable},
                      {"textons", m_store->count()},

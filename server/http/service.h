@@ -3,6 +3,7 @@
 // texton store, the analysis pool, the render backends and the image cache.
 #include "core/result.h"
 #include "render/backend.h"
+#include "render/backend_factory.h"
 #include "render/cancel.h"
 #include "render/cpu_backend.h"
 #include "server/http/admission.h"
@@ -132,7 +133,8 @@ private:
     std::shared_ptr<render::Backend> m_tile_backend;   // one thread per render: many at once
     std::shared_ptr<render::Backend> m_region_backend; // every core on one large window
     std::string m_backend_reason;
-    std::string m_backend_identity; // part of every ETag
+    std::vector<render::Calibration> m_calibration; // auto with a GPU: what it measured
+    std::string m_backend_identity;                 // part of every ETag
     struct StaticFile {
         std::string body;
         std::string content_type;

@@ -129,14 +129,19 @@ void check_against_cpu(render::Backend& gl, int order = 1) {
         int level;
         std::int64_t x0, y0;
         double mni;
+        std::uint64_t seed = 77;
     };
     const std::int64_t far = std::int64_t{1} << 40;
+    // Seeds at and above 2^32: the high word must reach the shader (77 and 2^32 + 77 differ).
+    const std::uint64_t high = (std::uint64_t{1} << 32) + 77, top = ~std::uint64_t{0} - 5;
     for (const Case& c :
          {Case{0, 0, 0, 30}, Case{0, far, -far, 30}, Case{2, -50, 17, 30}, Case{-1, 9, -4, 5},
           Case{-3, far, far, 30}, Case{0, 3, 3, 1}, Case{3, 100, 100, 200},
-          Case{tex->limit_level(), 5, 5, 30}, Case{24, -(far >> 4), far >> 4, 30}}) {
+          Case{tex->limit_level(), 5, 5, 30}, Case{24, -(far >> 4), far >> 4, 30},
+          Case{0, 0, 0, 30, high}, Case{-1, 9, -4, 5, top}, Case{3, 100, 100, 30, high},
+          Case{tex->limit_level(), 5, 5, 30, high}}) {
         render::NoiseRequest q;
-        q.seed = 77;
+        q.seed = c.seed;
         q.level = c.level;
         q.x0 = c.x0;
         q.y0 = c.y0;
@@ -155,8 +160,8 @@ void check_against_cpu(render::Backend& gl, int order = 1) {
                         worst, std::fabs(double(a.value().at(ch, x, y)) - b.value().at(ch, x, y)));
             // Box-averaged levels have a smaller std than level 0; the bound uses level 0's.
             const double tol = (limit ? 1e-3 : 1e-5) * field_std(*tex, ch);
-            EXPECT_LE(worst, tol) << gl.name() << " level " << c.level << " x0 " << c.x0
-                                  << " channel " << ch;
+            EXPECT_LE(worst, tol) << gl.name() << " level " << c.level << " x0 " << c.x0 << " seed "
+                                  << c.seed << " channel " << ch;
         }
     }
     // Tileable mode too.
@@ -386,12 +391,58 @@ TEST(BackendFactory, ReportsWhatItPickedAndWhy) {
     EXPECT_EQ(cpu.value().backend->name(), "cpu");
     auto automatic = render::make_backend(render::BackendKind::automatic);
     ASSERT_TRUE(automatic.ok());
-    EXPECT_NE(automatic.value().reason.find("auto:"), std::string::npos);
-    if (egl_gpu())
-        EXPECT_EQ(automatic.value().backend->name(), "egl");
-    else
+    EXPECT_NE(automatic.value().reason.find("auto"), std::string::npos);
+    if (egl_gpu()) {
+        // Measured: two candidates, and each kind of work on the faster of them.
+        const auto& c = automatic.value().calibration;
+        ASSERT_EQ(c.size(), 2u) << automatic.value().reason;
+        const auto [t, f] = render::pick_fastest(c);
+        EXPECT_EQ(automatic.value().backend->name(), c[f].backend);
+        EXPECT_EQ(automatic.value().tiles->name(), c[t].backend);
+    } else {
         EXPECT_EQ(automatic.value().backend->name(), "cpu") << automatic.value().reason;
+    }
     EXPECT_FALSE(render::parse_backend_kind("vulkan").ok());
+}
+
+// auto never takes a backend that is slower than the CPU, for tiles or for frames, and a tie
+// stays on the CPU (entry 0).
+TEST(BackendFactory, PicksTheFastestAndNeverOneSlowerThanTheCpu) {
+    using C = render::Calibration;
+    EXPECT_EQ(render::pick_fastest({C{"cpu", 10, 50}}),
+              std::make_pair(std::size_t{0}, std::size_t{0}));
+    EXPECT_EQ(render::pick_fastest({C{"cpu", 10, 50}, C{"egl", 5, 80}}),
+              std::make_pair(std::size_t{1}, std::size_t{0}));
+    EXPECT_EQ(render::pick_fastest({C{"cpu", 10, 50}, C{"egl", 12, 20}}),
+              std::make_pair(std::size_t{0}, std::size_t{1}));
+    EXPECT_EQ(render::pick_fastest({C{"cpu", 10, 50}, C{"egl", 10, 50}}),
+              std::make_pair(std::size_t{0}, std::size_t{0}));
+    EXPECT_EQ(render::pick_fastest({C{"cpu", 10, 50}, C{"egl", 1, 1}}),
+              std::make_pair(std::size_t{1}, std::size_t{1}));
+}
+
+// The calibration itself, on whatever EGL finds (llvmpipe in CI): real figures for both
+// candidates, and the choice follows them.
+TEST(BackendFactory, AutoMeasuresEveryCandidate) {
+    render::BackendOptions o;
+    o.allow_software_egl = true;
+    o.tile_slots = 2;
+    o.quick_calibration = true;
+    auto automatic = render::make_backend(render::BackendKind::automatic, o);
+    ASSERT_TRUE(automatic.ok());
+    const auto& c = automatic.value().calibration;
+    if (c.empty()) GTEST_SKIP() << "no EGL at all: " << automatic.value().reason;
+    ASSERT_EQ(c.size(), 2u);
+    EXPECT_EQ(c[0].backend, "cpu");
+    EXPECT_EQ(c[1].backend, "egl");
+    for (const auto& f : c) {
+        EXPECT_GT(f.tile_ms, 0);
+        EXPECT_GT(f.frame_ms, 0);
+    }
+    const auto [t, f] = render::pick_fastest(c);
+    EXPECT_EQ(automatic.value().tiles->name(), c[t].backend);
+    EXPECT_EQ(automatic.value().backend->name(), c[f].backend);
+    EXPECT_NE(automatic.value().reason.find("measured"), std::string::npos);
 }
 
 TEST(OsmesaBackend, SpecVectors) {

@@ -51,9 +51,10 @@ TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
     auto c = server.client();
     const std::string id = upload(c, "etr_sand01.png", "?size=32&iterations=20");
     const Kit kit = unpack(c, id, "", "kit_files");
-    for (const char* f : {"README.md", "textond_kit.json", "texton.exr", "texton16.png",
-                          "glsl/noise_lib.glsl", "glsl/texton_noise.frag", "glsl/fullscreen.vert",
-                          "hlsl/texton_noise.hlsl", "NOISE_SPEC.md"}) {
+    for (const char* f :
+         {"README.md", "textond_kit.json", "texton.exr", "texton16.png", "glsl/noise_lib.glsl",
+          "glsl/texton_eval.glsl", "glsl/texton_noise.frag", "glsl/texton_noise.comp",
+          "glsl/fullscreen.vert", "hlsl/texton_noise.hlsl", "NOISE_SPEC.md"}) {
         EXPECT_TRUE(fs::exists(kit.dir / f)) << f;
         EXPECT_NE(read_file((kit.dir / f).string()).find(f == std::string("README.md") ? id : ""),
                   std::string::npos);
@@ -98,6 +99,7 @@ TEST(EngineKit, KitGlslUnderOsmesaReproducesTheServersTiles) {
         render::GlslSources sources;
         sources.vert = read_file((kit.dir / "glsl/fullscreen.vert").string());
         sources.lib = read_file((kit.dir / "glsl/noise_lib.glsl").string());
+        sources.eval = read_file((kit.dir / "glsl/texton_eval.glsl").string());
         sources.frag = read_file((kit.dir / "glsl/texton_noise.frag").string());
         auto gl = render::make_osmesa_backend(sources);
         if (!gl) GTEST_SKIP() << "no OSMesa: " << gl.error().message;
