@@ -135,6 +135,7 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
     m_renderer = r ? r : "?";
     m_version = v ? v : "?";
     m_software = is_software(m_renderer);
+    m_gl->GetIntegerv(GL_SUBPIXEL_BITS, &m_subpixel_bits);
     if (m_software && !allow_software)
         return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
                                                       m_renderer + "), not a GPU");

@@ -48,6 +48,8 @@ public:
     std::string name() const override { return m_name; }
     std::string renderer() const override;
     bool software() const { return m_software; }
+    // GL_SUBPIXEL_BITS: the rasteriser snaps vertices to 2^-bits of a pixel (mesh previews).
+    int subpixel_bits() const { return m_subpixel_bits; }
     Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                RenderStats* stats = nullptr) override;
     // Exact levels of a mix (its level tables as one texture array, the field in the shader);
@@ -86,6 +88,7 @@ private:
     std::string m_renderer;
     std::string m_version;
     bool m_software = false;
+    int m_subpixel_bits = 4;
     std::mutex m_mutex;
     unsigned m_program = 0, m_probe_program = 0, m_surface_program = 0, m_mesh_program = 0,
              m_vao = 0;

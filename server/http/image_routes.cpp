@@ -20,6 +20,8 @@
 
 namespace textond::http {
 
+using Work = render::Renderer::Work;
+
 namespace {
 
 constexpr const char* kImmutable = "public, max-age=31536000, immutable";
@@ -100,7 +102,7 @@ struct Service::ImageJob {
 
 std::string Service::etag_for(const std::string& key) const {
     io::Sha256 h;
-    h.update(build_id()).update("\n").update(m_backend_identity).update("\n").update(key);
+    h.update(build_id()).update("\n").update(m_renderer->identity()).update("\n").update(key);
     return "\"" + h.hex().substr(0, 40) + "\"";
 }
 
@@ -163,11 +165,12 @@ Result<core::Image> Service::render_noise(const std::string& id, const render::N
     auto prepared = m_store->prepared(id);
     if (!prepared) return prepared.error();
     if (auto err = prepared.value()->check(q)) return *err;
-    render::Backend& backend = whole_machine ? *m_region_backend : *m_tile_backend;
     const auto t0 = std::chrono::steady_clock::now();
-    Result<core::Image> image = backend.render(*prepared.value(), q); // in the caller's slot
+    std::string used;
+    Result<core::Image> image = m_renderer->noise( // in the caller's slot
+        *prepared.value(), q, whole_machine ? Work::frame : Work::tile, &used);
     m_metrics.render(
-        backend.name(), kind,
+        used, kind,
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     return image;
 }
@@ -177,18 +180,12 @@ Result<core::Image> Service::render_mix(const std::string& id, const render::Noi
     auto prepared = m_mixes->prepared(id);
     if (!prepared) return prepared.error();
     if (auto err = prepared.value()->check(q)) return *err;
-    // The server's backend where it has a path for the request (GL: the exact levels), else
-    // the CPU, which has them all.
-    render::Backend* backend = whole_machine ? m_region_backend.get() : m_tile_backend.get();
     const auto t0 = std::chrono::steady_clock::now();
-    Result<core::Image> image = [&] { // in the caller's slot
-        auto r = backend->render_mix(*prepared.value(), q);
-        if (r || r.error().code != ErrorCode::unsupported) return r;
-        backend = whole_machine ? m_mix_region_backend.get() : m_mix_backend.get();
-        return backend->render_mix(*prepared.value(), q);
-    }();
+    std::string used;
+    Result<core::Image> image = m_renderer->mix( // in the caller's slot
+        *prepared.value(), q, whole_machine ? Work::frame : Work::tile, &used);
     m_metrics.render(
-        backend->name(), kind,
+        used, kind,
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     return image;
 }

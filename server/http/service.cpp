@@ -95,39 +95,20 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     render::BackendOptions options;
     options.threads = 0;
     options.tile_slots = s->m_config.render_slots > 0 ? s->m_config.render_slots : cores();
-    auto choice = render::make_backend(s->m_config.backend, options);
-    if (!choice) return choice.error();
-    s->m_region_backend = choice.value().backend;
-    s->m_backend_reason = choice.value().reason;
-    s->m_calibration = choice.value().calibration;
-    if (choice.value().tiles) {
-        s->m_tile_backend = choice.value().tiles; // auto measured which is faster for tiles
-    } else if (s->m_region_backend->name() == "cpu") {
-        // Tiles are small: one thread each, as many at once as there are render slots.
-        s->m_tile_backend = std::make_shared<render::CpuBackend>(1);
-    } else {
-        s->m_tile_backend = s->m_region_backend;
-    }
-    // The CPU's bits are the same for any thread count and instruction set.
-    auto identity = [](const render::Backend& b) {
-        return b.name() == "cpu" ? std::string("cpu") : b.name() + ":" + b.renderer();
-    };
-    s->m_backend_identity = identity(*s->m_tile_backend);
-    if (s->m_tile_backend != s->m_region_backend &&
-        identity(*s->m_region_backend) != s->m_backend_identity)
-        s->m_backend_identity += "+" + identity(*s->m_region_backend);
+    auto renderer = render::Renderer::make(s->m_config.backend, options);
+    if (!renderer) return renderer.error();
+    s->m_renderer = std::move(renderer.value());
     s->m_pool =
         std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
     auto mixes = MixStore::open(s->m_config.data_dir);
     if (!mixes) return mixes.error();
     s->m_mixes = std::move(mixes.value());
-    s->m_mix_backend = std::make_shared<render::CpuBackend>(1);
-    s->m_mix_region_backend = std::make_shared<render::CpuBackend>(0);
 
     Metrics& m = s->m_metrics;
     std::vector<Metrics::CalibrationFigure> figures;
-    for (const auto& c : s->m_calibration) figures.push_back({c.backend, c.tile_ms, c.frame_ms});
-    m.backends(s->m_tile_backend->name(), s->m_region_backend->name(), std::move(figures));
+    for (const auto& c : s->m_renderer->calibration())
+        figures.push_back({c.backend, c.tile_ms, c.frame_ms});
+    m.backends(s->m_renderer->tiles_backend(), s->m_renderer->frames_backend(), std::move(figures));
     Service* self = s.get();
     m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
             [self] { return static_cast<double>(self->m_pool->queued()); });
@@ -279,7 +260,7 @@ void Service::install_ops_routes() {
     m_http.Get("/readyz", [this](const httplib::Request&, httplib::Response& res) {
         set_route("/readyz");
         const bool writable = m_store->writable();
-        const bool ready = !m_stopping && writable && m_tile_backend != nullptr;
+        const bool ready = !m_stopping && writable && m_renderer != nullptr;
         // A replica whose shared store is down still serves the textons it holds, so it stays
         // in the load balancer (were it to leave, every replica would leave at once) and says
         // it is degraded; uploads answer 503 meanwhile.
@@ -292,7 +273,7 @@ void Service::install_ops_routes() {
             if (!ping) shared["error"] = ping.error().message;
         }
         nlohmann::json calibration = nlohmann::json::array();
-        for (const auto& c : m_calibration)
+        for (const auto& c : m_renderer->calibration())
             calibration.push_back(
                 {{"backend", c.backend}, {"tiles16_ms", c.tile_ms}, {"hd_frame_ms", c.frame_ms}});
         send_json(res, ready ? 200 : 503,
@@ -301,10 +282,10 @@ void Service::install_ops_routes() {
                    {"shared_store", shared},
                    {"stopping", m_stopping.load()},
                    {"backend",
-                    {{"name", m_region_backend->name()},
-                     {"tiles", m_tile_backend->name()},
-                     {"renderer", m_region_backend->renderer()},
-                     {"reason", m_backend_reason},
+                    {{"name", m_renderer->frames_backend()},
+                     {"tiles", m_renderer->tiles_backend()},
+                     {"renderer", m_renderer->renderer()},
+                     {"reason", m_renderer->reason()},
                      {"calibration", calibration}}},
                    {"store",
                     {{"writable", writable},

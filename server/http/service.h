@@ -3,9 +3,8 @@
 // texton store, the analysis pool, the render backends and the image cache.
 #include "core/result.h"
 #include "render/backend.h"
-#include "render/backend_factory.h"
 #include "render/cancel.h"
-#include "render/cpu_backend.h"
+#include "render/renderer.h"
 #include "server/http/admission.h"
 #include "server/http/analysis_pool.h"
 #include "server/http/config.h"
@@ -45,7 +44,7 @@ public:
     int port() const { return m_port; }
     const ServeConfig& config() const { return m_config; }
     Metrics& metrics() { return m_metrics; }
-    const std::string& backend_description() const { return m_backend_reason; }
+    const std::string& backend_description() const { return m_renderer->reason(); }
 
 private:
     explicit Service(ServeConfig config);
@@ -126,15 +125,8 @@ private:
     std::unique_ptr<TextonStore> m_store;
     std::unique_ptr<AnalysisPool> m_pool;
     std::unique_ptr<MixStore> m_mixes;
-    // What a GL backend leaves to the CPU (a mix's limit levels).
-    std::shared_ptr<render::CpuBackend> m_mix_backend;        // tiles: one thread each
-    std::shared_ptr<render::CpuBackend> m_mix_region_backend; // regions: every core
     ImageCache m_cache;
-    std::shared_ptr<render::Backend> m_tile_backend;   // one thread per render: many at once
-    std::shared_ptr<render::Backend> m_region_backend; // every core on one large window
-    std::string m_backend_reason;
-    std::vector<render::Calibration> m_calibration; // auto with a GPU: what it measured
-    std::string m_backend_identity;                 // part of every ETag
+    std::unique_ptr<render::Renderer> m_renderer; // every evaluation goes through it
     struct StaticFile {
         std::string body;
         std::string content_type;

@@ -1,7 +1,6 @@
 // Surface noise over HTTP (texton-noise section 6): colours at 3D points with normals, and a
 // preview of an OBJ mesh textured by it. Both evaluate on the CPU.
 #include "api/requests.h"
-#include "render/gl/gl_backend.h"
 #include "render/surface_eval.h"
 #include "server/http/http_support.h"
 #include "server/http/service.h"
@@ -84,28 +83,8 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
     const render::Cancel cancel = work_cancel();
     render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
     const int nc = prepared.value()->channels();
-    std::string evaluated_on = "cpu";
-    auto colours = [&] {
-        auto cpu = [&] {
-            return render::evaluate_surface(prepared.value()->texton(), sr, points, normals, 1);
-        };
-        auto gl = std::dynamic_pointer_cast<render::GlBackend>(m_region_backend);
-        if (!gl) return cpu();
-        if (auto e = render::check_surface_input(sr, points, normals))
-            return Result<std::vector<float>>(*e);
-        // On a GL backend the GPU's colours (equal to the CPU's within float rounding).
-        std::vector<double> y(points.size());
-        for (std::size_t i = 0; i < y.size(); ++i) y[i] = double(points[i]) * p.scale;
-        auto got = gl->surface(*prepared.value(), p.seed, p.mni, y, normals);
-        if (!got) return cpu(); // beyond the GPU path's +-2^31 texels
-        evaluated_on = gl->name();
-        std::vector<float> out(points.size() / 3 * static_cast<std::size_t>(nc));
-        for (std::size_t i = 0; i < points.size() / 3; ++i)
-            for (int c = 0; c < nc; ++c)
-                out[i * static_cast<std::size_t>(nc) + static_cast<std::size_t>(c)] =
-                    got.value()[3 * i + static_cast<std::size_t>(c)];
-        return Result<std::vector<float>>(std::move(out));
-    }();
+    std::string evaluated_on;
+    auto colours = m_renderer->surface(*prepared.value(), sr, points, normals, &evaluated_on);
     if (!colours) return send_work_error(res, colours.error(), cancel);
     res.set_header("X-Textond-Channels", std::to_string(nc));
     res.set_header("X-Textond-Backend", evaluated_on);
@@ -158,19 +137,9 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
                                             prepared.value()->order())))
             return;
     }
-    std::string evaluated_on = "cpu";
-    auto image = [&] {
-        // On a GL backend OpenGL draws it (glsl/mesh_preview.*), else the CPU rasteriser.
-        if (auto gl = std::dynamic_pointer_cast<render::GlBackend>(m_region_backend)) {
-            auto view = render::mesh_view(mesh.value(), sr, cam, p.width, p.height);
-            if (!view) return Result<core::Image>(view.error());
-            evaluated_on = gl->name();
-            return gl->mesh_preview(*prepared.value(), p.seed, p.mni, mesh.value(), view.value(),
-                                    p.width, p.height);
-        }
-        return render::render_mesh_preview(prepared.value()->texton(), sr, mesh.value(), cam,
-                                           p.width, p.height, 0);
-    }();
+    std::string evaluated_on;
+    auto image = m_renderer->mesh_preview(*prepared.value(), sr, mesh.value(), cam, p.width,
+                                          p.height, &evaluated_on);
     if (!image) return send_work_error(res, image.error(), cancel);
     auto png = io::encode_image_memory(image.value(), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));

@@ -1,0 +1,92 @@
+#include "render/renderer.h"
+
+#include "render/cpu_backend.h"
+#include "render/gl/gl_backend.h"
+
+#include <cmath>
+
+namespace textond::render {
+
+Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const BackendOptions& options) {
+    auto choice = make_backend(kind, options);
+    if (!choice) return choice.error();
+    std::unique_ptr<Renderer> r(new Renderer());
+    r->m_cpu_one = std::make_shared<CpuBackend>(1);
+    r->m_cpu_all = std::make_shared<CpuBackend>(options.threads);
+    std::shared_ptr<Backend> frames = choice.value().backend;
+    std::shared_ptr<Backend> tiles = choice.value().tiles;
+    if (frames->name() == "cpu") frames = r->m_cpu_all;
+    if (!tiles) tiles = frames->name() == "cpu" ? r->m_cpu_one : frames;
+    if (tiles->name() == "cpu") tiles = r->m_cpu_one; // small windows: one thread each
+    r->m_frames = frames;
+    r->m_tiles = tiles;
+    r->m_frames_name = frames->name();
+    r->m_tiles_name = tiles->name();
+    r->m_gl = std::dynamic_pointer_cast<GlBackend>(frames);
+    r->m_reason = choice.value().reason;
+    r->m_calibration = choice.value().calibration;
+    auto identity = [](const Backend& b) {
+        return b.name() == "cpu" ? std::string("cpu") : b.name() + ":" + b.renderer();
+    };
+    r->m_identity = identity(*tiles);
+    if (identity(*frames) != r->m_identity) r->m_identity += "+" + identity(*frames);
+    return r;
+}
+
+Result<core::Image> Renderer::noise(const PreparedTexton& texton, const NoiseRequest& request,
+                                    Work work, std::string* used) {
+    Backend& b = work == Work::tile ? *m_tiles : *m_frames;
+    if (used) *used = work == Work::tile ? m_tiles_name : m_frames_name;
+    return b.render(texton, request);
+}
+
+Result<core::Image> Renderer::mix(const PreparedMix& mix, const NoiseRequest& request, Work work,
+                                  std::string* used) {
+    Backend& b = work == Work::tile ? *m_tiles : *m_frames;
+    if (used) *used = work == Work::tile ? m_tiles_name : m_frames_name;
+    auto r = b.render_mix(mix, request);
+    if (r || r.error().code != ErrorCode::unsupported) return r;
+    // A path the backend does not have (GL: a mix's limit levels): the CPU has them all.
+    CpuBackend& cpu = work == Work::tile ? *m_cpu_one : *m_cpu_all;
+    if (used) *used = "cpu";
+    return cpu.render_mix(mix, request);
+}
+
+Result<std::vector<float>> Renderer::surface(const PreparedTexton& texton,
+                                             const SurfaceRequest& req,
+                                             const std::vector<float>& points,
+                                             const std::vector<float>& normals, std::string* used) {
+    auto cpu = [&] {
+        if (used) *used = "cpu";
+        return evaluate_surface(texton.texton(), req, points, normals, 1);
+    };
+    if (!m_gl) return cpu();
+    if (auto e = check_surface_input(req, points, normals)) return *e;
+    // On a GL backend the GPU's colours (equal to the CPU's within float rounding).
+    std::vector<double> y(points.size());
+    for (std::size_t i = 0; i < y.size(); ++i) y[i] = double(points[i]) * req.scale;
+    auto got = m_gl->surface(texton, req.seed, req.mni, y, normals);
+    if (!got) return cpu(); // beyond the GPU path's +-2^31 texels
+    if (used) *used = m_gl->name();
+    const auto nc = static_cast<std::size_t>(texton.channels());
+    std::vector<float> out(points.size() / 3 * nc);
+    for (std::size_t i = 0; i < points.size() / 3; ++i)
+        for (std::size_t c = 0; c < nc; ++c) out[i * nc + c] = got.value()[3 * i + c];
+    return out;
+}
+
+Result<core::Image> Renderer::mesh_preview(const PreparedTexton& texton, const SurfaceRequest& req,
+                                           const Mesh& mesh, const Camera& camera, int width,
+                                           int height, std::string* used) {
+    if (m_gl) {
+        // OpenGL draws it (glsl/mesh_preview.*).
+        auto view = mesh_view(mesh, req, camera, width, height);
+        if (!view) return view.error();
+        if (used) *used = m_gl->name();
+        return m_gl->mesh_preview(texton, req.seed, req.mni, mesh, view.value(), width, height);
+    }
+    if (used) *used = "cpu";
+    return render_mesh_preview(texton.texton(), req, mesh, camera, width, height, 0);
+}
+
+} // namespace textond::render

@@ -1,0 +1,62 @@
+#pragma once
+// The one entry point of render/ for the service (issue 14): it owns the backends, knows which
+// serves which work (tiles, large frames, mixes, surface points, mesh previews) and falls back
+// to the CPU path where a backend has none (a mix's limit levels, surfaces beyond the GPU's
+// range, everything when no GPU was found). server/ never sees a backend type.
+#include "core/result.h"
+#include "render/backend.h"
+#include "render/backend_factory.h"
+#include "render/surface_eval.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace textond::render {
+
+class CpuBackend;
+class GlBackend;
+
+class Renderer {
+public:
+    enum class Work { tile, frame }; // a tile: one small window of many at once; a frame: large
+
+    // `options.threads` for frames on the CPU (tiles take one thread each).
+    static Result<std::unique_ptr<Renderer>> make(BackendKind kind, const BackendOptions& options);
+
+    // Each evaluation says in `used` (when given) which backend ran it.
+    Result<core::Image> noise(const PreparedTexton& texton, const NoiseRequest& request, Work work,
+                              std::string* used = nullptr);
+    Result<core::Image> mix(const PreparedMix& mix, const NoiseRequest& request, Work work,
+                            std::string* used = nullptr);
+    // Surface noise at points (texels per unit in req.scale); colours per point, the texton's
+    // channels each.
+    Result<std::vector<float>> surface(const PreparedTexton& texton, const SurfaceRequest& req,
+                                       const std::vector<float>& points,
+                                       const std::vector<float>& normals,
+                                       std::string* used = nullptr);
+    Result<core::Image> mesh_preview(const PreparedTexton& texton, const SurfaceRequest& req,
+                                     const Mesh& mesh, const Camera& camera, int width, int height,
+                                     std::string* used = nullptr);
+
+    const std::string& tiles_backend() const { return m_tiles_name; }
+    const std::string& frames_backend() const { return m_frames_name; }
+    std::string renderer() const { return m_frames->renderer(); }
+    // What was tried and why these were taken; what `auto` measured.
+    const std::string& reason() const { return m_reason; }
+    const std::vector<Calibration>& calibration() const { return m_calibration; }
+    // Part of every ETag: the backends whose bits the images are (the CPU's are the same for any
+    // thread count and instruction set).
+    const std::string& identity() const { return m_identity; }
+
+private:
+    Renderer() = default;
+    std::shared_ptr<Backend> m_tiles, m_frames;
+    std::string m_tiles_name, m_frames_name;
+    std::shared_ptr<CpuBackend> m_cpu_one, m_cpu_all; // mixes' limit levels, fallbacks
+    std::shared_ptr<GlBackend> m_gl;                  // surfaces and meshes, when frames are GL
+    std::string m_reason, m_identity;
+    std::vector<Calibration> m_calibration;
+};
+
+} // namespace textond::render
