@@ -4,6 +4,7 @@
 #include "core/grid_poisson.h"
 #include "core/noise_levels.h"
 #include "render/cancel.h"
+#include "render/image_buffers.h"
 
 #include <algorithm>
 #include <atomic>
@@ -588,7 +589,7 @@ Result<core::Image> CpuBackend::render_exact(const PreparedTexton& tex,
                                              const std::vector<const LevelTable*>& tables,
                                              const PreparedMix* mix, const NoiseRequest& q,
                                              RenderStats* stats) {
-    core::Image out(q.width, q.height, tex.channels());
+    core::Image out = take_image(q.width, q.height, tex.channels()); // every pixel is written
     const LevelTable* table = tables.front();
     const GridPoisson grid(tex.size(), q.mni, q.period);
     LevelGeometry geo;

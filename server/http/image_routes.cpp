@@ -6,6 +6,7 @@
 #include "core/periodic_component.h"
 #include "core/periodic_resample.h"
 #include "core/power_spectrum.h"
+#include "render/image_buffers.h"
 #include "render/noise_request.h"
 #include "server/http/http_support.h"
 #include "server/http/service.h"
@@ -149,7 +150,7 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
         io::encode_image_memory(image.value(), encoding_of(format),
                                 {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}},
                                 m_config.png_compression);
-    image = core::Image(); // the pixels go before the bytes are cached
+    render::recycle_image(std::move(image.value())); // the pixels go before the bytes are cached
     if (!bytes) return send_error(res, to_api_error(bytes.error()));
     auto entry = std::make_shared<CachedImage>();
     entry->body = std::move(bytes.value());

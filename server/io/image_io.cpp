@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <random>
 #include <sstream>
@@ -373,10 +374,37 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
 
 namespace {
 
+// The encoder's scratch (interleaved pixels, the encoded bytes), reused while small: serve maps
+// every allocation over 128 kB on its own, so fresh buffers per tile cost page faults each time.
+// A process-wide pool of at most 16 buffers of at most 2 MiB each (32 MiB in all).
+class Scratch {
+public:
+    Scratch() {
+        std::lock_guard lock(s_mutex);
+        if (!s_pool.empty()) {
+            bytes = std::move(s_pool.back());
+            s_pool.pop_back();
+        }
+        bytes.clear();
+    }
+    ~Scratch() {
+        if (bytes.capacity() > (std::size_t{2} << 20)) return;
+        std::lock_guard lock(s_mutex);
+        if (s_pool.size() < 16) s_pool.push_back(std::move(bytes));
+    }
+    Scratch(const Scratch&) = delete;
+    Scratch& operator=(const Scratch&) = delete;
+    std::vector<unsigned char> bytes;
+
+private:
+    static inline std::mutex s_mutex;
+    static inline std::vector<std::vector<unsigned char>> s_pool;
+};
+
 struct EncodeInput {
     ImageSpec spec;
     TypeDesc type;
-    std::vector<unsigned char> pixels; // interleaved, in `type`
+    std::vector<unsigned char>& pixels; // interleaved, in `type`
 };
 
 template <class T> void interleave(const core::Image& image, float scale, T* out) {
@@ -399,11 +427,12 @@ template <class T> void interleave(const core::Image& image, float scale, T* out
 
 // The pixels are converted here, not by OpenImageIO: its conversion of a small image fans out
 // to its thread pool, which costs more than the work on a server that is busy already.
-EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attributes& attributes) {
+EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attributes& attributes,
+                           std::vector<unsigned char>& pixels) {
     const TypeDesc type = e == Encoding::png8    ? TypeDesc::UINT8
                           : e == Encoding::png16 ? TypeDesc::UINT16
                                                  : TypeDesc::FLOAT;
-    EncodeInput in{ImageSpec(image.width, image.height, image.channels, type), type, {}};
+    EncodeInput in{ImageSpec(image.width, image.height, image.channels, type), type, pixels};
     if (e == Encoding::exr) {
         in.spec.attribute("compression", "zip");
         // OpenEXR's writer stamps the current time (capDate) unless a DateTime is given: the
@@ -427,7 +456,8 @@ EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attribute
 Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
                                         const Attributes& attributes, int png_compression) {
     if (image.empty()) return make_error(ErrorCode::invalid_argument, "nothing to encode");
-    EncodeInput in = prepare_encode(image, e, attributes);
+    Scratch pixels, encoded;
+    EncodeInput in = prepare_encode(image, e, attributes, pixels.bytes);
     if (e != Encoding::exr) {
         in.spec.attribute("png:compressionLevel", png_compression);
         // Stored (level 0): filters are wasted work. Compressed: the Average filter alone gives
@@ -436,7 +466,7 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
         in.spec.attribute("png:filter", png_compression == 0 ? 8 /* PNG_FILTER_NONE */
                                                              : 64 /* PNG_FILTER_AVG */);
     }
-    std::vector<unsigned char> buffer;
+    std::vector<unsigned char>& buffer = encoded.bytes;
     buffer.reserve(in.pixels.size() + in.pixels.size() / 64 + 4096); // stored PNG, no regrowth
     OIIO::Filesystem::IOVecOutput proxy(buffer);
     void* proxy_ptr = &proxy;
@@ -461,7 +491,8 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
 Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
                                const Attributes& attributes) {
     if (image.empty()) return make_error(ErrorCode::invalid_argument, "nothing to encode");
-    const EncodeInput in = prepare_encode(image, e, attributes);
+    Scratch pixels;
+    const EncodeInput in = prepare_encode(image, e, attributes, pixels.bytes);
     const ImageSpec& spec = in.spec;
     // Encode next to the target under a temporary name, then rename: never a half-written file.
     const fs::path target(path);

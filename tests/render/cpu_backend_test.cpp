@@ -1,5 +1,6 @@
 // The CPU backend: one function, many windows (design invariants 1 and 3).
 #include "render/cpu_backend.h"
+#include "render/image_buffers.h"
 #include "tests/render/render_fixtures.h"
 #include "tests/support/test_support.h"
 
@@ -48,6 +49,27 @@ TEST_P(Stitching, TwoByTwoTilesEqualTheRegion) {
     EXPECT_EQ(
         first_tile_off_the_region([&](const NoiseRequest& r) { return cpu.render(*tex, r); }, q),
         -1);
+}
+
+// Renders reuse recycled buffers without zeroing them (render/image_buffers.h): every pixel must
+// be written. Buffers full of NaN, of the same size and larger, change no bit.
+TEST(ImageBuffers, ARecycledBufferChangesNoBit) {
+    const auto tex = analysed_texton("etr_sand01.png", 64);
+    CpuBackend cpu(2, 96);
+    NoiseRequest q;
+    q.seed = 9;
+    q.x0 = -77;
+    q.width = 200;
+    q.height = 120;
+    const core::Image fresh = render_ok(cpu, *tex, q);
+    for (int side : {200, 400}) {
+        core::Image garbage(side, 120, 3, std::numeric_limits<float>::quiet_NaN());
+        render::recycle_image(std::move(garbage));
+        EXPECT_TRUE(same_bits(render_ok(cpu, *tex, q), fresh)) << side;
+    }
+    // Too large to keep: dropped, and rendering still works.
+    render::recycle_image(core::Image(2048, 1024, 3));
+    EXPECT_TRUE(same_bits(render_ok(cpu, *tex, q), fresh));
 }
 
 const std::int64_t kFar = std::int64_t{1} << 40;

@@ -351,9 +351,10 @@ class HostileClients(unittest.TestCase):
 
     # 5. Memory and CPU bounded by admission, not by the number of clients.
     def bound(self, largest):
-        # README "Limits": slots x the largest single request + the image cache + the transfer
-        # budget, over the memory the server held before the load.
-        return SLOTS * largest + (CACHE_MB + BUDGET_MB) * MIB
+        # README "Memory bound": slots x the largest single request + the image cache + the
+        # transfer budget + the pools of reused render and encode buffers (64 MiB), over the
+        # memory the server held before the load.
+        return SLOTS * largest + (CACHE_MB + BUDGET_MB + 64) * MIB
 
     def concurrent(self, n, fn):
         out = [None] * n
