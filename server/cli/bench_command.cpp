@@ -18,6 +18,7 @@ namespace textond::cli {
 namespace {
 const char* kHelp = R"(usage: textond bench analyze [--exemplars DIR] [--repeat N] [--threads N]
        textond bench render --help   (texton noise per backend against FFTW ADSN)
+       textond bench tile --help     (one cold PNG tile on one thread: render, encode)
 
 Times the texton analysis (r = 64, order 1, 50 iterations) on exemplars of growing size and prints
 a table; then the RME of the analysed texton against the cropped canonical texton for every
@@ -53,6 +54,8 @@ double median_ms(const core::Image& u, const core::AnalysisParams& p, int repeat
 int bench_command(const Argv& argv) {
     if (!argv.empty() && argv[0] == "render")
         return bench_render_command(Argv(argv.begin() + 1, argv.end()));
+    if (!argv.empty() && argv[0] == "tile")
+        return bench_tile_command(Argv(argv.begin() + 1, argv.end()));
     auto args = parse_args(argv, {"--exemplars", "--repeat", "--threads"}, {"--help"});
     if (!args) return fail(2, args.error().message);
     const Args& a = args.value();

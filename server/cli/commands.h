@@ -12,6 +12,7 @@ int analyze_command(const Argv& args);
 int synth_command(const Argv& args);
 int bench_command(const Argv& args);
 int bench_render_command(const Argv& args);
+int bench_tile_command(const Argv& args);
 int render_command(const Argv& args);
 int mix_command(const Argv& args);
 int serve_command(const Argv& args);

@@ -49,10 +49,26 @@ cpu_ticks() { [ -n "$pid" ] && awk '{print $14 + $15}' "/proc/$pid/stat" || echo
 cache() { curl -sf "$URL/metrics" | awk -v r="$1" '$1 == "textond_tile_cache_requests_total{result=\""r"\"}" {print $2}'; }
 hz=$(getconf CLK_TCK)
 
+# Waits until the server has used no CPU for 0.5 s (at most 30 s): requests of the cold phase
+# that were queued when wrk stopped must not be measured as part of the warm one.
+wait_idle() {
+    [ -n "$pid" ] || { sleep 2; return; }
+    local last now
+    last=$(cpu_ticks)
+    for _ in $(seq 60); do
+        sleep 0.5
+        now=$(cpu_ticks)
+        [ "$now" = "$last" ] && return
+        last=$now
+    done
+}
+
 printf "%-5s %10s %9s %9s %7s %10s %11s\n" mode "tiles/s" "p50 ms" "p99 ms" errors "hit ratio" "CPU-ms/tile"
 for mode in cold warm; do
     if [ "$mode" = warm ]; then  # fill the warm set first
+        wait_idle
         for k in $(seq 0 63); do curl -sf -o /dev/null "$URL/v1/textons/$id/tiles/0/$((k % 8))/$((k / 8)).png?seed=7"; done
+        wait_idle
     fi
     h0=$(cache hit); m0=$(cache miss); c0=$(cpu_ticks)
     out=$(TEXTON=$id MODE=$mode SEED=$([ $mode = warm ] && echo 7 || echo $RANDOM) \
@@ -60,8 +76,52 @@ for mode in cold warm; do
     h1=$(cache hit); m1=$(cache miss); c1=$(cpu_ticks)
     read -r _ n rps p50 p99 sock_err status_err bytes <<<"$out"
     hits=$((${h1%.*} - ${h0%.*})); misses=$((${m1%.*} - ${m0%.*}))
-    awk -v m="$mode" -v rps="$rps" -v p50="$p50" -v p99="$p99" -v e=$((sock_err + status_err)) \
+    line=$(awk -v m="$mode" -v rps="$rps" -v p50="$p50" -v p99="$p99" -v e=$((sock_err + status_err)) \
         -v h=$hits -v mi=$misses -v c=$((c1 - c0)) -v hz="$hz" -v n="$n" 'BEGIN {
         printf "%-5s %10.0f %9.2f %9.2f %7d %10.3f %11.3f\n", m, rps, p50, p99, e,
-               (h + mi) ? h / (h + mi) : 0, n ? c * 1000 / hz / n : 0 }'
+               (h + mi) ? h / (h + mi) : 0, n ? c * 1000 / hz / n : 0 }')
+    echo "$line"
+    [ "$mode" = cold ] && cold_cpu=${line##* }
 done
+
+# The server's CPU per cold tile against what the tile itself costs on one thread (render +
+# encode, `textond bench tile` on the same exemplar, in this run): the server's overhead.
+if [ -n "${server_pid:-}" ] || [ "${BENCH:-0}" = 1 ]; then
+    base=$("$BIN" bench tile --exemplar "$EXEMPLAR" --count 100 2>/dev/null |
+           awk -F'|' '/render \+ encode/ {gsub(/ /, "", $3); print $3}')
+    [ -n "$base" ] && awk -v s="$cold_cpu" -v b="$base" 'BEGIN {
+        printf "cold: server %.3f CPU-ms/tile, one-thread render + encode %.3f ms: %.2fx\n", s, b, s / b }'
+fi
+
+# The warm path against nginx serving one of the same tiles from disk on this machine, with the
+# same wrk threads, connections and duration: the ratio is what the cached path costs over a
+# static file server.
+if command -v nginx >/dev/null || [ -x /usr/sbin/nginx ]; then
+    ngx=$(command -v nginx || echo /usr/sbin/nginx)
+    static=$(mktemp -d)
+    curl -sf -o "$static/tile.png" "$URL/v1/textons/$id/tiles/0/0/0.png?seed=7"
+    nport=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+    cat >"$static/nginx.conf" <<NGINX
+worker_processes auto;
+pid $static/nginx.pid;
+error_log $static/error.log;
+events { worker_connections 1024; }
+http {
+    access_log off;
+    client_body_temp_path $static; proxy_temp_path $static; fastcgi_temp_path $static;
+    uwsgi_temp_path $static; scgi_temp_path $static;
+    server { listen 127.0.0.1:$nport; root $static; location / { } }
+}
+NGINX
+    if "$ngx" -c "$static/nginx.conf" -p "$static" 2>/dev/null; then
+        sleep 0.3
+        nrps=$(wrk -t "$THREADS" -c "$CONNECTIONS" -d "$DURATION" "http://127.0.0.1:$nport/tile.png" |
+               awk '/Requests\/sec/ {print $2}')
+        kill "$(cat "$static/nginx.pid")" 2>/dev/null || true
+        awk -v w="$rps" -v n="$nrps" 'BEGIN {
+            printf "nginx static, same bytes: %.0f/s; warm tiles / nginx = %.2fx\n", n, n ? w / n : 0 }'
+    else
+        echo "nginx could not start; no static comparison"
+    fi
+    rm -rf "$static"
+fi
