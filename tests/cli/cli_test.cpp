@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -42,12 +43,36 @@ RunResult run(const std::string& args) {
 } // namespace
 
 TEST(Cli, HelpForEveryCommand) {
-    for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help",
-                          "render --help", "bench render --help", "serve --help", "mix --help"}) {
+    for (const char* c :
+         {"--help", "analyze --help", "synth --help", "bench --help", "render --help",
+          "bench render --help", "bench tile --help", "serve --help", "mix --help"}) {
         const RunResult r = run(c);
         EXPECT_EQ(r.code, 0) << c;
         EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
     }
+}
+
+// The baseline load_test.sh divides by: three positive timings whose sum is the third, and the
+// PNG size of a stored 256x256 RGB tile (196,608 bytes of pixels plus the format's framing).
+TEST(Cli, BenchTilePrintsRenderEncodeAndTheirSum) {
+    const RunResult r =
+        run("bench tile --count 5 --size 32 --exemplar " + test::exemplar_path("etr_sand01.png"));
+    ASSERT_EQ(r.code, 0) << r.err;
+    double v[3] = {0, 0, 0};
+    const char* rows[3] = {"| render |", "| encode |", "| render + encode |"};
+    for (int i = 0; i < 3; ++i) {
+        const auto at = r.out.find(rows[i]);
+        ASSERT_NE(at, std::string::npos) << r.out;
+        v[i] = std::stod(r.out.substr(at + std::strlen(rows[i])));
+        EXPECT_GT(v[i], 0) << rows[i];
+    }
+    EXPECT_NEAR(v[2], v[0] + v[1], 0.5 * v[2]) << r.out; // medians: the sum's is close, not equal
+    const auto bytes = r.out.find(" bytes)");
+    ASSERT_NE(bytes, std::string::npos);
+    const std::size_t start = r.out.rfind(' ', bytes - 1) + 1;
+    const long n = std::stol(r.out.substr(start, bytes - start));
+    EXPECT_GT(n, 196608);
+    EXPECT_LT(n, 196608 + 4096);
 }
 
 TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
