@@ -71,17 +71,24 @@ render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, 
 
 // Writes the cached bytes straight to the socket: no copy into the response (a warm tile is
 // ~200 kB, and copying it was a fifth of a cache hit's CPU time).
-void send_cached(httplib::Response& res, std::shared_ptr<const CachedImage> image,
+void send_cached(httplib::Response& res, Metrics& metrics, std::shared_ptr<const CachedImage> image,
                  std::shared_ptr<BudgetLease> lease = {}) {
     const std::size_t size = image->body.size();
     const std::string type = image->content_type;
     // The lease (bytes of the transfer budget) goes when cpp-httplib drops the provider, after
     // the last byte was written.
-    res.set_content_provider(size, type.c_str(),
-                             [image = std::move(image), lease = std::move(lease)](
-                                 std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-                                 return sink.write(image->body.data() + offset, length);
-                             });
+    res.set_content_provider(
+        size, type.c_str(),
+        [image = std::move(image), lease = std::move(lease), &metrics,
+         t0 = std::chrono::steady_clock::now()](std::size_t offset, std::size_t length,
+                                                httplib::DataSink& sink) {
+            const bool ok = sink.write(image->body.data() + offset, length);
+            if (ok && offset + length == image->body.size())
+                metrics.stage(
+                    "send",
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+            return ok;
+        });
 }
 
 std::size_t encoded_bytes_at_most(api::ImageFormat f, std::int64_t pixels) {
@@ -130,7 +137,7 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
         res.status = 304;
         return;
     }
-    if (cached) return send_cached(res, std::move(cached));
+    if (cached) return send_cached(res, m_metrics, std::move(cached));
     // Render, resample and encode in one slot: the float image and its encoding (230 MB for
     // the largest region) exist only while a slot is held.
     // The encoded image outlives the slot while a client reads it: large ones hold bytes of the
@@ -141,15 +148,25 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
         lease = lease_transfer(res, out);
         if (!lease) return;
     }
+    using Clock = std::chrono::steady_clock;
+    auto seconds = [](Clock::time_point a, Clock::time_point b) {
+        return std::chrono::duration<double>(b - a).count();
+    };
+    const auto t0 = Clock::now();
     auto slot = admit(res, noise_work_s(pixels, mni, order));
     if (!slot) return;
+    const auto t1 = Clock::now();
+    m_metrics.stage("queue", seconds(t0, t1));
     const render::Cancel cancel = work_cancel();
     auto image = produce(cancel);
     if (!image) return send_work_error(res, image.error(), cancel);
+    const auto t2 = Clock::now();
+    m_metrics.stage("render", seconds(t1, t2));
     auto bytes =
         io::encode_image_memory(image.value(), encoding_of(format),
                                 {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}},
                                 m_config.png_compression);
+    m_metrics.stage("encode", seconds(t2, Clock::now()));
     render::recycle_image(std::move(image.value())); // the pixels go before the bytes are cached
     if (!bytes) return send_error(res, to_api_error(bytes.error()));
     auto entry = std::make_shared<CachedImage>();
@@ -158,7 +175,7 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
     entry->content_type = api::content_type(format);
     entry->texton_id = id;
     m_cache.put(key, entry);
-    send_cached(res, std::move(entry), std::move(lease));
+    send_cached(res, m_metrics, std::move(entry), std::move(lease));
 }
 
 Result<core::Image> Service::render_noise(const std::string& id, const render::NoiseRequest& q,

@@ -83,6 +83,11 @@ void Metrics::backends(const std::string& tiles, const std::string& frames,
     m_calibration = std::move(figures);
 }
 
+void Metrics::stage(const char* stage, double seconds) {
+    std::lock_guard lock(m_mutex);
+    m_stages[stage].observe(seconds);
+}
+
 void Metrics::tile_cache(bool hit) {
     std::lock_guard lock(m_mutex);
     ++(hit ? m_cache_hits : m_cache_misses);
@@ -128,6 +133,15 @@ std::string Metrics::prometheus_text() const {
             write_histogram(o, "textond_render_seconds",
                             "backend=\"" + esc(k[0]) + "\",kind=\"" + esc(k[1]) + "\"", h,
                             kLatencyBuckets);
+        o << "# HELP textond_image_stage_seconds Where an image request's time goes: queue "
+             "(waiting "
+             "for a render slot), render, encode, send (response ready to its last byte handed "
+             "to the socket).\n# TYPE textond_image_stage_seconds histogram\n";
+        for (const char* s : {"queue", "render", "encode", "send"}) {
+            auto it = m_stages.find(s);
+            write_histogram(o, "textond_image_stage_seconds", std::string("stage=\"") + s + "\"",
+                            it == m_stages.end() ? Histogram{} : it->second, kLatencyBuckets);
+        }
         o << "# HELP textond_tile_cache_requests_total Image cache lookups.\n"
              "# TYPE textond_tile_cache_requests_total counter\n"
           << "textond_tile_cache_requests_total{result=\"hit\"} " << m_cache_hits << "\n"

@@ -20,6 +20,9 @@ public:
     void request(const std::string& route, const std::string& method, int status, double seconds);
     void render(const std::string& backend, const std::string& kind, double ms);
     void tile_cache(bool hit);
+    // Where an image request's time goes: "queue" (waiting for a render slot), "render",
+    // "encode", "send" (from the response being ready to its last byte handed to the socket).
+    void stage(const char* stage, double seconds);
     // Work not admitted: "too_large" (413), "busy" (429), "gone" (client left while waiting).
     void not_admitted(const std::string& why);
     // Admitted work stopped before its end: its deadline passed, or its client left.
@@ -54,6 +57,7 @@ private:
     std::map<std::array<std::string, 3>, std::uint64_t> m_requests; // route, method, status
     std::map<std::array<std::string, 2>, Histogram> m_latency;      // route, status
     std::map<std::array<std::string, 2>, Histogram> m_render_ms;    // backend, kind (seconds)
+    std::map<std::string, Histogram> m_stages;                      // queue, render, encode, send
     std::uint64_t m_cache_hits = 0, m_cache_misses = 0;
     std::map<std::string, std::uint64_t> m_not_admitted;
     std::uint64_t m_abandoned_deadline = 0, m_abandoned_gone = 0;

@@ -301,6 +301,13 @@ TEST(Ops, HealthReadinessMetricsAndSpec) {
         "textond_tile_cache_requests_total{result=\"hit\"} 1",
         "textond_tile_cache_requests_total{result=\"miss\"} 1",
         "textond_render_seconds_count{backend=\"cpu\",kind=\"tile\"} 1",
+        // One cold tile went through every stage; both answers were sent.
+        "textond_image_stage_seconds_count{stage=\"queue\"} 1",
+        "textond_image_stage_seconds_count{stage=\"render\"} 1",
+        "textond_image_stage_seconds_count{stage=\"encode\"} 1",
+        "textond_image_stage_seconds_count{stage=\"send\"} 2",
+        "textond_backend_info{tiles=\"cpu\",frames=\"cpu\"} 1",
+        "textond_abandoned_total{reason=\"gone\"} 0",
         "textond_analyses_total{result=\"ok\"} 1",
         "textond_analysis_queue_depth 0",
         "textond_store_textons 1"};
