@@ -46,8 +46,9 @@ struct BackendChoice {
     std::vector<Calibration> calibration; // auto with a GPU: every candidate's figures
 };
 
-// The calibration set rendered on `b` (`cpu_slots` > 0: b renders that many tiles at once).
-Result<Calibration> calibrate(Backend& b, int cpu_slots, bool quick = false);
+// The calibration set: the tiles rendered on `tiles` (which renders `tile_slots` of them at once)
+// and the frame on `frames` (the same backend, or the CPU's tile and frame configurations).
+Result<Calibration> calibrate(Backend& tiles, int tile_slots, Backend& frames, bool quick = false);
 
 // Which calibrated backend serves tiles and which frames: the fastest of each, the CPU's (entry 0)
 // unless another beats it. Returns indices into `figures`.

@@ -1,6 +1,14 @@
 #include "render/cancel.h"
 
+#include <string>
+
 namespace textond::render {
+
+Error abandoned(const Cancel* c, const char* what) {
+    return make_error(ErrorCode::cancelled, c && c->deadline_passed()
+                                                ? std::string(what) + " passed its deadline"
+                                                : "the client left during " + std::string(what));
+}
 
 bool Cancel::stop() const {
     if (m_stopped.load(std::memory_order_relaxed)) return true;

@@ -3,6 +3,8 @@
 // client had gone, and delayed every tile behind it): the client left, or the request's
 // deadline passed. Backends poll stop() between blocks of work, from any thread, and answer
 // ErrorCode::cancelled; the first "stop" sticks.
+#include "core/result.h"
+
 #include <atomic>
 #include <chrono>
 #include <functional>
@@ -37,5 +39,9 @@ private:
 inline bool stopped(const Cancel* c) {
     return c && c->stop();
 }
+
+// The error of work that `c` stopped: `what` ("the render") passed its deadline, or its client
+// left.
+Error abandoned(const Cancel* c, const char* what);
 
 } // namespace textond::render

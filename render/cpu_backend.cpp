@@ -526,12 +526,6 @@ bool render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads,
     return !skipped;
 }
 
-Error abandoned(const NoiseRequest& q) {
-    return make_error(ErrorCode::cancelled, q.cancel && q.cancel->deadline_passed()
-                                                ? "the render passed its deadline"
-                                                : "the client left during the render");
-}
-
 } // namespace
 
 CpuBackend::CpuBackend(int threads, int block)
@@ -549,7 +543,7 @@ Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseReq
     if (auto err = tex.check(q)) return *err;
     if (q.level >= tex.limit_level()) {
         core::Image out(q.width, q.height, tex.channels());
-        if (!render_limit(tex, q, m_threads, out)) return abandoned(q);
+        if (!render_limit(tex, q, m_threads, out)) return abandoned(q.cancel, "the render");
         if (stats) {
             stats->limit_model = true;
             stats->points = 0;
@@ -568,7 +562,7 @@ Result<core::Image> CpuBackend::render_mix(const PreparedMix& mix, const NoiseRe
     const PreparedTexton& first = mix.level(0);
     if (q.level >= first.limit_level()) {
         core::Image out(q.width, q.height, mix.channels());
-        if (!render_limit_mix(mix, q, m_threads, out)) return abandoned(q);
+        if (!render_limit_mix(mix, q, m_threads, out)) return abandoned(q.cancel, "the render");
         if (stats) {
             stats->limit_model = true;
             stats->points = 0;
@@ -624,7 +618,7 @@ Result<core::Image> CpuBackend::render_exact(const PreparedTexton& tex,
         stats->points = points;
         stats->evaluations = evaluations;
     }
-    if (skipped) return abandoned(q);
+    if (skipped) return abandoned(q.cancel, "the render");
     return out;
 }
 

@@ -31,12 +31,6 @@ bool normalise(Vec3& v) {
     return true;
 }
 
-Error abandoned(const SurfaceRequest& req) {
-    return make_error(ErrorCode::cancelled, req.cancel && req.cancel->deadline_passed()
-                                                ? "the evaluation passed its deadline"
-                                                : "the client left during the evaluation");
-}
-
 std::optional<Error> check_request(const SurfaceRequest& req) {
     if (!(req.mni >= 1 && req.mni <= 200))
         return make_error(ErrorCode::invalid_argument, "mni must be in [1, 200]");
@@ -96,7 +90,7 @@ Result<std::vector<float>> evaluate_surface(const core::Texton& texton, const Su
                         points[3 * i + 2] * scale};
         noise.eval(req.seed, y, nn, &out[i * static_cast<std::size_t>(nc)]);
     }
-    if (skipped) return abandoned(req);
+    if (skipped) return abandoned(req.cancel, "the evaluation");
     return out;
 }
 
@@ -243,7 +237,7 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
     std::vector<double> bary(npx * 3, 0.0);
     const std::size_t nt = mesh.triangles.size() / 3;
     for (std::size_t t = 0; t < nt; ++t) {
-        if (stopped(req.cancel)) return abandoned(req);
+        if (stopped(req.cancel)) return abandoned(req.cancel, "the evaluation");
         const std::uint32_t i0 = mesh.triangles[3 * t], i1 = mesh.triangles[3 * t + 1],
                             i2 = mesh.triangles[3 * t + 2];
         if (sz[i0] <= 1e-9 || sz[i1] <= 1e-9 || sz[i2] <= 1e-9) continue; // behind the eye
@@ -330,7 +324,7 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
                    {ns[3 * i], ns[3 * i + 1], ns[3 * i + 2]},
                    &colours[i * static_cast<std::size_t>(nc)]);
     }
-    if (skipped) return abandoned(req);
+    if (skipped) return abandoned(req.cancel, "the evaluation");
     core::Image out(width, height, 4);
     for (std::size_t i = 0; i < where.size(); ++i) {
         const int px = static_cast<int>(where[i] % static_cast<std::size_t>(width));

@@ -5,6 +5,7 @@
 #include "render/cancel.h"
 #include "render/gl/gl_api.h"
 #include "render/gl/glsl_sources.h"
+#include "render/image_buffers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -83,6 +84,16 @@ void texel_fetch_only(const gl::GlApi& gl, GLenum target) {
     gl.TexParameteri(target, GL_TEXTURE_MAX_LEVEL, 0);
 }
 
+// A level table as `components` floats a texel, row by row (G[y][x], zeros past its channels):
+// the layout of the RGB32F textures and of the vec4 storage buffers.
+void interleave_table(const LevelTable& t, int components, float* out) {
+    const int n = t.side();
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x)
+            for (int c = 0; c < t.channels; ++c)
+                out[(static_cast<std::size_t>(y) * n + x) * components + c] = t.row(c, y)[x];
+}
+
 void* load_proc(const char* name, void* user) {
     return static_cast<GlContext*>(user)->proc_address(name);
 }
@@ -106,6 +117,7 @@ GlBackend::~GlBackend() {
     if (m_out_fbo) m_gl->DeleteFramebuffers(1, &m_out_fbo);
     if (m_point_buffers[0]) m_gl->DeleteBuffers(3, m_point_buffers);
     if (m_out_texture) m_gl->DeleteTextures(1, &m_out_texture);
+    if (m_timer) m_gl->DeleteQueries(1, &m_timer);
 }
 
 GlslSources GlslSources::embedded() {
@@ -183,10 +195,7 @@ unsigned GlBackend::table_buffer(const std::shared_ptr<const LevelTable>& t) {
     }
     const int n = t->side();
     std::vector<float> texels(static_cast<std::size_t>(n) * n * 4, 0.0f);
-    for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x)
-            for (int c = 0; c < t->channels; ++c)
-                texels[(static_cast<std::size_t>(y) * n + x) * 4 + c] = t->row(c, y)[x];
+    interleave_table(*t, 4, texels.data());
     GLuint buf = 0;
     m_gl->GenBuffers(1, &buf);
     m_gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, buf);
@@ -205,10 +214,7 @@ unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
     }
     const int n = t->side();
     std::vector<float> texels(static_cast<std::size_t>(n) * n * 3, 0.0f);
-    for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x)
-            for (int c = 0; c < t->channels; ++c)
-                texels[(static_cast<std::size_t>(y) * n + x) * 3 + c] = t->row(c, y)[x];
+    interleave_table(*t, 3, texels.data());
     GLuint tex = 0;
     m_gl->GenTextures(1, &tex);
     m_gl->BindTexture(GL_TEXTURE_2D, tex);
@@ -243,9 +249,8 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
 
     const bool limit = q.level >= tex.limit_level();
     const int nc = tex.channels();
-    GLuint mix_tables = 0, mix_mask = 0; // this render's only (a mix's tables and mask)
-    // Every sampler on its own unit, used or not: two sampler types on one unit fail the draw.
-    g.Uniform1i(uniform("u_level_tables"), 2);
+    GLuint mix_mask = 0; // this render's only
+    // The mask sampler on a unit of its own (two sampler types on one unit fail a dispatch).
     g.Uniform1i(uniform("u_mask"), 3);
     g.Uniform1i(uniform("u_mix"), 0);
     const auto& mean = tex.texton().mean;
@@ -372,15 +377,11 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
             // All level tables as one array, and the field as an affine map (or a mask) of the
             // position relative to the base cell's origin (NOISE_SPEC.md section 9).
             const int side = table->side(), nl = mix->levels();
-            std::vector<float> texels(static_cast<std::size_t>(side) * side * 4 * nl, 0.0f);
-            for (int l = 0; l < nl; ++l) {
-                const auto t = mix->level(l).table(q.level);
-                for (int y = 0; y < side; ++y)
-                    for (int x = 0; x < side; ++x)
-                        for (int c = 0; c < t->channels; ++c)
-                            texels[((static_cast<std::size_t>(l) * side + y) * side + x) * 4 +
-                                   static_cast<std::size_t>(c)] = t->row(c, y)[x];
-            }
+            const std::size_t layer = static_cast<std::size_t>(side) * side * 4;
+            std::vector<float> texels(layer * static_cast<std::size_t>(nl), 0.0f);
+            for (int l = 0; l < nl; ++l)
+                interleave_table(*mix->level(l).table(q.level), 4,
+                                 texels.data() + layer * static_cast<std::size_t>(l));
             upload_points(2, texels.data(), texels.size() * 4); // binding 3, as one texton's
             const core::MixField& f = mix->field();
             const double bx = static_cast<double>(bcx) * a, by = static_cast<double>(bcy) * a;
@@ -432,7 +433,6 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
         g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, m_out_texture,
                                0);
         if (g.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-            if (mix_tables) g.DeleteTextures(1, &mix_tables);
             if (mix_mask) g.DeleteTextures(1, &mix_mask);
             return make_error(ErrorCode::internal, m_name + ": float framebuffer incomplete");
         }
@@ -440,11 +440,10 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
     g.BindImageTexture(0, m_out_texture, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
     g.BindFramebuffer(GL_FRAMEBUFFER, m_out_fbo);
     const int cw = std::min(q.width, kChunk), ch = std::min(q.height, kChunk);
-    core::Image out(q.width, q.height, nc);
+    core::Image out = take_image(q.width, q.height, nc); // every pixel is written
     std::vector<float> rgba(static_cast<std::size_t>(cw) * ch * 4);
     g.PixelStorei(GL_PACK_ALIGNMENT, 4);
-    GLuint timer = 0;
-    g.GenQueries(1, &timer);
+    if (!m_timer) g.GenQueries(1, &m_timer);
     double gpu_ms = 0;
     bool skipped = false;
     for (int y0 = 0; y0 < q.height && !skipped; y0 += ch)
@@ -456,14 +455,14 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
             const int w = std::min(cw, q.width - x0), h = std::min(ch, q.height - y0);
             g.Uniform2i(uniform("u_offset"), x0, y0);
             g.Uniform2i(uniform("u_size"), w, h);
-            g.BeginQuery(GL_TIME_ELAPSED, timer);
+            g.BeginQuery(GL_TIME_ELAPSED, m_timer);
             g.DispatchCompute(static_cast<GLuint>((w + 15) / 16),
                               static_cast<GLuint>((h + 15) / 16), 1);
             g.EndQuery(GL_TIME_ELAPSED);
             g.MemoryBarrier(GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
             g.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
             GLuint64 ns = 0;
-            g.GetQueryObjectui64v(timer, GL_QUERY_RESULT, &ns);
+            g.GetQueryObjectui64v(m_timer, GL_QUERY_RESULT, &ns);
             gpu_ms += static_cast<double>(ns) * 1e-6;
             for (int c = 0; c < nc; ++c)
                 for (int y = 0; y < h; ++y) {
@@ -472,18 +471,13 @@ Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const Prep
                     for (int x = 0; x < w; ++x) dst[x] = src[static_cast<std::size_t>(x) * 4];
                 }
         }
-    g.DeleteQueries(1, &timer);
     if (stats) stats->gpu_ms = gpu_ms;
     const GLenum err = g.GetError();
-    if (mix_tables) g.DeleteTextures(1, &mix_tables);
     if (mix_mask) g.DeleteTextures(1, &mix_mask);
     if (err != GL_NO_ERROR)
         return make_error(ErrorCode::internal,
                           m_name + ": GL error " + std::to_string(static_cast<int>(err)));
-    if (skipped)
-        return make_error(ErrorCode::cancelled, q.cancel->deadline_passed()
-                                                    ? "the render passed its deadline"
-                                                    : "the client left during the render");
+    if (skipped) return abandoned(q.cancel, "the render");
     return out;
 }
 

@@ -95,6 +95,7 @@ private:
     // The output image of every noise dispatch (kChunk^2 RGBA32F, made once) and the
     // framebuffer it is read back through.
     unsigned m_out_texture = 0, m_out_fbo = 0;
+    unsigned m_timer = 0; // the GL_TIME_ELAPSED query of every dispatch
     // The window's points and each cell's first point (texton_noise.comp, u_list = 1), grown as
     // needed and reused.
     unsigned m_point_buffers[3] = {0, 0, 0};
