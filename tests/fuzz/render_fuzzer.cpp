@@ -9,6 +9,7 @@
 #include "render/prepared_mix.h"
 #include "render/surface_eval.h"
 #include "server/io/obj_mesh.h"
+#include "tests/fuzz/fuzz_query.h"
 
 #include <algorithm>
 #include <cmath>
@@ -22,23 +23,6 @@
 namespace {
 
 using namespace textond;
-
-// "a=b&c=d" as the server splits it after percent-decoding (no empty items).
-api::Query query_of(std::string_view s) {
-    api::Query q;
-    std::size_t pos = 0;
-    while (pos <= s.size() && q.size() < 32) {
-        std::size_t end = s.find('&', pos);
-        if (end == std::string_view::npos) end = s.size();
-        const std::string_view item = s.substr(pos, end - pos);
-        const std::size_t eq = item.find('=');
-        if (!item.empty())
-            q.emplace(std::string(item.substr(0, eq)),
-                      eq == std::string_view::npos ? "" : std::string(item.substr(eq + 1)));
-        pos = end + 1;
-    }
-    return q;
-}
 
 // A tiny texton (r = 8) with smooth coefficients; `shift` makes the levels of a mix differ.
 core::Texton tiny_texton(int order, double shift) {
@@ -184,12 +168,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string_view path = rest.substr(0, bar1);
     rest = bar1 == std::string_view::npos ? std::string_view() : rest.substr(bar1 + 1);
     const std::size_t bar2 = rest.find('|');
-    const api::Query q = query_of(rest.substr(0, bar2));
+    const api::Query q = test::query_of(rest.substr(0, bar2), false);
     const std::string_view body =
         bar2 == std::string_view::npos ? std::string_view() : rest.substr(bar2 + 1);
     switch (selector) {
     case 0:
-        mix_render(q, path, query_of(body));
+        mix_render(q, path, test::query_of(body, false));
         break;
     case 1:
         surface(q, body);

@@ -5,35 +5,20 @@
 #include "api/requests.h"
 #include "api/safe_text.h"
 #include "core/texture_mix.h"
+#include "tests/fuzz/fuzz_query.h"
 
 #include <nlohmann/json.hpp>
 
-#include <cmath>
-#include <cstring>
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace {
-
-// "a&b=c&..." split as the server would after percent-decoding (bytes are taken as they come).
-textond::api::Query query_of(std::string_view s) {
-    textond::api::Query q;
-    std::size_t pos = 0;
-    while (pos <= s.size() && q.size() < 32) {
-        std::size_t end = s.find('&', pos);
-        if (end == std::string_view::npos) end = s.size();
-        const std::string_view item = s.substr(pos, end - pos);
-        const std::size_t eq = item.find('=');
-        q.emplace(std::string(item.substr(0, eq)),
-                  eq == std::string_view::npos ? "" : std::string(item.substr(eq + 1)));
-        pos = end + 1;
-    }
-    return q;
-}
 
 void check_message(const std::optional<textond::api::ApiError>& e) {
     if (!e) return;
@@ -54,7 +39,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string_view rest = in.substr(1);
     const std::size_t bar = rest.find('|');
     const std::string_view path = rest.substr(0, bar);
-    const api::Query q = query_of(bar == std::string_view::npos ? "" : rest.substr(bar + 1));
+    const api::Query q =
+        test::query_of(bar == std::string_view::npos ? "" : rest.substr(bar + 1), true);
     std::vector<std::string_view> p;
     for (std::size_t pos = 0; pos <= path.size() && p.size() < 5;) {
         std::size_t end = path.find('/', pos);

@@ -56,30 +56,26 @@ printf '\003|u=%064d&v=%064d&dx=1e308&dy=1e308&levels=2' 0 0 >"$rcorpus/mix"
 printf '\0022/exr|x=-500&y=200&w=1920&h=1080&z=1' >"$rcorpus/region"
 printf '\004mesh|width=512&height=512&eye=0,0,3&target=0,0,0&fov=35' >"$rcorpus/mesh"
 printf '\005|size=64&order=3&iterations=50&periodic=true' >"$rcorpus/analysis"
-set +e
-build/fuzz/request_fuzzer "$rcorpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=20 \
-    -artifact_prefix=build/fuzz/crashes/ -print_final_stats=1 >build/fuzz/last-request-run.log 2>&1
-status=$?
-set -e
-grep -E "stat::number_of_executed_units|cov:" build/fuzz/last-request-run.log | tail -n 2
-if [ $status -ne 0 ]; then
-    echo "fuzz: request_fuzzer failed (status $status); inputs in build/fuzz/crashes/:" >&2
-    grep -m 20 -E "ERROR|SUMMARY|runtime error|deadly" build/fuzz/last-request-run.log >&2 || true
-    exit 1
-fi
+# Runs build/fuzz/NAME over CORPUS for the set time; prints its executions and coverage, fails on
+# a finding (its input is in build/fuzz/crashes/).
+run_target() {
+    local name=$1 corpus=$2 log=build/fuzz/last-${1%_fuzzer}-run.log status
+    set +e
+    "build/fuzz/$name" "$corpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=20 \
+        -artifact_prefix=build/fuzz/crashes/ -print_final_stats=1 >"$log" 2>&1
+    status=$?
+    set -e
+    grep -E "stat::number_of_executed_units|cov:" "$log" | tail -n 2
+    if [ $status -ne 0 ]; then
+        echo "fuzz: $name failed (status $status); inputs in build/fuzz/crashes/:" >&2
+        grep -m 20 -E "ERROR|SUMMARY|runtime error|deadly" "$log" >&2 || true
+        exit 1
+    fi
+}
+run_target request_fuzzer "$rcorpus"
 # Parsed values into small renders: seeds in tests/fuzz/seeds/render (selector byte first).
 wcorpus=build/fuzz/render-work
 mkdir -p "$wcorpus"
 cp -n tests/fuzz/seeds/render/* "$wcorpus"/
-set +e
-build/fuzz/render_fuzzer "$wcorpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=20 \
-    -artifact_prefix=build/fuzz/crashes/ -print_final_stats=1 >build/fuzz/last-render-run.log 2>&1
-status=$?
-set -e
-grep -E "stat::number_of_executed_units|cov:" build/fuzz/last-render-run.log | tail -n 2
-if [ $status -ne 0 ]; then
-    echo "fuzz: render_fuzzer failed (status $status); inputs in build/fuzz/crashes/:" >&2
-    grep -m 20 -E "ERROR|SUMMARY|runtime error|deadly" build/fuzz/last-render-run.log >&2 || true
-    exit 1
-fi
+run_target render_fuzzer "$wcorpus"
 echo "fuzz: ${seconds}s clean"
