@@ -9,6 +9,7 @@
 #include "render/prepared_texton.h"
 
 #include <string>
+#include <vector>
 
 namespace textond::render {
 
@@ -21,6 +22,18 @@ public:
     virtual std::string renderer() const = 0;
     virtual Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                        RenderStats* stats = nullptr) = 0;
+    // Many windows of one texton at once (the calibration's tiles, bench's batch): a GL backend
+    // renders them as one batch; the default renders them one after another.
+    // `stats`, when given, receives the GPU time of all of them (-1 on the CPU).
+    virtual std::vector<Result<core::Image>> render_many(const PreparedTexton& texton,
+                                                         const std::vector<NoiseRequest>& requests,
+                                                         RenderStats* stats = nullptr) {
+        std::vector<Result<core::Image>> out;
+        out.reserve(requests.size());
+        for (const auto& q : requests) out.push_back(render(texton, q));
+        if (stats) stats->gpu_ms = -1;
+        return out;
+    }
     // A texture mix (NOISE_SPEC.md section 9). ErrorCode::unsupported where this backend has no
     // path for the request (the caller then uses the CPU backend, which has them all).
     virtual Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,

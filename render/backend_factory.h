@@ -27,6 +27,10 @@ struct BackendOptions {
     // The CPU renders this many tiles at once (one thread each), so its tile throughput is this
     // many times one thread's; 0 = one per core.
     int tile_slots = 0;
+    // GL: concurrent windows gathered into one batch (render/tile_batcher.h): at most this many,
+    // waiting at most this long for more once the first is queued.
+    int batch_tiles = 64;
+    int batch_wait_us = 200;
     // Tests: calibrate on 64x64 tiles and a 480x270 frame (the same code, 1/16 of the work).
     bool quick_calibration = false;
 };
@@ -34,7 +38,7 @@ struct BackendOptions {
 // What the calibration of `auto` measured for one backend (milliseconds, median of 3).
 struct Calibration {
     std::string backend;
-    double tile_ms = 0;  // sixteen 256x256 tiles, one call each (the CPU: one thread each,
+    double tile_ms = 0;  // sixteen 256x256 8-bit tiles, as one batch (the CPU: one thread each,
                          // divided by the tiles it renders at once)
     double frame_ms = 0; // one 1920x1080 frame (the CPU: every thread)
 };

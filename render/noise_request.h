@@ -16,6 +16,11 @@ inline constexpr std::int64_t kMaxWindowPixels = std::int64_t{1} << 26;
 // The plane is [-2^62, 2^62] texels: at level k >= 0 that is 2^62 / 2^k output pixels.
 inline constexpr std::int64_t kPlaneHalfWidth = std::int64_t{1} << 62;
 
+// The bits the caller keeps of each value: a GL backend rounds on the GPU and reads back only
+// those (as the encoder rounds: clamp to [0, 1], scale, + 0.5, truncate), then hands back floats
+// that encode to the same bytes. The CPU backend always returns full floats.
+enum class Precision { f32, u16, u8 };
+
 struct NoiseRequest {
     std::uint64_t seed = 0;
     double mni = kDefaultMni;
@@ -23,6 +28,7 @@ struct NoiseRequest {
     std::int64_t x0 = 0, y0 = 0;
     int width = 256, height = 256;
     std::array<std::int64_t, 2> period{0, 0}; // tileable mode, in cells; 0 = unbounded plane
+    Precision precision = Precision::f32;     // not part of the window: what the caller keeps
     // Not part of the window: when to give up (render/cancel.h); none = run to the end.
     const Cancel* cancel = nullptr;
 };

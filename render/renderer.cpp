@@ -2,6 +2,7 @@
 
 #include "render/cpu_backend.h"
 #include "render/gl/gl_backend.h"
+#include "render/tile_batcher.h"
 
 #include <cmath>
 
@@ -23,6 +24,10 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
     r->m_frames_name = frames->name();
     r->m_tiles_name = tiles->name();
     r->m_gl = std::dynamic_pointer_cast<GlBackend>(frames);
+    r->m_batched = r->m_gl ? r->m_gl : std::dynamic_pointer_cast<GlBackend>(tiles);
+    if (r->m_batched)
+        r->m_batcher = std::make_unique<TileBatcher>(
+            r->m_batched, options.batch_tiles, std::chrono::microseconds(options.batch_wait_us));
     r->m_reason = choice.value().reason;
     r->m_calibration = choice.value().calibration;
     auto identity = [](const Backend& b) {
@@ -33,18 +38,36 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
     return r;
 }
 
+Renderer::~Renderer() = default;
+
+bool Renderer::tiles_batched() const {
+    return m_batcher && m_tiles == m_batched;
+}
+std::uint64_t Renderer::batches() const {
+    return m_batcher ? m_batcher->batches() : 0;
+}
+std::uint64_t Renderer::batched_windows() const {
+    return m_batcher ? m_batcher->windows() : 0;
+}
+
+Result<core::Image> Renderer::on(Backend& b, const PreparedTexton& texton, const PreparedMix* mix,
+                                 const NoiseRequest& request) {
+    if (m_batcher && &b == m_batched.get()) return m_batcher->render(texton, mix, request);
+    return mix ? b.render_mix(*mix, request) : b.render(texton, request);
+}
+
 Result<core::Image> Renderer::noise(const PreparedTexton& texton, const NoiseRequest& request,
                                     Work work, std::string* used) {
     Backend& b = work == Work::tile ? *m_tiles : *m_frames;
     if (used) *used = work == Work::tile ? m_tiles_name : m_frames_name;
-    return b.render(texton, request);
+    return on(b, texton, nullptr, request);
 }
 
 Result<core::Image> Renderer::mix(const PreparedMix& mix, const NoiseRequest& request, Work work,
                                   std::string* used) {
     Backend& b = work == Work::tile ? *m_tiles : *m_frames;
     if (used) *used = work == Work::tile ? m_tiles_name : m_frames_name;
-    auto r = b.render_mix(mix, request);
+    auto r = on(b, mix.level(0), &mix, request);
     if (r || r.error().code != ErrorCode::unsupported) return r;
     // A path the backend does not have (GL: a mix's limit levels): the CPU has them all.
     CpuBackend& cpu = work == Work::tile ? *m_cpu_one : *m_cpu_all;

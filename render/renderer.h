@@ -8,6 +8,7 @@
 #include "render/backend_factory.h"
 #include "render/surface_eval.h"
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@ namespace textond::render {
 
 class CpuBackend;
 class GlBackend;
+class TileBatcher;
 
 class Renderer {
 public:
@@ -23,6 +25,7 @@ public:
 
     // `options.threads` for frames on the CPU (tiles take one thread each).
     static Result<std::unique_ptr<Renderer>> make(BackendKind kind, const BackendOptions& options);
+    ~Renderer();
 
     // Each evaluation says in `used` (when given) which backend ran it.
     Result<core::Image> noise(const PreparedTexton& texton, const NoiseRequest& request, Work work,
@@ -40,6 +43,10 @@ public:
                                      std::string* used = nullptr);
 
     const std::string& tiles_backend() const { return m_tiles_name; }
+    // Whether tiles go through a GL batcher, and what it did: batches and windows in them.
+    bool tiles_batched() const;
+    std::uint64_t batches() const;
+    std::uint64_t batched_windows() const;
     const std::string& frames_backend() const { return m_frames_name; }
     std::string renderer() const { return m_frames->renderer(); }
     // What was tried and why these were taken; what `auto` measured.
@@ -55,6 +62,12 @@ private:
     std::string m_tiles_name, m_frames_name;
     std::shared_ptr<CpuBackend> m_cpu_one, m_cpu_all; // mixes' limit levels, fallbacks
     std::shared_ptr<GlBackend> m_gl;                  // surfaces and meshes, when frames are GL
+    // Every noise window bound for a GL backend (tiles and frames, mixes too) goes through its
+    // batcher.
+    std::shared_ptr<GlBackend> m_batched;
+    std::unique_ptr<TileBatcher> m_batcher;
+    Result<core::Image> on(Backend& b, const PreparedTexton& texton, const PreparedMix* mix,
+                           const NoiseRequest& request);
     std::string m_reason, m_identity;
     std::vector<Calibration> m_calibration;
 };

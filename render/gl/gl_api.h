@@ -82,7 +82,14 @@ namespace textond::render::gl {
     X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                       \
     X(PFNGLBEGINQUERYPROC, BeginQuery)                                                             \
     X(PFNGLENDQUERYPROC, EndQuery)                                                                 \
-    X(PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v)
+    X(PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v)                                           \
+    X(PFNGLBUFFERSTORAGEPROC, BufferStorage)                                                       \
+    X(PFNGLMAPBUFFERRANGEPROC, MapBufferRange)                                                     \
+    X(PFNGLUNMAPBUFFERPROC, UnmapBuffer)                                                           \
+    X(PFNGLCOPYBUFFERSUBDATAPROC, CopyBufferSubData)                                               \
+    X(PFNGLFENCESYNCPROC, FenceSync)                                                               \
+    X(PFNGLCLIENTWAITSYNCPROC, ClientWaitSync)                                                     \
+    X(PFNGLDELETESYNCPROC, DeleteSync)
 
 struct GlApi {
 #define TEXTOND_GL_DECLARE(type, name) type name = nullptr;

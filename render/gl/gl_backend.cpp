@@ -5,6 +5,7 @@
 #include "render/cancel.h"
 #include "render/gl/gl_api.h"
 #include "render/gl/glsl_sources.h"
+#include "render/gl/noise_window.h"
 #include "render/image_buffers.h"
 
 #include <algorithm>
@@ -16,9 +17,14 @@ namespace textond::render {
 using core::noise::floor_div;
 using core::noise::floor_mod;
 
+using gl::interleave_table;
+
 namespace {
 
-constexpr int kChunk = 2048; // framebuffer side: big windows are drawn in chunks
+// A pass's output: 2^22 words, 64 tiles of 256^2 at 8 bits (one word a pixel), half that at 16
+// bits, a third as floats. Larger windows are cut into pieces of at most kPieceSide wide.
+constexpr std::size_t kPassWords = std::size_t{1} << 22;
+constexpr int kPieceSide = 2048;
 constexpr std::size_t kMaxCachedTables = 32;
 
 bool is_software(const std::string& renderer) {
@@ -84,16 +90,6 @@ void texel_fetch_only(const gl::GlApi& gl, GLenum target) {
     gl.TexParameteri(target, GL_TEXTURE_MAX_LEVEL, 0);
 }
 
-// A level table as `components` floats a texel, row by row (G[y][x], zeros past its channels):
-// the layout of the RGB32F textures and of the vec4 storage buffers.
-void interleave_table(const LevelTable& t, int components, float* out) {
-    const int n = t.side();
-    for (int y = 0; y < n; ++y)
-        for (int x = 0; x < n; ++x)
-            for (int c = 0; c < t.channels; ++c)
-                out[(static_cast<std::size_t>(y) * n + x) * components + c] = t.row(c, y)[x];
-}
-
 void* load_proc(const char* name, void* user) {
     return static_cast<GlContext*>(user)->proc_address(name);
 }
@@ -109,15 +105,23 @@ GlBackend::~GlBackend() {
     if (!scope.ok || !m_gl->DeleteProgram) return;
     for (auto& [key, t] : m_tables) m_gl->DeleteTextures(1, &t.texture);
     for (auto& [key, t] : m_table_buffers) m_gl->DeleteBuffers(1, &t.texture);
-    if (m_program) m_gl->DeleteProgram(m_program);
+    for (auto& p : m_noise)
+        if (p.id) m_gl->DeleteProgram(p.id);
     if (m_probe_program) m_gl->DeleteProgram(m_probe_program);
     if (m_surface_program) m_gl->DeleteProgram(m_surface_program);
     if (m_mesh_program) m_gl->DeleteProgram(m_mesh_program);
     if (m_vao) m_gl->DeleteVertexArrays(1, &m_vao);
-    if (m_out_fbo) m_gl->DeleteFramebuffers(1, &m_out_fbo);
-    if (m_point_buffers[0]) m_gl->DeleteBuffers(3, m_point_buffers);
-    if (m_out_texture) m_gl->DeleteTextures(1, &m_out_texture);
-    if (m_timer) m_gl->DeleteQueries(1, &m_timer);
+    if (m_buffers[0]) m_gl->DeleteBuffers(5, m_buffers);
+    for (auto& slot : m_slots) {
+        if (slot.fence) m_gl->DeleteSync(static_cast<GLsync>(slot.fence));
+        if (slot.readback) {
+            m_gl->BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
+            m_gl->UnmapBuffer(GL_COPY_WRITE_BUFFER);
+            m_gl->DeleteBuffers(1, &slot.readback);
+        }
+        if (slot.out) m_gl->DeleteBuffers(1, &slot.out);
+        if (slot.query) m_gl->DeleteQueries(1, &slot.query);
+    }
 }
 
 GlslSources GlslSources::embedded() {
@@ -152,13 +156,11 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
         return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
                                                       m_renderer + "), not a GPU");
     const std::string head = "#version 450 core\n";
-    auto prog =
-        link(*m_gl, {{GL_COMPUTE_SHADER, head + "#define TEXTOND_TABLE_BUFFER\n" + sources.lib +
-                                             sources.eval + glsl::kTextonNoiseComp}});
+    m_noise_source = sources.lib + sources.eval + glsl::kTextonNoiseComp;
+    auto prog = noise_program(Precision::f32);
     if (!prog)
         return make_error(ErrorCode::unsupported,
                           m_name + " (" + m_renderer + "): " + prog.error().message);
-    m_program = prog.value();
     if (!sources.frag.empty()) {
         auto frag =
             link(*m_gl, {{GL_VERTEX_SHADER, head + sources.vert},
@@ -176,14 +178,6 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
 std::string GlBackend::renderer() const {
     return m_name + " (" + m_renderer + ", OpenGL " + m_version + ", " + m_context->platform() +
            ")";
-}
-
-int GlBackend::uniform(const char* name) {
-    auto it = m_uniforms.find(name);
-    if (it != m_uniforms.end()) return it->second;
-    const int loc = m_gl->GetUniformLocation(m_program, name);
-    m_uniforms.emplace(name, loc);
-    return loc;
 }
 
 unsigned GlBackend::table_buffer(const std::shared_ptr<const LevelTable>& t) {
@@ -225,273 +219,364 @@ unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
     return tex;
 }
 
+GlBackend::Work::Work() = default;
+GlBackend::Work::Work(Work&&) noexcept = default;
+GlBackend::Work::~Work() = default;
+
+Result<GlBackend::NoiseProgram*> GlBackend::noise_program(Precision p) {
+    NoiseProgram& np = m_noise[static_cast<int>(p)];
+    if (np.id) return &np;
+    const char* out = p == Precision::u8    ? "#define TEXTOND_OUT_U8\n"
+                      : p == Precision::u16 ? "#define TEXTOND_OUT_U16\n"
+                                            : "";
+    auto prog = link(*m_gl, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") +
+                                                     "#define TEXTOND_TABLE_BUFFER\n"
+                                                     "#define TEXTOND_BATCH\n" +
+                                                     out + m_noise_source}});
+    if (!prog) return prog.error();
+    np.id = prog.value();
+    np.tile_first = m_gl->GetUniformLocation(np.id, "u_tile_first");
+    np.mask = m_gl->GetUniformLocation(np.id, "u_mask");
+    return &np;
+}
+
+Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const PreparedMix* mix,
+                                           const NoiseRequest& q) const {
+    if (mix) {
+        if (auto err = mix->check(q)) return *err;
+        if (q.level >= mix->level(0).limit_level())
+            return make_error(ErrorCode::unsupported,
+                              m_name + ": a mix's limit levels are CPU only");
+    } else if (auto err = tex.check(q)) {
+        return *err;
+    }
+    Work w;
+    w.window = std::make_unique<gl::NoiseWindow>(gl::make_noise_window(tex, mix, q));
+    w.stats.limit_model = w.window->limit_model;
+    w.stats.points = 0; // not counted on the GPU
+    w.stats.evaluations =
+        w.window->limit_model ? static_cast<std::uint64_t>(q.width) * q.height * 25 : 0;
+    return w;
+}
+
 Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
                                       RenderStats* stats) {
-    if (auto err = tex.check(q)) return *err;
-    return render_impl(tex, nullptr, q, stats);
+    auto w = prepare(tex, nullptr, q);
+    if (!w) return w.error();
+    render_batch({&w.value()});
+    if (stats) *stats = w.value().stats;
+    return std::move(w.value().image);
 }
 
 Result<core::Image> GlBackend::render_mix(const PreparedMix& mix, const NoiseRequest& q,
                                           RenderStats* stats) {
-    if (auto err = mix.check(q)) return *err;
-    if (q.level >= mix.level(0).limit_level())
-        return make_error(ErrorCode::unsupported, m_name + ": a mix's limit levels are CPU only");
-    return render_impl(mix.level(0), &mix, q, stats);
+    auto w = prepare(mix.level(0), &mix, q);
+    if (!w) return w.error();
+    render_batch({&w.value()});
+    if (stats) *stats = w.value().stats;
+    return std::move(w.value().image);
 }
 
-Result<core::Image> GlBackend::render_impl(const PreparedTexton& tex, const PreparedMix* mix,
-                                           const NoiseRequest& q, RenderStats* stats) {
-    std::lock_guard<std::mutex> lock(m_mutex);
-    CurrentScope scope(*m_context);
-    if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
-    const gl::GlApi& g = *m_gl;
-    g.UseProgram(m_program);
-
-    const bool limit = q.level >= tex.limit_level();
-    const int nc = tex.channels();
-    GLuint mix_mask = 0; // this render's only
-    // The mask sampler on a unit of its own (two sampler types on one unit fail a dispatch).
-    g.Uniform1i(uniform("u_mask"), 3);
-    g.Uniform1i(uniform("u_mix"), 0);
-    const auto& mean = tex.texton().mean;
-    g.Uniform1i(uniform("u_mode"), limit ? 1 : 0);
-    g.Uniform1i(uniform("u_level"), q.level);
-    g.Uniform1i(uniform("u_channels"), nc);
-    g.Uniform2ui(uniform("u_seed"), static_cast<GLuint>(q.seed), static_cast<GLuint>(q.seed >> 32));
-    g.Uniform3f(uniform("u_mean"), static_cast<float>(mean[0]),
-                static_cast<float>(nc == 3 ? mean[1] : mean[0]),
-                static_cast<float>(nc == 3 ? mean[2] : mean[0]));
-    auto u64 = [&](const char* name, std::int64_t v) {
-        const auto u = static_cast<std::uint64_t>(v);
-        g.Uniform2ui(uniform(name), static_cast<GLuint>(u), static_cast<GLuint>(u >> 32));
-    };
-    if (limit) {
-        const auto& lm = tex.limit(q.level);
-        float kappa[25], a[9] = {0};
-        for (int i = 0; i < 25; ++i)
-            kappa[i] = static_cast<float>(lm.kappa[static_cast<std::size_t>(i)]);
-        for (int c = 0; c < nc; ++c)
-            for (int d = 0; d < nc; ++d) a[c * 3 + d] = static_cast<float>(lm.a(c, d));
-        g.Uniform1fv(uniform("u_kappa[0]"), 25, kappa);
-        g.UniformMatrix3fv(uniform("u_A"), 1, GL_TRUE, a); // row-major rows of A
-        u64("u_q0x", q.x0 - 2);
-        u64("u_q0y", q.y0 - 2);
-        if (stats) {
-            stats->limit_model = true;
-            stats->points = 0;
-            stats->evaluations = static_cast<std::uint64_t>(q.width) * q.height * 25;
-        }
-    } else {
-        const auto table = tex.table(q.level);
-        const core::noise::GridPoisson grid(tex.size(), q.mni, q.period);
-        const int r = tex.size(), a = grid.a;
-        const std::int64_t st = q.level > 0 ? std::int64_t{1} << q.level : 1;
-        const int sub_log2 = q.level < 0 ? -q.level : 0;
-        // The base cell makes every relative cell and position in the shader non-negative.
-        const int reach = tex.order() == 3 ? 1 : 0;
-        auto base = [&](std::int64_t p0, std::int64_t& cell, int& origin) {
-            if (q.level >= 0) {
-                cell = floor_div(st * p0 - r - reach, a);
-                origin = static_cast<int>(st * p0 - cell * a);
-            } else {
-                cell = floor_div(floor_div(p0, std::int64_t{1} << sub_log2) - r - 1 - reach, a);
-                origin = static_cast<int>(p0 - (cell * a << sub_log2));
-            }
-        };
-        std::int64_t bcx, bcy;
-        int ox, oy;
-        base(q.x0, bcx, ox);
-        base(q.y0, bcy, oy);
-        g.Uniform1i(uniform("u_side"), table->side());
-        if (!mix) g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, table_buffer(table));
-        g.Uniform1i(uniform("u_st"), static_cast<int>(st));
-        g.Uniform1i(uniform("u_sub_log2"), sub_log2);
-        g.Uniform1i(uniform("u_L"), table->length);
-        g.Uniform1i(uniform("u_r"), r);
-        g.Uniform1i(uniform("u_order"), tex.order());
-        g.Uniform1i(uniform("u_a"), a);
-        u64("u_base_cx", bcx);
-        u64("u_base_cy", bcy);
-        const bool tileable = q.period[0] > 0;
-        g.Uniform2i(uniform("u_period"), tileable ? static_cast<int>(q.period[0]) : 0,
-                    tileable ? static_cast<int>(q.period[1]) : 0);
-        g.Uniform2i(uniform("u_base_mod"),
-                    tileable ? static_cast<int>(floor_mod(bcx, q.period[0])) : 0,
-                    tileable ? static_cast<int>(floor_mod(bcy, q.period[1])) : 0);
-        g.Uniform2i(uniform("u_origin"), ox, oy);
-        // The window's cells from the base cell: up to the last pixel's reach (the shader's
-        // reach_cells, in the same integers).
-        auto last_cell = [&](int origin, int n) -> std::int64_t {
-            if (q.level >= 0) return (origin + std::int64_t{n - 1} * st + st - 1 + reach) / a;
-            return (((origin + std::int64_t{n - 1}) >> sub_log2) + 1 + reach) / a;
-        };
-        const std::int64_t ncx = last_cell(ox, q.width) + 1, ncy = last_cell(oy, q.height) + 1;
-        // Listing the window's points pays while there are far fewer of them than pixels
-        // (levels <= 1); above, each pixel regenerates its own.
-        const bool listed = static_cast<double>(ncx) * static_cast<double>(ncy) * grid.mu <=
-                            std::max(65536.0, static_cast<double>(q.width) * q.height / 8);
-        g.Uniform1i(uniform("u_list"), listed ? 1 : 0);
-        if (listed) {
-            // Rows of cells in parallel, then one run: cells by y then x, points in draw order.
-            std::vector<std::vector<std::uint32_t>> rows(static_cast<std::size_t>(ncy));
-            std::vector<std::uint32_t> counts(static_cast<std::size_t>(ncx * ncy));
-#pragma omp parallel for schedule(dynamic)
-            for (std::int64_t cy = 0; cy < ncy; ++cy) {
-                std::vector<core::noise::CellPoint> pts;
-                auto& row = rows[static_cast<std::size_t>(cy)];
-                for (std::int64_t cx = 0; cx < ncx; ++cx) {
-                    const int n = grid.cell_points(q.seed, bcx + cx, bcy + cy, pts);
-                    counts[static_cast<std::size_t>(cy * ncx + cx)] = static_cast<std::uint32_t>(n);
-                }
-                row.reserve(pts.size() * 4);
-                for (const auto& p : pts) {
-                    const int layer =
-                        mix ? mix->level_at(static_cast<double>(p.bx) + p.fx / 16777216.0,
-                                            static_cast<double>(p.by) + p.fy / 16777216.0)
-                            : 0;
-                    row.push_back(static_cast<std::uint32_t>(p.bx - bcx * a));
-                    row.push_back(static_cast<std::uint32_t>(p.by - bcy * a));
-                    row.push_back(p.fx | (p.eps < 0 ? 0x80000000u : 0u));
-                    row.push_back(p.fy | (static_cast<std::uint32_t>(layer) << 24));
-                }
-            }
-            std::vector<std::uint32_t> starts(counts.size() + 1, 0), points;
-            for (std::size_t i = 0; i < counts.size(); ++i) starts[i + 1] = starts[i] + counts[i];
-            points.reserve(static_cast<std::size_t>(starts.back()) * 4 + 4);
-            for (const auto& row : rows) points.insert(points.end(), row.begin(), row.end());
-            if (points.empty()) points.assign(4, 0); // a buffer may not be empty
-            upload_points(0, starts.data(), starts.size() * 4);
-            upload_points(1, points.data(), points.size() * 4);
-            g.Uniform2i(uniform("u_cells"), static_cast<int>(ncx), static_cast<int>(ncy));
-        } else {
-            const std::uint32_t none[4] = {0, 0, 0, 0}; // every binding the program names is bound
-            upload_points(0, none, sizeof none);
-            upload_points(1, none, sizeof none);
-        }
-        g.Uniform1f(uniform("u_scale"), static_cast<float>(1.0 / std::sqrt(grid.lambda)));
-        g.Uniform1uiv(uniform("u_thresholds[0]"), static_cast<GLsizei>(grid.thresholds.size()),
-                      grid.thresholds.data());
-        g.Uniform1i(uniform("u_nthresholds"), static_cast<int>(grid.thresholds.size()));
-        g.Uniform1i(uniform("u_mix"), mix ? 1 : 0);
-        if (mix) {
-            // All level tables as one array, and the field as an affine map (or a mask) of the
-            // position relative to the base cell's origin (NOISE_SPEC.md section 9).
-            const int side = table->side(), nl = mix->levels();
-            const std::size_t layer = static_cast<std::size_t>(side) * side * 4;
-            std::vector<float> texels(layer * static_cast<std::size_t>(nl), 0.0f);
-            for (int l = 0; l < nl; ++l)
-                interleave_table(*mix->level(l).table(q.level), 4,
-                                 texels.data() + layer * static_cast<std::size_t>(l));
-            upload_points(2, texels.data(), texels.size() * 4); // binding 3, as one texton's
-            const core::MixField& f = mix->field();
-            const double bx = static_cast<double>(bcx) * a, by = static_cast<double>(bcy) * a;
-            g.Uniform1i(uniform("u_nlevels"), nl);
-            g.Uniform1i(uniform("u_field"), f.kind == core::MixField::Kind::ramp ? 0 : 1);
-            if (f.kind == core::MixField::Kind::ramp) {
-                const double n = std::hypot(f.dx, f.dy) * f.width;
-                g.Uniform2f(uniform("u_rho_g"), static_cast<float>(f.dx / n),
-                            static_cast<float>(f.dy / n));
-                g.Uniform1f(uniform("u_rho_c"),
-                            static_cast<float>(((bx - f.x0) * f.dx + (by - f.y0) * f.dy) / n));
-            } else {
-                g.ActiveTexture(GL_TEXTURE3);
-                g.GenTextures(1, &mix_mask);
-                g.BindTexture(GL_TEXTURE_2D, mix_mask);
-                g.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, f.mask.width, f.mask.height, 0, GL_RED,
-                             GL_FLOAT, f.mask.data.data());
-                texel_fetch_only(g, GL_TEXTURE_2D);
-                g.Uniform1f(uniform("u_mask_inv_scale"), static_cast<float>(1.0 / f.scale));
-                g.Uniform2f(uniform("u_mask_o"), static_cast<float>((bx - f.x0) / f.scale),
-                            static_cast<float>((by - f.y0) / f.scale));
-            }
-            const auto& mu = mix->level(0).texton().mean;
-            const auto& mv = mix->level(nl - 1).texton().mean;
-            const bool grey = nc == 1;
-            g.Uniform3f(uniform("u_mean_u"), static_cast<float>(mu[0]),
-                        static_cast<float>(grey ? mu[0] : mu[1]),
-                        static_cast<float>(grey ? mu[0] : mu[2]));
-            g.Uniform3f(uniform("u_mean_v"), static_cast<float>(mv[0]),
-                        static_cast<float>(grey ? mv[0] : mv[1]),
-                        static_cast<float>(grey ? mv[0] : mv[2]));
-        }
-        if (stats) {
-            stats->limit_model = false;
-            stats->points = 0; // not counted on the GPU
-            stats->evaluations = 0;
-        }
+std::vector<Result<core::Image>> GlBackend::render_many(const PreparedTexton& tex,
+                                                        const std::vector<NoiseRequest>& qs,
+                                                        RenderStats* stats) {
+    std::vector<Result<Work>> works;
+    std::vector<Work*> batch;
+    works.reserve(qs.size());
+    for (const auto& q : qs) {
+        works.push_back(prepare(tex, nullptr, q));
+        if (works.back()) batch.push_back(&works.back().value());
     }
-
-    if (!m_out_texture) {
-        // One output image for every dispatch, read back through a framebuffer.
-        g.ActiveTexture(GL_TEXTURE1); // unit 0 holds the table
-        g.GenTextures(1, &m_out_texture);
-        g.BindTexture(GL_TEXTURE_2D, m_out_texture);
-        g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, kChunk, kChunk, 0, GL_RGBA, GL_FLOAT, nullptr);
-        texel_fetch_only(g, GL_TEXTURE_2D);
-        g.GenFramebuffers(1, &m_out_fbo);
-        g.BindFramebuffer(GL_FRAMEBUFFER, m_out_fbo);
-        g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, m_out_texture,
-                               0);
-        if (g.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-            if (mix_mask) g.DeleteTextures(1, &mix_mask);
-            return make_error(ErrorCode::internal, m_name + ": float framebuffer incomplete");
-        }
-    }
-    g.BindImageTexture(0, m_out_texture, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
-    g.BindFramebuffer(GL_FRAMEBUFFER, m_out_fbo);
-    const int cw = std::min(q.width, kChunk), ch = std::min(q.height, kChunk);
-    core::Image out = take_image(q.width, q.height, nc); // every pixel is written
-    std::vector<float> rgba(static_cast<std::size_t>(cw) * ch * 4);
-    g.PixelStorei(GL_PACK_ALIGNMENT, 4);
-    if (!m_timer) g.GenQueries(1, &m_timer);
-    double gpu_ms = 0;
-    bool skipped = false;
-    for (int y0 = 0; y0 < q.height && !skipped; y0 += ch)
-        for (int x0 = 0; x0 < q.width && !skipped; x0 += cw) {
-            if (stopped(q.cancel)) {
-                skipped = true;
-                break;
-            }
-            const int w = std::min(cw, q.width - x0), h = std::min(ch, q.height - y0);
-            g.Uniform2i(uniform("u_offset"), x0, y0);
-            g.Uniform2i(uniform("u_size"), w, h);
-            g.BeginQuery(GL_TIME_ELAPSED, m_timer);
-            g.DispatchCompute(static_cast<GLuint>((w + 15) / 16),
-                              static_cast<GLuint>((h + 15) / 16), 1);
-            g.EndQuery(GL_TIME_ELAPSED);
-            g.MemoryBarrier(GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
-            g.ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, rgba.data());
-            GLuint64 ns = 0;
-            g.GetQueryObjectui64v(m_timer, GL_QUERY_RESULT, &ns);
-            gpu_ms += static_cast<double>(ns) * 1e-6;
-            for (int c = 0; c < nc; ++c)
-                for (int y = 0; y < h; ++y) {
-                    const float* src = &rgba[static_cast<std::size_t>(y) * w * 4 + c];
-                    float* dst = &out.at(c, x0, y0 + y);
-                    for (int x = 0; x < w; ++x) dst[x] = src[static_cast<std::size_t>(x) * 4];
-                }
-        }
+    const double gpu_ms = render_batch(batch);
     if (stats) stats->gpu_ms = gpu_ms;
-    const GLenum err = g.GetError();
-    if (mix_mask) g.DeleteTextures(1, &mix_mask);
-    if (err != GL_NO_ERROR)
-        return make_error(ErrorCode::internal,
-                          m_name + ": GL error " + std::to_string(static_cast<int>(err)));
-    if (skipped) return abandoned(q.cancel, "the render");
+    std::vector<Result<core::Image>> out;
+    for (auto& w : works)
+        out.push_back(w ? std::move(w.value().image) : Result<core::Image>(w.error()));
     return out;
 }
 
-void GlBackend::upload_points(int k, const void* data, std::size_t bytes) {
+namespace {
+
+int words_per_pixel(Precision p) {
+    return p == Precision::u8 ? 1 : p == Precision::u16 ? 2 : 3;
+}
+
+// A piece of one window that fits a pass: where it is in its window and in the pass's output.
+struct Piece {
+    GlBackend::Work* work;
+    int x0, y0, w, h;
+    std::size_t out_base = 0; // pixels from the start of the pass's output
+    const void* key;          // the level table its dispatch binds (a mix: its own)
+};
+
+struct Pass {
+    Precision precision;
+    std::size_t pixels = 0;
+    std::vector<Piece> pieces; // runs of one key are one dispatch
+};
+
+// The pass's pixels into each piece's window, as floats that encode to the same bytes (q / 255
+// scaled back by the encoder is q again: the error is far below its + 0.5).
+void copy_out(const Piece& p, Precision precision, const std::uint32_t* words) {
+    static const auto u8 = [] {
+        std::vector<float> t(256);
+        for (int i = 0; i < 256; ++i)
+            t[static_cast<std::size_t>(i)] = static_cast<float>(i) / 255.0f;
+        return t;
+    }();
+    static const auto u16 = [] {
+        std::vector<float> t(65536);
+        for (int i = 0; i < 65536; ++i)
+            t[static_cast<std::size_t>(i)] = static_cast<float>(i) / 65535.0f;
+        return t;
+    }();
+    core::Image& img = p.work->image.value();
+    const int nc = img.channels;
+    const int stride = words_per_pixel(precision);
+    for (int y = 0; y < p.h; ++y) {
+        const std::uint32_t* src =
+            words + (p.out_base + static_cast<std::size_t>(y) * p.w) * stride;
+        float* dst[3] = {};
+        for (int c = 0; c < nc; ++c) dst[c] = &img.at(c, p.x0, p.y0 + y);
+        for (int x = 0; x < p.w; ++x) {
+            const std::uint32_t* s = src + static_cast<std::size_t>(x) * stride;
+            if (precision == Precision::u8) {
+                for (int c = 0; c < nc; ++c) dst[c][x] = u8[(s[0] >> (8 * c)) & 0xffu];
+            } else if (precision == Precision::u16) {
+                const std::uint32_t v[3] = {s[0] & 0xffffu, s[0] >> 16, s[1] & 0xffffu};
+                for (int c = 0; c < nc; ++c) dst[c][x] = u16[v[c]];
+            } else {
+                for (int c = 0; c < nc; ++c) std::memcpy(&dst[c][x], &s[c], 4);
+            }
+        }
+    }
+}
+
+} // namespace
+
+double GlBackend::render_batch(const std::vector<Work*>& batch) {
+    // Cut the windows into pieces; sort them by precision (one program a pass) and table (one
+    // dispatch a run), keeping each window's pieces in order.
+    std::vector<Piece> pieces;
+    for (Work* work : batch) {
+        const gl::NoiseWindow& win = *work->window;
+        if (stopped(win.cancel)) {
+            work->image = abandoned(win.cancel, "the render");
+            continue;
+        }
+        work->image = take_image(win.width, win.height, win.channels); // every pixel is written
+        const int pw = std::min(win.width, kPieceSide);
+        const int ph = std::max(
+            1, std::min(win.height, static_cast<int>(kPassWords / words_per_pixel(win.precision) /
+                                                     static_cast<std::size_t>(pw))));
+        const void* key = win.mix_tables.empty() ? static_cast<const void*>(win.table.get())
+                                                 : static_cast<const void*>(work);
+        for (int y0 = 0; y0 < win.height; y0 += ph)
+            for (int x0 = 0; x0 < win.width; x0 += pw)
+                pieces.push_back({work, x0, y0, std::min(pw, win.width - x0),
+                                  std::min(ph, win.height - y0), 0, key});
+    }
+    if (pieces.empty()) return 0;
+    std::stable_sort(pieces.begin(), pieces.end(), [](const Piece& a, const Piece& b) {
+        const auto pa = a.work->window->precision, pb = b.work->window->precision;
+        if (pa != pb) return pa < pb;
+        return std::less<const void*>()(a.key, b.key);
+    });
+    std::vector<Pass> passes;
+    for (const Piece& p : pieces) {
+        const Precision prec = p.work->window->precision;
+        const std::size_t n = static_cast<std::size_t>(p.w) * p.h;
+        const std::size_t cap = kPassWords / static_cast<std::size_t>(words_per_pixel(prec));
+        if (passes.empty() || passes.back().precision != prec || passes.back().pixels + n > cap)
+            passes.push_back({prec, 0, {}});
+        Pass& pass = passes.back();
+        pass.pieces.push_back(p);
+        pass.pieces.back().out_base = pass.pixels;
+        pass.pixels += n;
+    }
+
+    // Every window's thresholds and listed points in one buffer each; every piece's record.
+    std::vector<std::uint32_t> thresholds, starts, points, records;
+    std::map<const Work*, std::array<std::uint32_t, 3>> bases; // thresholds, starts, points
+    for (Work* work : batch) {
+        const gl::NoiseWindow& win = *work->window;
+        bases[work] = {static_cast<std::uint32_t>(thresholds.size()),
+                       static_cast<std::uint32_t>(starts.size()),
+                       static_cast<std::uint32_t>(points.size() / 4)};
+        thresholds.insert(thresholds.end(), win.thresholds.begin(), win.thresholds.end());
+        starts.insert(starts.end(), win.starts.begin(), win.starts.end());
+        points.insert(points.end(), win.points.begin(), win.points.end());
+    }
+    for (auto* v : {&thresholds, &starts, &points})
+        if (v->size() < 4) v->resize(4, 0); // a bound buffer may not be empty
+    for (const Pass& pass : passes)
+        for (const Piece& p : pass.pieces) {
+            auto rec = p.work->window->record;
+            const auto& b = bases[p.work];
+            rec[gl::field::thr_base] = b[0];
+            rec[gl::field::cell_base] = b[1];
+            rec[gl::field::point_base] = b[2];
+            rec[gl::field::offset_x] = static_cast<std::uint32_t>(p.x0);
+            rec[gl::field::offset_y] = static_cast<std::uint32_t>(p.y0);
+            rec[gl::field::size_x] = static_cast<std::uint32_t>(p.w);
+            rec[gl::field::size_y] = static_cast<std::uint32_t>(p.h);
+            rec[gl::field::out_base] = static_cast<std::uint32_t>(p.out_base);
+            records.insert(records.end(), rec.begin(), rec.end());
+        }
+
+    std::lock_guard<std::mutex> lock(m_mutex);
+    CurrentScope scope(*m_context);
+    double gpu_ms = 0;
+    auto fail_all = [&](const Error& e) {
+        for (Work* w : batch)
+            if (w->image) w->image = e;
+        return gpu_ms;
+    };
+    if (!scope.ok)
+        return fail_all(Error{ErrorCode::internal, m_name + ": cannot make context current"});
     const gl::GlApi& g = *m_gl;
-    if (!m_point_buffers[0]) g.GenBuffers(3, m_point_buffers);
-    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, m_point_buffers[k]);
-    if (bytes > m_point_capacity[k]) {
-        m_point_capacity[k] = std::max(bytes, 2 * m_point_capacity[k]);
-        g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(m_point_capacity[k]),
-                     nullptr, GL_DYNAMIC_DRAW);
+    for (Slot& slot : m_slots)
+        if (!slot.out) {
+            const auto bytes = static_cast<GLsizeiptr>(kPassWords * 4);
+            g.GenBuffers(1, &slot.out);
+            g.BindBuffer(GL_SHADER_STORAGE_BUFFER, slot.out);
+            g.BufferData(GL_SHADER_STORAGE_BUFFER, bytes, nullptr, GL_DYNAMIC_COPY);
+            g.GenBuffers(1, &slot.readback);
+            g.BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
+            const GLbitfield map = GL_MAP_READ_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+            g.BufferStorage(GL_COPY_WRITE_BUFFER, bytes, nullptr, map | GL_CLIENT_STORAGE_BIT);
+            slot.mapped = static_cast<const std::uint32_t*>(
+                g.MapBufferRange(GL_COPY_WRITE_BUFFER, 0, bytes, map));
+            g.GenQueries(1, &slot.query);
+            if (!slot.mapped)
+                return fail_all(
+                    Error{ErrorCode::internal, m_name + ": cannot map a readback buffer"});
+        }
+    upload(0, starts.data(), starts.size() * 4);
+    upload(1, points.data(), points.size() * 4);
+    upload(3, records.data(), records.size() * 4);
+    upload(4, thresholds.data(), thresholds.size() * 4);
+
+    std::vector<GLuint> masks;
+    const Pass* in_flight[2] = {nullptr, nullptr};
+    bool failed = false;
+    // Waits for the pass in `slot`, then copies it into its windows.
+    auto finish = [&](int s) {
+        const Pass* pass = in_flight[s];
+        if (!pass) return;
+        in_flight[s] = nullptr;
+        Slot& slot = m_slots[s];
+        auto fence = static_cast<GLsync>(slot.fence);
+        GLenum wait;
+        do wait = g.ClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, 1000000000ull);
+        while (wait == GL_TIMEOUT_EXPIRED);
+        g.DeleteSync(fence);
+        slot.fence = nullptr;
+        if (wait == GL_WAIT_FAILED) {
+            failed = true;
+            return;
+        }
+        GLuint64 ns = 0;
+        g.GetQueryObjectui64v(slot.query, GL_QUERY_RESULT, &ns);
+        gpu_ms += static_cast<double>(ns) * 1e-6;
+        std::map<Work*, bool> seen;
+        for (const Piece& p : pass->pieces) {
+            if (!seen[p.work])
+                p.work->stats.gpu_ms =
+                    std::max(0.0, p.work->stats.gpu_ms) + static_cast<double>(ns) * 1e-6;
+            seen[p.work] = true;
+            if (p.work->image) copy_out(p, pass->precision, slot.mapped);
+        }
+    };
+    std::size_t first = 0; // the first record of the pass
+    for (std::size_t k = 0; k < passes.size() && !failed; ++k) {
+        const Pass& pass = passes[k];
+        const int s = static_cast<int>(k % 2);
+        finish(s);
+        bool wanted = false;
+        for (const Piece& p : pass.pieces) wanted = wanted || !stopped(p.work->window->cancel);
+        if (!wanted) {
+            first += pass.pieces.size();
+            continue;
+        }
+        auto prog = noise_program(pass.precision);
+        if (!prog) {
+            fail_all(prog.error());
+            failed = true;
+            break;
+        }
+        g.UseProgram(prog.value()->id);
+        g.Uniform1i(prog.value()->mask, 3); // a unit of its own (two sampler types on one fail)
+        Slot& slot = m_slots[s];
+        g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, slot.out);
+        g.BeginQuery(GL_TIME_ELAPSED, slot.query);
+        for (std::size_t i = 0; i < pass.pieces.size();) {
+            std::size_t j = i;
+            int gx = 0, gy = 0;
+            for (; j < pass.pieces.size() && pass.pieces[j].key == pass.pieces[i].key; ++j) {
+                gx = std::max(gx, (pass.pieces[j].w + 15) / 16);
+                gy = std::max(gy, (pass.pieces[j].h + 15) / 16);
+            }
+            const gl::NoiseWindow& win = *pass.pieces[i].work->window;
+            if (!win.mix_tables.empty()) {
+                upload(2, win.mix_tables.data(), win.mix_tables.size() * 4);
+                if (win.mask) {
+                    GLuint tex = 0;
+                    g.ActiveTexture(GL_TEXTURE3);
+                    g.GenTextures(1, &tex);
+                    g.BindTexture(GL_TEXTURE_2D, tex);
+                    g.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, win.mask->mask.width,
+                                 win.mask->mask.height, 0, GL_RED, GL_FLOAT,
+                                 win.mask->mask.data.data());
+                    texel_fetch_only(g, GL_TEXTURE_2D);
+                    masks.push_back(tex);
+                }
+            } else if (win.table) {
+                g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, table_buffer(win.table));
+            } else {
+                upload(2, thresholds.data(), 16); // the limit model reads no table
+            }
+            g.Uniform1i(prog.value()->tile_first, static_cast<GLint>(first + i));
+            g.DispatchCompute(static_cast<GLuint>(gx), static_cast<GLuint>(gy),
+                              static_cast<GLuint>(j - i));
+            i = j;
+        }
+        g.EndQuery(GL_TIME_ELAPSED);
+        g.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        g.BindBuffer(GL_COPY_READ_BUFFER, slot.out);
+        g.BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
+        g.CopyBufferSubData(
+            GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0,
+            static_cast<GLsizeiptr>(pass.pixels * 4 *
+                                    static_cast<std::size_t>(words_per_pixel(pass.precision))));
+        slot.fence = g.FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+        in_flight[s] = &pass;
+        first += pass.pieces.size();
+    }
+    finish(static_cast<int>(passes.size() % 2)); // the older of the two in flight first
+    finish(static_cast<int>((passes.size() + 1) % 2));
+    if (!masks.empty()) g.DeleteTextures(static_cast<GLsizei>(masks.size()), masks.data());
+    const GLenum err = g.GetError();
+    if (failed || err != GL_NO_ERROR)
+        fail_all(Error{ErrorCode::internal,
+                       m_name + ": GL error " + std::to_string(static_cast<int>(err))});
+    for (Work* w : batch)
+        if (w->image && stopped(w->window->cancel))
+            w->image = abandoned(w->window->cancel, "the render");
+    return gpu_ms;
+}
+
+void GlBackend::upload(int k, const void* data, std::size_t bytes) {
+    const gl::GlApi& g = *m_gl;
+    if (!m_buffers[0]) g.GenBuffers(5, m_buffers);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, m_buffers[k]);
+    if (bytes > m_capacity[k]) {
+        m_capacity[k] = std::max(bytes, 2 * m_capacity[k]);
+        g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(m_capacity[k]), nullptr,
+                     GL_DYNAMIC_DRAW);
     }
     g.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(bytes), data);
-    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, static_cast<GLuint>(1 + k), m_point_buffers[k]);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, static_cast<GLuint>(1 + k), m_buffers[k]);
 }
 
 Result<std::vector<float>> GlBackend::surface(const PreparedTexton& tex, std::uint64_t seed,

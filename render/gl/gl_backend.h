@@ -1,7 +1,9 @@
 #pragma once
 // The OpenGL evaluator shared by the OSMesa and EGL backends: the same GLSL (render/glsl/) on
-// whatever context the platform code made. Owns its context; one render at a time (a mutex), made
-// current on the calling thread for the call and released after, so any thread may call it.
+// whatever context the platform code made. Owns its context, made current on the calling thread
+// for one batch and released after, so any thread may call it. Noise is evaluated in batches: the
+// windows are prepared on their callers' threads (no GL), then one batch uploads them, dispatches
+// them together and reads them back (render_batch); a single render is a batch of one.
 #include "render/backend.h"
 #include "render/surface_eval.h"
 
@@ -16,6 +18,10 @@ namespace textond::render {
 
 namespace gl {
 struct GlApi;
+}
+
+namespace gl {
+struct NoiseWindow;
 }
 
 // A platform's GL context (OSMesa, EGL).
@@ -52,6 +58,30 @@ public:
     int subpixel_bits() const { return m_subpixel_bits; }
     Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                RenderStats* stats = nullptr) override;
+    // Every request in one batch.
+    std::vector<Result<core::Image>> render_many(const PreparedTexton& texton,
+                                                 const std::vector<NoiseRequest>& requests,
+                                                 RenderStats* stats = nullptr) override;
+
+    // One window of a batch: prepared on any thread (no GL), then rendered by render_batch.
+    struct Work {
+        std::unique_ptr<gl::NoiseWindow> window;
+        Result<core::Image> image = make_error(ErrorCode::internal, "not rendered");
+        RenderStats stats; // gpu_ms: the whole batch's passes that held this window
+        Work();
+        Work(Work&&) noexcept;
+        ~Work();
+    };
+    // Checks the request; `mix` null for one texton (else its exact levels only: unsupported
+    // above them).
+    Result<Work> prepare(const PreparedTexton& texton, const PreparedMix* mix,
+                         const NoiseRequest& request) const;
+    // Evaluates every window (texton_noise.comp, TEXTOND_BATCH): the windows are cut into
+    // pieces that fit one pass's output buffer, and each pass is one dispatch per level table
+    // (one for all tiles of a texton and level), quantised on the GPU to each request's
+    // precision and copied back asynchronously (two passes in flight, fences); then each
+    // Work's image holds its window, or the error that stopped it. Returns the batch's GPU ms.
+    double render_batch(const std::vector<Work*>& batch);
     // Exact levels of a mix (its level tables as one texture array, the field in the shader);
     // the limit levels are left to the CPU (unsupported).
     Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,
@@ -77,10 +107,7 @@ public:
 private:
     GlBackend(std::string name, std::unique_ptr<GlContext> context);
     Result<bool> init(bool allow_software, const GlslSources& sources);
-    Result<core::Image> render_impl(const PreparedTexton& texton, const PreparedMix* mix,
-                                    const NoiseRequest& request, RenderStats* stats);
     unsigned table_texture(const std::shared_ptr<const LevelTable>& table);
-    int uniform(const char* name);
 
     std::string m_name;
     std::unique_ptr<GlContext> m_context;
@@ -89,20 +116,30 @@ private:
     std::string m_version;
     bool m_software = false;
     int m_subpixel_bits = 4;
-    std::mutex m_mutex;
-    unsigned m_program = 0, m_probe_program = 0, m_surface_program = 0, m_mesh_program = 0,
-             m_vao = 0;
-    // The output image of every noise dispatch (kChunk^2 RGBA32F, made once) and the
-    // framebuffer it is read back through.
-    unsigned m_out_texture = 0, m_out_fbo = 0;
-    unsigned m_timer = 0; // the GL_TIME_ELAPSED query of every dispatch
-    // The window's points and each cell's first point (texton_noise.comp, u_list = 1), grown as
-    // needed and reused.
-    unsigned m_point_buffers[3] = {0, 0, 0};
-    std::size_t m_point_capacity[3] = {0, 0, 0};
-    // Copies `bytes` into buffer k (0 the cell starts, 1 the points, 2 a mix's level tables) and
-    // binds it to 1 + k.
-    void upload_points(int k, const void* data, std::size_t bytes);
+    std::mutex m_mutex;         // the context: one batch (or surface, mesh, probe call) at a time
+    std::string m_noise_source; // lib + eval + comp, compiled per output precision
+    // The batched noise program, one per Precision (f32 made at start, the others when first
+    // needed), and its uniforms.
+    struct NoiseProgram {
+        unsigned id = 0;
+        int tile_first = -1, mask = -1;
+    };
+    NoiseProgram m_noise[3];
+    Result<NoiseProgram*> noise_program(Precision p);
+    unsigned m_probe_program = 0, m_surface_program = 0, m_mesh_program = 0, m_vao = 0;
+    // A pass's output (written by the shader) and the persistently mapped copy it is read from,
+    // two of them so one pass computes while the one before is copied back.
+    struct Slot {
+        unsigned out = 0, readback = 0, query = 0;
+        const std::uint32_t* mapped = nullptr;
+        void* fence = nullptr; // GLsync of the pass in flight
+    };
+    Slot m_slots[2];
+    // Storage buffers grown as needed and reused: 0 cell starts (binding 1), 1 points (2), 2 a
+    // mix's level tables (3), 3 the records (4), 4 the thresholds (5).
+    unsigned m_buffers[5] = {0, 0, 0, 0, 0};
+    std::size_t m_capacity[5] = {0, 0, 0, 0, 0};
+    void upload(int k, const void* data, std::size_t bytes);
 
     // Uniforms shared by surface_lib.glsl's users (the compute and the mesh programs).
     void set_surface_uniforms(unsigned program, const PreparedTexton& texton, std::uint64_t seed,

@@ -44,14 +44,23 @@ uvec2 add64(uvec2 a, int b) {
     return uvec2(lo, a.y + carry + (b < 0 ? 0xffffffffu : 0u));
 }
 
+#ifdef TEXTOND_BATCH
+// The server's batched compute path: each tile's thresholds in one buffer, from u_thr_base.
+layout(std430, binding = 5) readonly buffer Thresholds { uint u_thr[]; };
+int u_thr_base;
+int u_nthresholds;
+uint threshold_at(int i) { return u_thr[u_thr_base + i]; }
+#else
 uniform uint u_thresholds[256];
 uniform int u_nthresholds;
+uint threshold_at(int i) { return u_thresholds[i]; }
+#endif
 
 int poisson_count(uint d0) {
     int lo = 0, hi = u_nthresholds;
     while (lo < hi) {
         int mid = (lo + hi) / 2;
-        if (u_thresholds[mid] <= d0)
+        if (threshold_at(mid) <= d0)
             lo = mid + 1;
         else
             hi = mid;

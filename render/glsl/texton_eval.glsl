@@ -4,42 +4,50 @@
 // take every point in reach in the global order (cells by y then x, points in draw order) with
 // the exact bilinear or cubic weights; mode 1 is the limit model.
 
+// Per-tile parameters: uniforms for a single draw; in the server's batched compute path
+// (TEXTOND_BATCH) plain globals that texton_noise.comp loads from the tile's record.
+#ifdef TEXTOND_BATCH
+#define TEXTOND_PARAM
+#else
+#define TEXTOND_PARAM uniform
+#endif
+
 uniform sampler2D u_table; // G, (L + 2 pad)^2 texels (pad 1, or 3 for order 3), texelFetch only
-uniform int u_mode;        // 0 exact levels, 1 limit model
-uniform int u_level;
-uniform int u_st;          // texels per pixel (level >= 0)
-uniform int u_sub_log2;    // -level (level < 0)
-uniform int u_L;
-uniform int u_r;
-uniform int u_order;
-uniform int u_a;
-uniform uvec2 u_seed;
-uniform uvec2 u_base_cx;
-uniform uvec2 u_base_cy;
-uniform ivec2 u_period;   // cells; 0 = unbounded
-uniform ivec2 u_base_mod; // base cell mod period
-uniform ivec2 u_origin;   // window origin relative to the base cell (texels, or pixels if level < 0)
-uniform ivec2 u_offset;   // this draw's offset inside the window
-uniform float u_scale;
-uniform vec3 u_mean;
+TEXTOND_PARAM int u_mode;        // 0 exact levels, 1 limit model
+TEXTOND_PARAM int u_level;
+TEXTOND_PARAM int u_st;          // texels per pixel (level >= 0)
+TEXTOND_PARAM int u_sub_log2;    // -level (level < 0)
+TEXTOND_PARAM int u_L;
+TEXTOND_PARAM int u_r;
+TEXTOND_PARAM int u_order;
+TEXTOND_PARAM int u_a;
+TEXTOND_PARAM uvec2 u_seed;
+TEXTOND_PARAM uvec2 u_base_cx;
+TEXTOND_PARAM uvec2 u_base_cy;
+TEXTOND_PARAM ivec2 u_period;   // cells; 0 = unbounded
+TEXTOND_PARAM ivec2 u_base_mod; // base cell mod period
+TEXTOND_PARAM ivec2 u_origin;   // window origin relative to the base cell (texels, or pixels if level < 0)
+TEXTOND_PARAM ivec2 u_offset;   // this draw's offset inside the window
+TEXTOND_PARAM float u_scale;
+TEXTOND_PARAM vec3 u_mean;
 // limit model
-uniform uvec2 u_q0x; // x0 - 2, 64-bit
-uniform uvec2 u_q0y;
-uniform float u_kappa[25];
-uniform mat3 u_A;
-uniform int u_channels;
+TEXTOND_PARAM uvec2 u_q0x; // x0 - 2, 64-bit
+TEXTOND_PARAM uvec2 u_q0y;
+TEXTOND_PARAM float u_kappa[25];
+TEXTOND_PARAM mat3 u_A;
+TEXTOND_PARAM int u_channels;
 // texture mixing (NOISE_SPEC.md section 9); positions relative to the base cell's origin
-uniform int u_mix;                     // 0: one texton (u_table); 1: levels in u_level_tables
+TEXTOND_PARAM int u_mix;                     // 0: one texton (u_table); 1: levels in u_level_tables
 uniform sampler2DArray u_level_tables; // one layer a level, laid out as u_table
-uniform int u_nlevels;
-uniform int u_field;     // 0 ramp: rho = <p, u_rho_g> + u_rho_c; 1 mask
-uniform vec2 u_rho_g;
-uniform float u_rho_c;
+TEXTOND_PARAM int u_nlevels;
+TEXTOND_PARAM int u_field;     // 0 ramp: rho = <p, u_rho_g> + u_rho_c; 1 mask
+TEXTOND_PARAM vec2 u_rho_g;
+TEXTOND_PARAM float u_rho_c;
 uniform sampler2D u_mask; // R32F, read with texelFetch
-uniform float u_mask_inv_scale;
-uniform vec2 u_mask_o;    // mask pixel coordinate of the base cell's origin
-uniform vec3 u_mean_u;
-uniform vec3 u_mean_v;
+TEXTOND_PARAM float u_mask_inv_scale;
+TEXTOND_PARAM vec2 u_mask_o;    // mask pixel coordinate of the base cell's origin
+TEXTOND_PARAM vec3 u_mean_u;
+TEXTOND_PARAM vec3 u_mean_v;
 
 float rho_at(vec2 p) {
     float r;
@@ -67,9 +75,10 @@ int level_at(vec2 p) {
 // The server's compute path reads the tables from a buffer (layers of side^2 texels, a vec4 each):
 // plain loads, where texelFetch cost llvmpipe most of its time.
 layout(std430, binding = 3) readonly buffer Tables { vec4 u_tables[]; };
-uniform int u_side;
+TEXTOND_PARAM int u_side;
+TEXTOND_PARAM int u_table_base; // this tile's table in u_tables (vec4s)
 vec3 table_at(int x, int y, int layer) {
-    return u_tables[(layer * u_side + y) * u_side + x].rgb;
+    return u_tables[u_table_base + (layer * u_side + y) * u_side + x].rgb;
 }
 #else
 vec3 table_at(int x, int y, int layer) {

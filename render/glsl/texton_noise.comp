@@ -1,23 +1,106 @@
 // Texton noise as compute (NOISE_SPEC.md section 7; texton-noise paper, section 8), what the
-// server's OpenGL backends run: one invocation a pixel in 16 x 16 groups, written with
-// imageStore. Compiled after noise_lib.glsl and texton_eval.glsl.
+// server's OpenGL backends run, in batches: one dispatch evaluates many windows (tiles, or the
+// pieces of a large frame), one 16 x 16 group of pixels per workgroup and one window per
+// workgroup layer z. Compiled after noise_lib.glsl and texton_eval.glsl with TEXTOND_BATCH and
+// TEXTOND_TABLE_BUFFER defined, and TEXTOND_OUT_U8, TEXTOND_OUT_U16 or neither (floats).
 //
-// Exact levels read the window's points from a buffer (u_list = 1) where the host generated them
+// Each window's parameters are a record of 25 uvec4 in u_tiles (render/gl/noise_window.cpp
+// writes them). Its pixels go to u_out from the record's out_base, row by row, quantised here to
+// the bits the response needs (8 bits: one word a pixel, RGBA; 16: two; floats: three words) as
+// the encoder rounds (clamp to [0, 1], times 255 or 65535, plus 0.5, truncated): an 8-bit tile
+// reads back a quarter of the bytes of RGBA floats and encodes to the same bytes.
+//
+// Exact levels read the window's points from a buffer (list = 1) where the host generated them
 // once, cells by y then x and points in draw order, with each cell's start in u_offsets: a pixel
 // walks the rows of its cells (one contiguous run each) and sums the points in reach in that
 // order, the per-pixel gather's sums term for term, with no hashing per pixel. Where the window
 // holds far more points than pixels (levels above 1), each pixel regenerates its own cells'
-// points instead (u_list = 0). No barriers: llvmpipe runs a shader that has any as coroutines,
+// points instead (list = 0). No barriers: llvmpipe runs a shader that has any as coroutines,
 // which made every path of it 1.5x slower.
 
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(rgba32f, binding = 0) uniform writeonly image2D u_out;
+layout(std430, binding = 0) writeonly buffer Out { uint u_out[]; };
 layout(std430, binding = 1) readonly buffer CellStarts { uint u_offsets[]; };
 // x, y (texels from the base cell), fx | negative << 31, fy | level table << 24
 layout(std430, binding = 2) readonly buffer Points { uvec4 u_points[]; };
-uniform ivec2 u_size;  // pixels of this dispatch (from u_offset in the window)
-uniform int u_list;
-uniform ivec2 u_cells; // cells of the window, from the base cell
+layout(std430, binding = 4) readonly buffer Tiles { uvec4 u_tiles[]; };
+uniform int u_tile_first; // this dispatch's first record
+
+const int kRecord = 25; // uvec4 a record
+ivec2 t_size;           // pixels of this window (piece)
+uint t_out_base;        // its first pixel in u_out
+int t_list, t_cell_base, t_point_base;
+ivec2 t_cells; // cells of the window, from the base cell
+
+float f_at(uint w) { return uintBitsToFloat(w); }
+
+void load_tile(int t) {
+    int b = t * kRecord;
+    uvec4 r;
+    r = u_tiles[b + 0];
+    u_mode = int(r.x);
+    u_level = int(r.y);
+    u_st = int(r.z);
+    u_sub_log2 = int(r.w);
+    r = u_tiles[b + 1];
+    u_L = int(r.x);
+    u_r = int(r.y);
+    u_order = int(r.z);
+    u_a = int(r.w);
+    r = u_tiles[b + 2];
+    u_seed = r.xy;
+    u_base_cx = r.zw;
+    r = u_tiles[b + 3];
+    u_base_cy = r.xy;
+    u_q0x = r.zw;
+    r = u_tiles[b + 4];
+    u_q0y = r.xy;
+    u_nthresholds = int(r.z);
+    u_thr_base = int(r.w);
+    r = u_tiles[b + 5];
+    u_period = ivec2(r.xy);
+    u_base_mod = ivec2(r.zw);
+    r = u_tiles[b + 6];
+    u_origin = ivec2(r.xy);
+    u_offset = ivec2(r.zw);
+    r = u_tiles[b + 7];
+    t_size = ivec2(r.xy);
+    t_out_base = r.z;
+    u_channels = int(r.w);
+    r = u_tiles[b + 8];
+    u_side = int(r.x);
+    u_table_base = int(r.y);
+    t_list = int(r.z);
+    t_cell_base = int(r.w);
+    r = u_tiles[b + 9];
+    t_cells = ivec2(r.xy);
+    t_point_base = int(r.z);
+    u_mix = int(r.w);
+    r = u_tiles[b + 10];
+    u_mean = vec3(f_at(r.x), f_at(r.y), f_at(r.z));
+    u_scale = f_at(r.w);
+    if (u_mode == 1) {
+        for (int i = 0; i < 25; ++i) u_kappa[i] = f_at(u_tiles[b + 11 + i / 4][i % 4]);
+        uvec4 r0 = u_tiles[b + 18], r1 = u_tiles[b + 19], r2 = u_tiles[b + 20];
+        // Stored as rows; mat3() takes columns.
+        u_A = transpose(mat3(f_at(r0.x), f_at(r0.y), f_at(r0.z), f_at(r1.x), f_at(r1.y),
+                             f_at(r1.z), f_at(r2.x), f_at(r2.y), f_at(r2.z)));
+    }
+    if (u_mix != 0) {
+        r = u_tiles[b + 21];
+        u_field = int(r.x);
+        u_rho_g = vec2(f_at(r.y), f_at(r.z));
+        u_rho_c = f_at(r.w);
+        r = u_tiles[b + 22];
+        u_mask_inv_scale = f_at(r.x);
+        u_mask_o = vec2(f_at(r.y), f_at(r.z));
+        u_nlevels = int(r.w);
+        r = u_tiles[b + 23];
+        u_mean_u = vec3(f_at(r.x), f_at(r.y), f_at(r.z));
+        r = u_tiles[b + 24];
+        u_mean_v = vec3(f_at(r.x), f_at(r.y), f_at(r.z));
+    }
+}
 
 vec3 exact_listed(ivec2 pix) {
     ivec2 x = pixel_position(pix);
@@ -25,9 +108,10 @@ vec3 exact_listed(ivec2 pix) {
     reach_cells(x, clo, chi);
     precise vec3 acc = vec3(0.0);
     for (int cy = clo.y; cy <= chi.y; ++cy) {
-        uint end = u_offsets[cy * u_cells.x + chi.x + 1];
-        for (uint i = u_offsets[cy * u_cells.x + clo.x]; i < end; ++i) {
-            uvec4 p = u_points[i];
+        int row = t_cell_base + cy * t_cells.x;
+        uint end = u_offsets[row + chi.x + 1];
+        for (uint i = u_offsets[row + clo.x]; i < end; ++i) {
+            uvec4 p = u_points[uint(t_point_base) + i];
             float eps = (p.z >> 31u) == 0u ? 1.0 : -1.0;
             vec3 term;
             if (point_term(x, ivec2(p.xy), uvec2(p.z & 0xffffffu, p.w & 0xffffffu), eps,
@@ -38,10 +122,29 @@ vec3 exact_listed(ivec2 pix) {
     return exact_value(x, acc);
 }
 
+// The encoder's rounding (server/io/image_io.cpp, interleave), operation for operation.
+uint quantise(float v, float scale) {
+    precise float s = clamp(v, 0.0, 1.0) * scale;
+    precise float h = s + 0.5;
+    return uint(h);
+}
+
 void main() {
-    ivec2 local = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(local, u_size))) return;
+    load_tile(u_tile_first + int(gl_WorkGroupID.z));
+    ivec2 local = ivec2(gl_WorkGroupID.xy * 16u + gl_LocalInvocationID.xy);
+    if (any(greaterThanEqual(local, t_size))) return;
     ivec2 pix = local + u_offset;
-    vec3 v = u_mode == 1 ? limit_pixel(pix) : (u_list == 1 ? exact_listed(pix) : exact_pixel(pix));
-    imageStore(u_out, local, vec4(v, 1.0));
+    vec3 v = u_mode == 1 ? limit_pixel(pix) : (t_list == 1 ? exact_listed(pix) : exact_pixel(pix));
+    uint k = t_out_base + uint(local.y * t_size.x + local.x);
+#if defined(TEXTOND_OUT_U8)
+    u_out[k] = quantise(v.r, 255.0) | (quantise(v.g, 255.0) << 8) |
+               (quantise(v.b, 255.0) << 16) | 0xff000000u;
+#elif defined(TEXTOND_OUT_U16)
+    u_out[2u * k] = quantise(v.r, 65535.0) | (quantise(v.g, 65535.0) << 16);
+    u_out[2u * k + 1u] = quantise(v.b, 65535.0) | 0xffff0000u;
+#else
+    u_out[3u * k] = floatBitsToUint(v.r);
+    u_out[3u * k + 1u] = floatBitsToUint(v.g);
+    u_out[3u * k + 2u] = floatBitsToUint(v.b);
+#endif
 }

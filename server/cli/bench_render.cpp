@@ -26,7 +26,9 @@ Milliseconds per frame of texton noise (MNI 30, level 0) for each backend at 256
 1920x1080 and 3840x2160, with textons of r = 64 and r = 256 (the paper's Table 1), next to an
 FFTW ADSN of the same size measured in the same run (ratio = ADSN ms / backend ms); for OpenGL
 also the GPU time of the dispatches alone (timer queries), where the rest is readback and
-conversion. Then 64 tiles of 256x256, one call each. Also one
+conversion, and (OpenGL) the same frame read back as 8-bit RGB, rounded on the GPU as the PNG
+encoder rounds. Then 64 tiles of 256x256 as 8-bit: one call each, and as one batch (OpenGL: one
+upload, one dispatch and one readback; the CPU renders them one after another). Also one
 256x256 tile at levels 0, 3 and 24, one 1024x1024 frame at interpolation orders 0, 1, 3, and (CPU,
 one thread) a texture-mix tile and 65536 surface-noise points against a plain tile. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
   --exemplars DIR   texture photos                              [../shared/data/exemplars]
@@ -95,8 +97,9 @@ int bench_render_command(const Argv& argv) {
     std::printf("\nTexton noise, MNI 30, level 0, median of %lld frames; ADSN = FFTW spectral "
                 "synthesis of the same texton and size (%d threads)\n",
                 repeat.value(), nthreads);
-    std::printf("| backend | r | frame | ms/frame | GPU ms | ADSN ms | ADSN / backend |\n");
-    std::printf("|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "| backend | r | frame | ms/frame | GPU ms | ms as 8-bit | ADSN ms | ADSN / backend |\n");
+    std::printf("|---|---|---|---|---|---|---|---|\n");
     std::shared_ptr<const render::PreparedTexton> r64; // reused by the table by level
     for (int r : {64, 256}) {
         core::AnalysisParams p;
@@ -130,39 +133,61 @@ int bench_render_command(const Argv& argv) {
                 });
                 std::sort(gpu.begin(), gpu.end());
                 const double gpu_ms = gpu[gpu.size() / 2];
-                char gpu_text[32] = "-";
-                if (gpu_ms >= 0) std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu_ms);
-                std::printf("| %s | %d | %s | %.2f | %s | %.2f | %.2fx |\n", b->name().c_str(), r,
-                            s.label, ms, gpu_text, adsn, adsn / ms);
+                char gpu_text[32] = "-", u8_text[32] = "-";
+                if (gpu_ms >= 0) {
+                    std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu_ms);
+                    q.precision = render::Precision::u8;
+                    const double ms8 = median_ms(static_cast<int>(repeat.value()), [&] {
+                        ++q.seed;
+                        auto img = b->render(tex, q);
+                    });
+                    std::snprintf(u8_text, sizeof u8_text, "%.2f", ms8);
+                }
+                std::printf("| %s | %d | %s | %.2f | %s | %s | %.2f | %.2fx |\n", b->name().c_str(),
+                            r, s.label, ms, gpu_text, u8_text, adsn, adsn / ms);
                 std::fflush(stdout);
             }
         }
-        std::printf("| | | | | | | |\n");
+        std::printf("| | | | | | | | |\n");
     }
-    // What a tile server does: 64 cold 256x256 tiles of the r = 64 texton, one after another.
-    std::printf("\n64 tiles of 256x256 (r = 64, MNI 30, level 0), one call each\n");
-    std::printf("| backend | ms for 64 | ms/tile | GPU ms for 64 |\n|---|---|---|---|\n");
-    for (const auto& b : backends) {
-        render::NoiseRequest q;
-        std::vector<double> gpu;
-        const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
-            double sum = 0;
-            for (int t = 0; t < 64; ++t) {
-                q.x0 = 256 * (t % 8);
-                q.y0 = 256 * (t / 8);
-                ++q.seed;
-                render::RenderStats stats;
-                auto img = b->render(*r64, q, &stats);
-                sum += stats.gpu_ms;
-            }
-            gpu.push_back(sum);
-        });
-        std::sort(gpu.begin(), gpu.end());
-        char gpu_text[32] = "-";
-        if (gpu[gpu.size() / 2] >= 0)
-            std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu[gpu.size() / 2]);
-        std::printf("| %s | %.2f | %.3f | %s |\n", b->name().c_str(), ms, ms / 64, gpu_text);
-    }
+    // What a tile server does: 64 cold 256x256 8-bit tiles of the r = 64 texton, one call each,
+    // then as one batch (what concurrent requests become on a GL backend).
+    std::printf("\n64 tiles of 256x256 as 8-bit (r = 64, MNI 30, level 0)\n");
+    std::printf(
+        "| backend | calls | ms for 64 | ms/tile | GPU ms for 64 |\n|---|---|---|---|---|\n");
+    for (const auto& b : backends)
+        for (bool batch : {false, true}) {
+            std::vector<render::NoiseRequest> qs(64);
+            std::uint64_t seed = 1;
+            std::vector<double> gpu;
+            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
+                for (int t = 0; t < 64; ++t) {
+                    qs[static_cast<std::size_t>(t)].x0 = 256 * (t % 8);
+                    qs[static_cast<std::size_t>(t)].y0 = 256 * (t / 8);
+                    qs[static_cast<std::size_t>(t)].seed = ++seed;
+                    qs[static_cast<std::size_t>(t)].precision = render::Precision::u8;
+                }
+                double sum = 0;
+                if (batch) {
+                    render::RenderStats stats;
+                    auto imgs = b->render_many(*r64, qs, &stats);
+                    sum = stats.gpu_ms;
+                } else {
+                    for (const auto& q : qs) {
+                        render::RenderStats stats;
+                        auto img = b->render(*r64, q, &stats);
+                        sum += stats.gpu_ms;
+                    }
+                }
+                gpu.push_back(sum);
+            });
+            std::sort(gpu.begin(), gpu.end());
+            char gpu_text[32] = "-";
+            if (gpu[gpu.size() / 2] >= 0)
+                std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu[gpu.size() / 2]);
+            std::printf("| %s | %s | %.2f | %.3f | %s |\n", b->name().c_str(),
+                        batch ? "one batch" : "64", ms, ms / 64, gpu_text);
+        }
 
     std::printf("\nOne 256x256 tile by level (r = 64, MNI 30; levels >= 6 use the limit model)\n");
     std::printf("| backend | level | ms/tile | ratio to level 0 |\n|---|---|---|---|\n");

@@ -41,7 +41,10 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --max-connections N      connections served at once; threads past --http-threads start
                            on demand, so slow clients cannot take them all     [1024]
   --listen-backlog N       pending connections before the kernel drops SYNs    [1024]
-  --render-slots N         renders at once, 0 = one per core                   [0]
+  --render-slots N         renders at once, 0 = one per core (plus a GPU batch
+                           when tiles go to a GL backend)                      [0]
+  --gpu-batch-tiles N      GL: windows rendered in one batch at most           [64]
+  --gpu-batch-wait-us N    GL: how long a batch waits for more windows         [200]
   --analysis-workers N     analyses at once (each uses every core)             [1]
   --analysis-queue N       analyses waiting before uploads get 429             [4]
   --cache-mb N             in-memory image cache budget, MiB                   [256]
@@ -84,6 +87,8 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--listen-backlog",
                                                 "--http-threads",
                                                 "--render-slots",
+                                                "--gpu-batch-tiles",
+                                                "--gpu-batch-wait-us",
                                                 "--analysis-workers",
                                                 "--analysis-queue",
                                                 "--cache-mb",
@@ -146,6 +151,8 @@ Result<http::ServeConfig> config_from(const Args& a) {
           num("--store-timeout-ms", c.store_timeout_ms, 10, 60000, c.store_timeout_ms),
           num("--store-recheck-s", c.store_recheck_s, 0, 86400, c.store_recheck_s),
           num("--render-slots", c.render_slots, 0, 1024, c.render_slots),
+          num("--gpu-batch-tiles", c.gpu_batch_tiles, 1, 1024, c.gpu_batch_tiles),
+          num("--gpu-batch-wait-us", c.gpu_batch_wait_us, 0, 100000, c.gpu_batch_wait_us),
           num("--analysis-workers", c.analysis_workers, 1, 64, c.analysis_workers),
           num("--analysis-queue", c.analysis_queue, 0, 10000, c.analysis_queue),
           num("--cache-mb", cache_mb, 0, 1 << 20, cache_mb),

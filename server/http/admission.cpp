@@ -71,6 +71,10 @@ void RenderSlots::release() {
     next->cv.notify_one();
 }
 
+void RenderSlots::add(int n) {
+    for (int i = 0; i < n; ++i) release();
+}
+
 std::size_t RenderSlots::waiting() const {
     std::lock_guard lock(m_mutex);
     return m_waiters.size();

@@ -42,6 +42,7 @@ public:
     // 100 ms). More than max_waiters waiting: busy at once.
     Admit acquire(std::chrono::milliseconds max_wait, const std::function<bool()>& gone = {});
     void release();
+    void add(int n); // n more slots (at start)
     std::size_t waiting() const;
 
 private:

@@ -26,11 +26,13 @@ struct ServeConfig {
 
     // cpp-httplib serves one connection per worker thread for as long as it is kept alive, so
     // the pool must cover the connections expected at once; renders are bounded separately.
-    int http_threads = 128;     // connection threads kept
-    int max_connections = 1024; // connection threads at most (more are started on demand)
-    int render_slots = 0;       // renders at once; 0 = one per core
-    int analysis_workers = 1;   // analyses at once (each uses every core)
-    int analysis_queue = 4;     // waiting analyses before 429
+    int http_threads = 128;      // connection threads kept
+    int max_connections = 1024;  // connection threads at most (more are started on demand)
+    int render_slots = 0;        // renders at once; 0 = one per core (+ a GPU batch, on GL)
+    int gpu_batch_tiles = 64;    // GL: windows gathered into one batch at most
+    int gpu_batch_wait_us = 200; // GL: how long a batch waits for more once one is queued
+    int analysis_workers = 1;    // analyses at once (each uses every core)
+    int analysis_queue = 4;      // waiting analyses before 429
     int read_timeout_s = 30;
     int write_timeout_s = 30;
     int keep_alive_max = 1000; // requests per connection

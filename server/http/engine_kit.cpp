@@ -29,15 +29,16 @@ show is what this shader computes: same seed, same position, same colour (to flo
 | `texton.exr` | the coefficients alpha, float32, r x r (Y or R,G,B): what the shader samples |
 | `texton16.png` | the same as 16-bit PNG for engines without EXR: alpha = offset + scale * v / 65535 (`png16_decode` in the JSON; quantised to 2^-16 of the range, so not bit-exact) |
 | `glsl/noise_lib.glsl`, `glsl/texton_eval.glsl` | the exact GLSL the server's OpenGL backends run (GLSL 4.50): the hash, the point process and the evaluation of one pixel |
-| `glsl/texton_noise.frag`, `glsl/fullscreen.vert` | a fragment entry point over them (a full-screen pass); `glsl/texton_noise.comp` is the server's compute one |
+| `glsl/texton_noise.frag`, `glsl/fullscreen.vert` | a fragment entry point over them (a full-screen pass); `glsl/texton_noise.comp` is the server's batched compute one (for reference: it reads each window's uniforms from a storage buffer of records) |
 | `hlsl/texton_noise.hlsl` | its HLSL (SM 5) translation, same uniforms (arrays packed by four) |
 | `NOISE_SPEC.md` | the function itself, step by step, with every rounding fixed |
 
 ## Use (GLSL)
 
 Compile `#version 450 core` + `noise_lib.glsl` + `texton_eval.glsl` + `texton_noise.frag` as one
-fragment shader (or `texton_noise.comp` in place of the last, as a compute shader of 16 x 16
-groups writing the `rgba32f` image `u_out`, with `u_size` the pixels of the dispatch).
+fragment shader. (`texton_noise.comp`, the server's compute entry point, is shipped for
+reference: it is compiled with `TEXTOND_BATCH` and reads the same values from a buffer of
+per-window records instead of uniforms; see its header.)
 Upload the table once: an `RGB32F` texture of side `r + 2 pad` (`table_pad` in the JSON: 1, or 3
 for order 3), zeros except texel `(x + pad, y + pad)` = alpha(x, y) from `texton.exr` (row 0 =
 the file's first row), `GL_NEAREST`; the shader reads it with `texelFetch` only.

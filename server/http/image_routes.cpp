@@ -217,10 +217,17 @@ void Service::serve_image(const httplib::Request& req, httplib::Response& res,
         [&](const render::Cancel& cancel) -> Result<core::Image> {
             render::NoiseRequest q = job.request;
             q.cancel = &cancel;
+            const bool resampled =
+                job.out_width != job.request.width || job.out_height != job.request.height;
+            // The encoder keeps only the format's bits: a GL backend rounds on the GPU and reads
+            // back only those (the same bytes). A resampled window needs the floats.
+            if (!resampled)
+                q.precision = job.format == api::ImageFormat::png     ? render::Precision::u8
+                              : job.format == api::ImageFormat::png16 ? render::Precision::u16
+                                                                      : render::Precision::f32;
             auto image = job.mix ? render_mix(job.id, q, job.use_region_backend, job.kind)
                                  : render_noise(job.id, q, job.use_region_backend, job.kind);
-            if (image &&
-                (job.out_width != job.request.width || job.out_height != job.request.height))
+            if (image && resampled)
                 return core::resample_periodic(image.value(), job.out_width, job.out_height);
             return image;
         },

@@ -95,9 +95,15 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     render::BackendOptions options;
     options.threads = 0;
     options.tile_slots = s->m_config.render_slots > 0 ? s->m_config.render_slots : cores();
+    options.batch_tiles = s->m_config.gpu_batch_tiles;
+    options.batch_wait_us = s->m_config.gpu_batch_wait_us;
     auto renderer = render::Renderer::make(s->m_config.backend, options);
     if (!renderer) return renderer.error();
     s->m_renderer = std::move(renderer.value());
+    // Tiles on a GL backend: a slot mostly waits for its batch, so one per core would never fill
+    // one. Enough more to gather a whole batch while the cores encode the last.
+    if (s->m_config.render_slots == 0 && s->m_renderer->tiles_batched())
+        s->m_render_slots.add(s->m_config.gpu_batch_tiles);
     s->m_pool =
         std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
     auto mixes = MixStore::open(s->m_config.data_dir);
@@ -110,6 +116,10 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
         figures.push_back({c.backend, c.tile_ms, c.frame_ms});
     m.backends(s->m_renderer->tiles_backend(), s->m_renderer->frames_backend(), std::move(figures));
     Service* self = s.get();
+    m.gauge("textond_gpu_batches", "GL batches rendered since start (0 without a GL backend).",
+            [self] { return static_cast<double>(self->m_renderer->batches()); });
+    m.gauge("textond_gpu_batched_windows", "Windows rendered in GL batches since start.",
+            [self] { return static_cast<double>(self->m_renderer->batched_windows()); });
     m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
             [self] { return static_cast<double>(self->m_pool->queued()); });
     m.gauge("textond_analysis_running", "Analyses running now.",

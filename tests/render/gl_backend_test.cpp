@@ -6,6 +6,7 @@
 #include "core/surface_noise.h"
 #include "core/triangle_mesh.h"
 #include "render/backend_factory.h"
+#include "render/cancel.h"
 #include "render/cpu_backend.h"
 #include "render/egl_backend.h"
 #include "render/osmesa_backend.h"
@@ -21,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 namespace textond::test {
 namespace {
@@ -180,6 +182,116 @@ TEST(OsmesaBackend, AgreesWithCpu) {
     auto gl = osmesa();
     if (!gl) GTEST_SKIP() << "no OSMesa";
     check_against_cpu(*gl);
+}
+
+// The encoder's rounding of one value to `bits` (server/io/image_io.cpp, interleave).
+std::uint32_t rounded(float v, int bits) {
+    const float scale = bits == 8 ? 255.0f : 65535.0f;
+    return static_cast<std::uint32_t>(std::clamp(v, 0.0f, 1.0f) * scale + 0.5f);
+}
+
+// A batch (GlBackend::render_batch): windows of two textons at exact, sampled and limit levels,
+// a tileable one, a mix, at every precision, a cancelled one, and floats larger than a pass (so
+// the two readback slots are reused): each comes out of the batch bit for bit as it does alone,
+// and the quantised ones are the CPU's floats as the encoder rounds them.
+void check_batch_against_singles(GlBackend& gl) {
+    const auto sand = analysed_texton("etr_sand01.png", 64);
+    const auto cork = analysed_texton("mypaint_HR_Cork.png", 32, 3);
+    core::MixField ramp;
+    ramp.dx = 1;
+    ramp.width = 60;
+    const auto mix = analysed_mix("etr_sand01.png", "etr_pebbles04.png", 32, 5, ramp);
+    render::CpuBackend cpu;
+    struct Item {
+        const render::PreparedTexton* texton;
+        const render::PreparedMix* mix;
+        render::NoiseRequest q;
+    };
+    std::vector<Item> items;
+    auto add = [&](const render::PreparedTexton& t, const render::PreparedMix* m, int level,
+                   std::int64_t x0, std::int64_t y0, int w, int h, render::Precision p,
+                   std::uint64_t seed) {
+        render::NoiseRequest q;
+        q.level = level;
+        q.x0 = x0;
+        q.y0 = y0;
+        q.width = w;
+        q.height = h;
+        q.precision = p;
+        q.seed = seed;
+        items.push_back({&t, m, q});
+    };
+    using P = render::Precision;
+    for (int i = 0; i < 6; ++i) // tiles of one texton and level: one dispatch
+        add(*sand, nullptr, 0, 64 * i - 100, 64 * (i % 2), 64, 64, P::u8, 5);
+    add(*sand, nullptr, 2, -7, 3, 40, 30, P::u8, std::uint64_t{1} << 33);
+    add(*sand, nullptr, -2, 11, -9, 50, 20, P::u16, 9);
+    add(*cork, nullptr, 0, 1 << 20, -5, 33, 17, P::u8, 1);
+    add(*cork, nullptr, -1, 0, 0, 64, 64, P::f32, 1);
+    add(*sand, nullptr, sand->limit_level(), 3, 4, 48, 32, P::u8, 2);
+    add(mix->level(0), mix.get(), 0, -40, 0, 80, 40, P::u8, 3);
+    add(mix->level(0), mix.get(), 1, -20, 0, 40, 40, P::f32, 3);
+    add(*sand, nullptr, -3, 0, 0, 1500, 1000, P::f32, 4); // two pieces
+    add(*sand, nullptr, -3, 5, 5, 900, 900, P::f32, 6);
+    items.back().q.period = {0, 0};
+    add(*sand, nullptr, 0, 0, 0, 3 * sand->cell_size(), 2 * sand->cell_size(), P::u16, 8);
+    items.back().q.period = {3, 2};
+    render::Cancel gone(render::Cancel::Clock::now() - std::chrono::seconds(1), nullptr);
+    add(*sand, nullptr, 0, 0, 0, 64, 64, P::u8, 5);
+    items.back().q.cancel = &gone;
+
+    std::vector<GlBackend::Work> works;
+    for (const Item& it : items) {
+        auto w = gl.prepare(*it.texton, it.mix, it.q);
+        ASSERT_TRUE(w.ok()) << w.error().message;
+        works.push_back(std::move(w.value()));
+    }
+    std::vector<GlBackend::Work*> batch;
+    for (auto& w : works) batch.push_back(&w);
+    gl.render_batch(batch);
+
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        const Item& it = items[i];
+        auto& got = works[i].image;
+        if (it.q.cancel) {
+            ASSERT_FALSE(got.ok());
+            EXPECT_EQ(got.error().code, ErrorCode::cancelled);
+            continue;
+        }
+        ASSERT_TRUE(got.ok()) << i << ": " << got.error().message;
+        auto alone = it.mix ? gl.render_mix(*it.mix, it.q) : gl.render(*it.texton, it.q);
+        ASSERT_TRUE(alone.ok()) << alone.error().message;
+        ASSERT_EQ(got.value().data.size(), alone.value().data.size());
+        EXPECT_EQ(0, std::memcmp(got.value().data.data(), alone.value().data.data(),
+                                 got.value().data.size() * sizeof(float)))
+            << gl.name() << " window " << i << ": batched differs from alone";
+        EXPECT_GT(works[i].stats.gpu_ms, -1.0);
+        const bool exact = it.q.level < it.texton->limit_level();
+        if (it.q.precision == P::f32 || !exact) continue;
+        render::NoiseRequest full = it.q;
+        full.precision = P::f32;
+        auto want = it.mix ? cpu.render_mix(*it.mix, full) : cpu.render(*it.texton, full);
+        ASSERT_TRUE(want.ok());
+        const int bits = it.q.precision == P::u8 ? 8 : 16;
+        std::size_t differ = 0;
+        for (std::size_t k = 0; k < want.value().data.size(); ++k)
+            differ += rounded(want.value().data[k], bits) != rounded(got.value().data[k], bits);
+        // Bit-identical floats round alike; a mix's float field may move a value by 1e-5 std.
+        EXPECT_LE(differ, it.mix ? want.value().data.size() / 1000 : 0u)
+            << gl.name() << " window " << i << " at " << bits << " bits";
+    }
+}
+
+TEST(OsmesaBackend, BatchGivesEachWindowAsAlone) {
+    auto gl = osmesa();
+    if (!gl) GTEST_SKIP() << "no OSMesa";
+    check_batch_against_singles(*gl);
+}
+
+TEST(EglBackend, GpuBatchGivesEachWindowAsAlone) {
+    auto gl = egl_gpu();
+    if (!gl) GTEST_SKIP() << "no GPU";
+    check_batch_against_singles(*gl);
 }
 
 // Texture mixes: the level of each point and the mean colour from the field, in float on the GPU

@@ -1,5 +1,6 @@
 // Concurrency over real HTTP: identical uploads share one analysis (single flight), and many
 // clients fetching tiles at once all get the right bytes.
+#include "render/osmesa_backend.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -81,6 +82,61 @@ TEST(Concurrency, SixtyFourClientsFetchingTilesGetTheRightBytes) {
         EXPECT_EQ(got[i], want->body) << "client " << i;
     }
     EXPECT_NE(got[0], got[1]);
+}
+
+// A GL backend gathers concurrent tiles into batches and rounds them on the GPU to the bits of
+// the format (8 or 16); the bytes must still be the CPU's at every exact level, for tiles alone
+// and for tiles that shared a batch.
+TEST(Concurrency, BatchedGlTilesAreTheCpusBytes) {
+    if (!render::make_osmesa_backend().ok()) GTEST_SKIP() << "no OSMesa";
+    http::ServeConfig config = TestServer::default_config();
+    config.backend = render::BackendKind::osmesa;
+    config.gpu_batch_wait_us = 20000; // gather generously: llvmpipe is slow to fill a batch
+    TestServer gl(config);
+    auto setup = gl.client();
+    const std::string id = upload(setup, "etr_floor01.png", "?size=32&iterations=20");
+    ASSERT_FALSE(id.empty());
+    auto path = [&](int k) {
+        return "/v1/textons/" + id + "/tiles/" + std::to_string(k % 3 - 1) + "/" +
+               std::to_string(k - 8) + "/" + std::to_string(3 * k) +
+               (k % 4 == 3 ? ".png16" : ".png") + "?seed=" + std::to_string(k % 2 ? 1ull << 33 : 5);
+    };
+    constexpr int kClients = 24;
+    std::vector<std::string> got(kClients);
+    std::vector<int> status(kClients, 0);
+    std::vector<std::thread> clients;
+    for (int i = 0; i < kClients; ++i)
+        clients.emplace_back([&, i] {
+            auto c = gl.client();
+            auto res = c.Get(path(i).c_str());
+            if (!res) return;
+            status[i] = res->status;
+            got[i] = res->body;
+        });
+    for (auto& t : clients) t.join();
+    // Some tiles shared a batch.
+    const std::string metrics = setup.Get("/metrics")->body;
+    auto value = [&](const std::string& name) {
+        const auto at = metrics.find("\n" + name + " ");
+        return at == std::string::npos ? -1.0 : std::stod(metrics.substr(at + name.size() + 2));
+    };
+    EXPECT_GT(value("textond_gpu_batched_windows"), value("textond_gpu_batches"));
+    EXPECT_GE(value("textond_gpu_batched_windows"), kClients);
+
+    http::ServeConfig cpu = TestServer::default_config();
+    cpu.data_dir = gl.data_dir(); // the same stored texton
+    TestServer reference(cpu);
+    auto r = reference.client();
+    for (int i = 0; i < kClients; ++i) {
+        ASSERT_EQ(status[i], 200) << i;
+        auto want = r.Get(path(i).c_str());
+        ASSERT_TRUE(want);
+        EXPECT_EQ(got[i], want->body) << path(i);
+    }
+    // And one alone.
+    auto alone = setup.Get(path(kClients + 1).c_str());
+    ASSERT_TRUE(alone && alone->status == 200);
+    EXPECT_EQ(alone->body, r.Get(path(kClients + 1).c_str())->body);
 }
 
 } // namespace

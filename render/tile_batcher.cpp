@@ -1,0 +1,74 @@
+#include "render/tile_batcher.h"
+
+#include <algorithm>
+#include <vector>
+
+namespace textond::render {
+
+TileBatcher::TileBatcher(std::shared_ptr<GlBackend> gl, int max_tiles,
+                         std::chrono::microseconds max_wait)
+    : m_gl(std::move(gl)), m_max_tiles(std::max(1, max_tiles)),
+      m_max_wait(std::max(std::chrono::microseconds(0), max_wait)), m_worker([this] { run(); }) {}
+
+TileBatcher::~TileBatcher() {
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        m_stop = true;
+    }
+    m_queued.notify_all();
+    m_worker.join();
+}
+
+Result<core::Image> TileBatcher::render(const PreparedTexton& texton, const PreparedMix* mix,
+                                        const NoiseRequest& request) {
+    auto work = m_gl->prepare(texton, mix, request); // on the caller's thread
+    if (!work) return work.error();
+    Job job{std::move(work.value())};
+    {
+        std::unique_lock<std::mutex> lock(m_mutex);
+        m_queue.push_back(&job);
+        m_queued.notify_one();
+        m_done.wait(lock, [&] { return job.done; });
+    }
+    return std::move(job.work.image);
+}
+
+void TileBatcher::run() {
+    std::unique_lock<std::mutex> lock(m_mutex);
+    for (;;) {
+        m_queued.wait(lock, [&] { return m_stop || !m_queue.empty(); });
+        if (m_queue.empty()) return; // stopping, nothing left
+        // The first window is here: wait a little for more, unless the batch is full already.
+        if (static_cast<int>(m_queue.size()) < m_max_tiles && m_max_wait.count() > 0)
+            m_queued.wait_for(lock, m_max_wait, [&] {
+                return m_stop || static_cast<int>(m_queue.size()) >= m_max_tiles;
+            });
+        std::vector<Job*> jobs;
+        while (!m_queue.empty() && static_cast<int>(jobs.size()) < m_max_tiles) {
+            jobs.push_back(m_queue.front());
+            m_queue.pop_front();
+        }
+        lock.unlock();
+        std::vector<GlBackend::Work*> batch;
+        batch.reserve(jobs.size());
+        for (Job* j : jobs) batch.push_back(&j->work);
+        m_gl->render_batch(batch);
+        lock.lock();
+        ++m_batches;
+        m_windows += jobs.size();
+        for (Job* j : jobs) j->done = true;
+        m_done.notify_all();
+    }
+}
+
+std::uint64_t TileBatcher::batches() const {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    return m_batches;
+}
+
+std::uint64_t TileBatcher::windows() const {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    return m_windows;
+}
+
+} // namespace textond::render
