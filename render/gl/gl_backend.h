@@ -133,6 +133,7 @@ private:
         unsigned out = 0, readback = 0, query = 0;
         const std::uint32_t* mapped = nullptr;
         void* fence = nullptr; // GLsync of the pass in flight
+        double host_ms = -1;   // software renderers: the dispatches' time on the host clock
     };
     Slot m_slots[2];
     // Storage buffers grown as needed and reused: 0 cell starts (binding 1), 1 points (2), 2 a
