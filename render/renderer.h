@@ -45,6 +45,7 @@ public:
     const std::string& tiles_backend() const { return m_tiles_name; }
     // Whether tiles go through a GL batcher, and what it did: batches and windows in them.
     bool tiles_batched() const;
+    bool all_batched() const; // tiles and frames
     std::uint64_t batches() const;
     std::uint64_t batched_windows() const;
     const std::string& frames_backend() const { return m_frames_name; }

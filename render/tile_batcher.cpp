@@ -1,6 +1,7 @@
 #include "render/tile_batcher.h"
 
 #include <algorithm>
+#include <exception>
 #include <vector>
 
 namespace textond::render {
@@ -26,6 +27,7 @@ Result<core::Image> TileBatcher::render(const PreparedTexton& texton, const Prep
     Job job{std::move(work.value())};
     {
         std::unique_lock<std::mutex> lock(m_mutex);
+        if (m_stop) return make_error(ErrorCode::unavailable, "the renderer is stopping");
         m_queue.push_back(&job);
         m_queued.notify_one();
         m_done.wait(lock, [&] { return job.done; });
@@ -52,7 +54,11 @@ void TileBatcher::run() {
         std::vector<GlBackend::Work*> batch;
         batch.reserve(jobs.size());
         for (Job* j : jobs) batch.push_back(&j->work);
-        m_gl->render_batch(batch);
+        try {
+            m_gl->render_batch(batch);
+        } catch (const std::exception& e) { // bad_alloc: fail the batch, not the process
+            for (Job* j : jobs) j->work.image = Error{ErrorCode::internal, e.what()};
+        }
         lock.lock();
         ++m_batches;
         m_windows += jobs.size();

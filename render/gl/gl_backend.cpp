@@ -113,16 +113,20 @@ GlBackend::~GlBackend() {
     if (m_mesh_program) m_gl->DeleteProgram(m_mesh_program);
     if (m_vao) m_gl->DeleteVertexArrays(1, &m_vao);
     if (m_buffers[0]) m_gl->DeleteBuffers(5, m_buffers);
-    for (auto& slot : m_slots) {
-        if (slot.fence) m_gl->DeleteSync(static_cast<GLsync>(slot.fence));
-        if (slot.readback) {
-            m_gl->BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
-            m_gl->UnmapBuffer(GL_COPY_WRITE_BUFFER);
-            m_gl->DeleteBuffers(1, &slot.readback);
-        }
-        if (slot.out) m_gl->DeleteBuffers(1, &slot.out);
-        if (slot.query) m_gl->DeleteQueries(1, &slot.query);
+    for (auto& slot : m_slots) release_slot(slot);
+}
+
+void GlBackend::release_slot(Slot& slot) {
+    const gl::GlApi& g = *m_gl;
+    if (slot.fence) g.DeleteSync(static_cast<GLsync>(slot.fence));
+    if (slot.readback) {
+        g.BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
+        if (slot.mapped) g.UnmapBuffer(GL_COPY_WRITE_BUFFER);
+        g.DeleteBuffers(1, &slot.readback);
     }
+    if (slot.out) g.DeleteBuffers(1, &slot.out);
+    if (slot.query) g.DeleteQueries(1, &slot.query);
+    slot = Slot{};
 }
 
 GlslSources GlslSources::embedded() {
@@ -153,6 +157,9 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
     m_version = v ? v : "?";
     m_software = is_software(m_renderer);
     m_gl->GetIntegerv(GL_SUBPIXEL_BITS, &m_subpixel_bits);
+    GLint block = 0;
+    m_gl->GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &block);
+    if (block > 0) m_max_block_bytes = static_cast<std::size_t>(block);
     if (m_software && !allow_software)
         return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
                                                       m_renderer + "), not a GPU");
@@ -410,6 +417,23 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
     }
     for (auto* v : {&thresholds, &starts, &points})
         if (v->size() < 4) v->resize(4, 0); // a bound buffer may not be empty
+    // A storage buffer past GL_MAX_SHADER_STORAGE_BLOCK_SIZE reads zeros, silently: such a batch
+    // goes as two halves (a window of the largest size lists at most 128 MiB of points).
+    if (points.size() * 4 > m_max_block_bytes && batch.size() > 1) {
+        for (Work* w : batch)
+            if (w->image) recycle_image(std::move(w->image.value()));
+        const auto half = static_cast<std::ptrdiff_t>(batch.size() / 2);
+        return render_batch({batch.begin(), batch.begin() + half}) +
+               render_batch({batch.begin() + half, batch.end()});
+    }
+    if (points.size() * 4 > m_max_block_bytes) {
+        for (Work* w : batch)
+            if (w->image)
+                w->image = Error{ErrorCode::too_large,
+                                 m_name + ": the window lists more points than a GL storage "
+                                          "buffer holds"};
+        return 0;
+    }
     for (const Pass& pass : passes)
         for (const Piece& p : pass.pieces) {
             auto rec = p.work->window->record;
@@ -437,8 +461,9 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
         return fail_all(Error{ErrorCode::internal, m_name + ": cannot make context current"});
     const gl::GlApi& g = *m_gl;
     for (Slot& slot : m_slots)
-        if (!slot.out) {
+        if (!slot.mapped) {
             const auto bytes = static_cast<GLsizeiptr>(kPassWords * 4);
+            release_slot(slot); // a failed attempt's
             g.GenBuffers(1, &slot.out);
             g.BindBuffer(GL_SHADER_STORAGE_BUFFER, slot.out);
             g.BufferData(GL_SHADER_STORAGE_BUFFER, bytes, nullptr, GL_DYNAMIC_COPY);
@@ -449,9 +474,13 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
             slot.mapped = static_cast<const std::uint32_t*>(
                 g.MapBufferRange(GL_COPY_WRITE_BUFFER, 0, bytes, map));
             g.GenQueries(1, &slot.query);
-            if (!slot.mapped)
-                return fail_all(
-                    Error{ErrorCode::internal, m_name + ": cannot map a readback buffer"});
+            if (!slot.mapped) {
+                const GLenum err = g.GetError();
+                release_slot(slot);
+                return fail_all(Error{ErrorCode::internal,
+                                      m_name + ": cannot map a readback buffer (GL error " +
+                                          std::to_string(static_cast<int>(err)) + ")"});
+            }
         }
     upload(0, starts.data(), starts.size() * 4);
     upload(1, points.data(), points.size() * 4);
@@ -474,6 +503,7 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
         g.DeleteSync(fence);
         slot.fence = nullptr;
         if (wait == GL_WAIT_FAILED) {
+            fail_all(Error{ErrorCode::internal, m_name + ": waiting for a pass failed"});
             failed = true;
             return;
         }
@@ -493,6 +523,7 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
         const Pass& pass = passes[k];
         const int s = static_cast<int>(k % 2);
         finish(s);
+        if (failed) break;
         bool wanted = false;
         for (const Piece& p : pass.pieces) wanted = wanted || !stopped(p.work->window->cancel);
         if (!wanted) {

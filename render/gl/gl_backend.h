@@ -99,6 +99,9 @@ public:
                                      const core::TriangleMesh& mesh, const MeshView& view,
                                      int width, int height);
 
+    // Test hook: pretend storage buffers hold at most `bytes` (batches split below it).
+    void limit_storage_block(std::size_t bytes) { m_max_block_bytes = bytes; }
+
     // Test hook: runs render/glsl/spec_probe.comp on `queries` (8 words each) with the given
     // Poisson thresholds; returns 64 words per query.
     Result<std::vector<std::uint32_t>> probe(const std::vector<std::uint32_t>& queries,
@@ -136,6 +139,8 @@ private:
         double host_ms = -1;   // software renderers: the dispatches' time on the host clock
     };
     Slot m_slots[2];
+    void release_slot(Slot& slot); // deletes what it holds, leaves it empty
+    std::size_t m_max_block_bytes = std::size_t{128} << 20; // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
     // Storage buffers grown as needed and reused: 0 cell starts (binding 1), 1 points (2), 2 a
     // mix's level tables (3), 3 the records (4), 4 the thresholds (5).
     unsigned m_buffers[5] = {0, 0, 0, 0, 0};

@@ -42,7 +42,7 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
                            on demand, so slow clients cannot take them all     [1024]
   --listen-backlog N       pending connections before the kernel drops SYNs    [1024]
   --render-slots N         renders at once, 0 = one per core (plus a GPU batch
-                           when tiles go to a GL backend)                      [0]
+                           when all noise goes to a GL backend)                [0]
   --gpu-batch-tiles N      GL: windows rendered in one batch at most           [64]
   --gpu-batch-wait-us N    GL: how long a batch waits for more windows         [200]
   --analysis-workers N     analyses at once (each uses every core)             [1]

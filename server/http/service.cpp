@@ -102,7 +102,8 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     s->m_renderer = std::move(renderer.value());
     // Tiles on a GL backend: a slot mostly waits for its batch, so one per core would never fill
     // one. Enough more to gather a whole batch while the cores encode the last.
-    if (s->m_config.render_slots == 0 && s->m_renderer->tiles_batched())
+    // Only when frames go there too: CPU frames and fallbacks would take the extra slots.
+    if (s->m_config.render_slots == 0 && s->m_renderer->all_batched())
         s->m_render_slots.add(s->m_config.gpu_batch_tiles);
     s->m_pool =
         std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);

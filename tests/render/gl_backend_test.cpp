@@ -9,6 +9,7 @@
 #include "render/cancel.h"
 #include "render/cpu_backend.h"
 #include "render/egl_backend.h"
+#include "render/gl/noise_window.h"
 #include "render/osmesa_backend.h"
 #include "render/renderer.h"
 #include "render/surface_eval.h"
@@ -286,6 +287,36 @@ TEST(OsmesaBackend, BatchGivesEachWindowAsAlone) {
     auto gl = osmesa();
     if (!gl) GTEST_SKIP() << "no OSMesa";
     check_batch_against_singles(*gl);
+}
+
+// A batch whose listed points would overflow a storage buffer is split (and a window that alone
+// overflows one is refused), never read past the buffer's end.
+TEST(OsmesaBackend, BatchOverAStorageBufferIsSplit) {
+    auto found = render::make_osmesa_backend();
+    if (!found) GTEST_SKIP() << "no OSMesa";
+    GlBackend& gl = *found.value();
+    const auto sand = analysed_texton("etr_sand01.png", 64);
+    std::vector<render::NoiseRequest> qs(6);
+    for (int i = 0; i < 6; ++i) {
+        qs[static_cast<std::size_t>(i)].x0 = 100 * i;
+        qs[static_cast<std::size_t>(i)].width = qs[static_cast<std::size_t>(i)].height = 48;
+    }
+    const auto whole = gl.render_many(*sand, qs);
+    auto one = gl.prepare(*sand, nullptr, qs[0]);
+    ASSERT_TRUE(one.ok());
+    const std::size_t bytes = one.value().window->points.size() * 4;
+    gl.limit_storage_block(2 * bytes + bytes / 2); // two windows' points fit, three do not
+    const auto split = gl.render_many(*sand, qs);
+    for (std::size_t i = 0; i < qs.size(); ++i) {
+        ASSERT_TRUE(whole[i].ok() && split[i].ok()) << i;
+        EXPECT_EQ(0, std::memcmp(whole[i].value().data.data(), split[i].value().data.data(),
+                                 whole[i].value().data.size() * sizeof(float)))
+            << "window " << i;
+    }
+    gl.limit_storage_block(bytes / 2);
+    const auto refused = gl.render_many(*sand, {qs[0]});
+    ASSERT_FALSE(refused[0].ok());
+    EXPECT_EQ(refused[0].error().code, ErrorCode::too_large);
 }
 
 TEST(EglBackend, GpuBatchGivesEachWindowAsAlone) {
