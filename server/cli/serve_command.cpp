@@ -239,6 +239,12 @@ int serve_command(const Argv& argv) {
     // 128 kB, every tile buffer is its own mapping and goes back to the system when evicted
     // (2 MiB of growth in the same soak; tests/load/replicas_test.sh).
     ::mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+    // Fixing the mmap threshold also fixes the trim threshold at its 128 kB default: each
+    // thread's arena then gave its top back (madvise, a TLB shootdown on every core) and faulted
+    // it in again for the next tile's small buffers, a third of the server's CPU per cold tile
+    // (issue 20: 4.0 -> 2.1 CPU-ms/tile under load_test.sh). 1 MiB kept per arena (glibc makes at
+    // most 8 per core) ends that.
+    ::mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
     auto config = config_from(args.value());
     if (!config) return fail(2, config.error().message);
     spdlog::set_level(spdlog::level::from_str(config.value().log_level));

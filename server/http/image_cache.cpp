@@ -1,6 +1,12 @@
 #include "server/http/image_cache.h"
 
+#include "server/io/image_io.h"
+
 namespace textond::http {
+
+CachedImage::~CachedImage() {
+    io::recycle_encoded(std::move(body));
+}
 
 std::size_t ImageCache::cost_of(const std::string& key, const CachedImage& v) {
     // Strings and bookkeeping too, so the budget bounds the process's memory, not just bodies.

@@ -12,6 +12,10 @@
 namespace textond::http {
 
 struct CachedImage {
+    CachedImage() = default;
+    CachedImage(const CachedImage&) = delete;
+    CachedImage& operator=(const CachedImage&) = delete;
+    ~CachedImage(); // its body's memory goes back to the encoder (io::recycle_encoded)
     std::string body;
     std::string etag; // quoted, strong
     std::string content_type;

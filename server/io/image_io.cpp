@@ -401,6 +401,20 @@ private:
     static inline std::vector<std::vector<unsigned char>> s_pool;
 };
 
+std::mutex g_encoded_mutex;
+std::vector<std::string> g_encoded; // the pool of recycle_encoded
+std::size_t g_encoded_bytes = 0;
+constexpr std::size_t kEncodedMax = std::size_t{2} << 20, kEncodedPool = std::size_t{32} << 20;
+
+std::string take_encoded() {
+    std::lock_guard lock(g_encoded_mutex);
+    if (g_encoded.empty()) return {};
+    std::string s = std::move(g_encoded.back());
+    g_encoded.pop_back();
+    g_encoded_bytes -= s.capacity();
+    return s;
+}
+
 struct EncodeInput {
     ImageSpec spec;
     TypeDesc type;
@@ -485,7 +499,18 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
         out.reset(); // never reuse an encoder in an unknown state
         return make_error(ErrorCode::internal, "cannot encode: " + err);
     }
-    return std::string(buffer.begin(), buffer.end());
+    std::string bytes = take_encoded();
+    bytes.assign(reinterpret_cast<const char*>(buffer.data()), buffer.size());
+    return bytes;
+}
+
+void recycle_encoded(std::string&& bytes) {
+    const std::size_t c = bytes.capacity();
+    if (c < 4096 || c > kEncodedMax) return;
+    std::lock_guard lock(g_encoded_mutex);
+    if (g_encoded_bytes + c > kEncodedPool) return;
+    g_encoded_bytes += c;
+    g_encoded.push_back(std::move(bytes));
 }
 
 Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
