@@ -27,6 +27,8 @@ runtime=(
 )
 tests=(
     openimageio-tools googletest libgtest-dev
+    # the deflate benchmark (tests/bench: zlib against libdeflate on tile bytes)
+    zlib1g-dev libdeflate-dev
     # the API schema and deployment tests (Debian's python, not whatever python3 is first on
     # PATH), load (wrk, nginx), the browser test (Debian's Chromium driven by playwright-core),
     # the shared store (redis-server), compose files validated without an engine
