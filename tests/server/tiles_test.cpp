@@ -307,10 +307,8 @@ TEST(Ops, HealthReadinessMetricsAndSpec) {
         "textond_image_stage_seconds_count{stage=\"encode\"} 1",
         "textond_image_stage_seconds_count{stage=\"send\"} 2",
         "textond_backend_info{tiles=\"cpu\",frames=\"cpu\"} 1",
-        "textond_abandoned_total{reason=\"gone\"} 0",
-        "textond_analyses_total{result=\"ok\"} 1",
-        "textond_analysis_queue_depth 0",
-        "textond_store_textons 1"};
+        "textond_abandoned_total{reason=\"gone\"} 0", "textond_analyses_total{result=\"ok\"} 1",
+        "textond_analysis_queue_depth 0", "textond_store_textons 1"};
     std::string metrics;
     for (int attempt = 0; attempt < 100; ++attempt) {
         auto m = c.Get("/metrics");
