@@ -31,6 +31,7 @@ struct BackendOptions {
     // waiting at most this long for more once the first is queued.
     int batch_tiles = 64;
     int batch_wait_us = 200;
+    int batch_ms = 25; // and at most about this much measured work (at least one window)
     // Tests: calibrate on 64x64 tiles and a 480x270 frame (the same code, 1/16 of the work).
     bool quick_calibration = false;
 };

@@ -27,7 +27,8 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
     r->m_batched = r->m_gl ? r->m_gl : std::dynamic_pointer_cast<GlBackend>(tiles);
     if (r->m_batched)
         r->m_batcher = std::make_unique<TileBatcher>(
-            r->m_batched, options.batch_tiles, std::chrono::microseconds(options.batch_wait_us));
+            r->m_batched, options.batch_tiles, std::chrono::microseconds(options.batch_wait_us),
+            options.batch_ms);
     r->m_reason = choice.value().reason;
     r->m_calibration = choice.value().calibration;
     auto identity = [](const Backend& b) {

@@ -1,15 +1,25 @@
 #include "render/tile_batcher.h"
 
+#include "render/gl/noise_window.h"
+
 #include <algorithm>
+#include <chrono>
 #include <exception>
 #include <vector>
 
 namespace textond::render {
 
+namespace {
+double pixels_of(const TileBatcher::Job& job) {
+    return static_cast<double>(job.work.window->width) * job.work.window->height;
+}
+} // namespace
+
 TileBatcher::TileBatcher(std::shared_ptr<GlBackend> gl, int max_tiles,
-                         std::chrono::microseconds max_wait)
+                         std::chrono::microseconds max_wait, double max_ms)
     : m_gl(std::move(gl)), m_max_tiles(std::max(1, max_tiles)),
-      m_max_wait(std::max(std::chrono::microseconds(0), max_wait)), m_worker([this] { run(); }) {}
+      m_max_wait(std::max(std::chrono::microseconds(0), max_wait)), m_max_ms(max_ms),
+      m_worker([this] { run(); }) {}
 
 TileBatcher::~TileBatcher() {
     {
@@ -45,8 +55,16 @@ void TileBatcher::run() {
             m_queued.wait_for(lock, m_max_wait, [&] {
                 return m_stop || static_cast<int>(m_queue.size()) >= m_max_tiles;
             });
+        // Every window of a batch is answered when the batch ends, so a batch holds at most
+        // m_max_ms of measured work (always one window): a GPU takes all 64 tiles at once,
+        // llvmpipe (60 ms a tile) one at a time, as before batching.
+        const double budget_px = m_ms_per_pixel > 0 ? m_max_ms / m_ms_per_pixel : 1e300;
         std::vector<Job*> jobs;
+        double pixels = 0;
         while (!m_queue.empty() && static_cast<int>(jobs.size()) < m_max_tiles) {
+            const double px = pixels_of(*m_queue.front());
+            if (!jobs.empty() && pixels + px > budget_px) break;
+            pixels += px;
             jobs.push_back(m_queue.front());
             m_queue.pop_front();
         }
@@ -54,12 +72,18 @@ void TileBatcher::run() {
         std::vector<GlBackend::Work*> batch;
         batch.reserve(jobs.size());
         for (Job* j : jobs) batch.push_back(&j->work);
+        const auto t0 = std::chrono::steady_clock::now();
         try {
             m_gl->render_batch(batch);
         } catch (const std::exception& e) { // bad_alloc: fail the batch, not the process
             for (Job* j : jobs) j->work.image = Error{ErrorCode::internal, e.what()};
         }
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
         lock.lock();
+        const double rate = ms / std::max(1.0, pixels);
+        m_ms_per_pixel = m_ms_per_pixel > 0 ? 0.7 * m_ms_per_pixel + 0.3 * rate : rate;
         ++m_batches;
         m_windows += jobs.size();
         for (Job* j : jobs) j->done = true;

@@ -31,6 +31,7 @@ struct ServeConfig {
     int render_slots = 0;        // renders at once; 0 = one per core (+ a GPU batch, on GL)
     int gpu_batch_tiles = 64;    // GL: windows gathered into one batch at most
     int gpu_batch_wait_us = 200; // GL: how long a batch waits for more once one is queued
+    int gpu_batch_ms = 25;       // GL: measured work a batch holds at most (one window at least)
     int analysis_workers = 1;    // analyses at once (each uses every core)
     int analysis_queue = 4;      // waiting analyses before 429
     int read_timeout_s = 30;

@@ -97,6 +97,7 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     options.tile_slots = s->m_config.render_slots > 0 ? s->m_config.render_slots : cores();
     options.batch_tiles = s->m_config.gpu_batch_tiles;
     options.batch_wait_us = s->m_config.gpu_batch_wait_us;
+    options.batch_ms = s->m_config.gpu_batch_ms;
     auto renderer = render::Renderer::make(s->m_config.backend, options);
     if (!renderer) return renderer.error();
     s->m_renderer = std::move(renderer.value());

@@ -92,6 +92,7 @@ TEST(Concurrency, BatchedGlTilesAreTheCpusBytes) {
     http::ServeConfig config = TestServer::default_config();
     config.backend = render::BackendKind::osmesa;
     config.gpu_batch_wait_us = 20000; // gather generously: llvmpipe is slow to fill a batch
+    config.gpu_batch_ms = 60000;      // and lets no batch hold more than 25 ms of its work
     TestServer gl(config);
     auto setup = gl.client();
     const std::string id = upload(setup, "etr_floor01.png", "?size=32&iterations=20");
