@@ -41,11 +41,8 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
 
 Renderer::~Renderer() = default;
 
-bool Renderer::tiles_batched() const {
-    return m_batcher && m_tiles == m_batched;
-}
 bool Renderer::all_batched() const {
-    return tiles_batched() && m_frames == m_batched;
+    return m_batcher && m_tiles == m_batched && m_frames == m_batched;
 }
 std::uint64_t Renderer::batches() const {
     return m_batcher ? m_batcher->batches() : 0;

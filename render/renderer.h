@@ -43,8 +43,8 @@ public:
                                      std::string* used = nullptr);
 
     const std::string& tiles_backend() const { return m_tiles_name; }
-    // Whether tiles go through a GL batcher, and what it did: batches and windows in them.
-    bool tiles_batched() const;
+    // Whether all noise (tiles and frames) goes through a GL batcher, and what it did: batches
+    // and windows in them.
     bool all_batched() const; // tiles and frames
     std::uint64_t batches() const;
     std::uint64_t batched_windows() const;

@@ -9,12 +9,6 @@
 
 namespace textond::render {
 
-namespace {
-double pixels_of(const TileBatcher::Job& job) {
-    return static_cast<double>(job.work.window->width) * job.work.window->height;
-}
-} // namespace
-
 TileBatcher::TileBatcher(std::shared_ptr<GlBackend> gl, int max_tiles,
                          std::chrono::microseconds max_wait, double max_ms)
     : m_gl(std::move(gl)), m_max_tiles(std::max(1, max_tiles)),
@@ -46,6 +40,9 @@ Result<core::Image> TileBatcher::render(const PreparedTexton& texton, const Prep
 }
 
 void TileBatcher::run() {
+    auto pixels_of = [](const Job& job) {
+        return static_cast<double>(job.work.window->width) * job.work.window->height;
+    };
     std::unique_lock<std::mutex> lock(m_mutex);
     for (;;) {
         m_queued.wait(lock, [&] { return m_stop || !m_queue.empty(); });

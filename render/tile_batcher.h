@@ -36,12 +36,11 @@ public:
     std::uint64_t batches() const;
     std::uint64_t windows() const;
 
+private:
     struct Job {
         GlBackend::Work work;
         bool done = false;
     };
-
-private:
     void run();
 
     std::shared_ptr<GlBackend> m_gl;

@@ -104,8 +104,8 @@ GlBackend::~GlBackend() {
     std::lock_guard<std::mutex> lock(m_mutex);
     CurrentScope scope(*m_context);
     if (!scope.ok || !m_gl->DeleteProgram) return;
-    for (auto& [key, t] : m_tables) m_gl->DeleteTextures(1, &t.texture);
-    for (auto& [key, t] : m_table_buffers) m_gl->DeleteBuffers(1, &t.texture);
+    for (const TableCache* cache : {&m_table_textures, &m_table_buffers})
+        for (const auto& [key, t] : cache->entries) delete_table(*cache, t.object);
     for (auto& p : m_noise)
         if (p.id) m_gl->DeleteProgram(p.id);
     if (m_probe_program) m_gl->DeleteProgram(m_probe_program);
@@ -188,43 +188,39 @@ std::string GlBackend::renderer() const {
            ")";
 }
 
-unsigned GlBackend::table_buffer(const std::shared_ptr<const LevelTable>& t) {
-    auto it = m_table_buffers.find(t.get());
-    if (it != m_table_buffers.end()) return it->second.texture;
-    if (m_table_buffers.size() >= kMaxCachedTables) {
-        m_gl->DeleteBuffers(1, &m_table_buffers.begin()->second.texture);
-        m_table_buffers.erase(m_table_buffers.begin());
+unsigned GlBackend::cached_table(TableCache& cache, const std::shared_ptr<const LevelTable>& t) {
+    auto it = cache.entries.find(t.get());
+    if (it != cache.entries.end()) return it->second.object;
+    if (cache.entries.size() >= kMaxCachedTables) {
+        delete_table(cache, cache.entries.begin()->second.object);
+        cache.entries.erase(cache.entries.begin());
     }
-    const int n = t->side();
-    std::vector<float> texels(static_cast<std::size_t>(n) * n * 4, 0.0f);
-    interleave_table(*t, 4, texels.data());
-    GLuint buf = 0;
-    m_gl->GenBuffers(1, &buf);
-    m_gl->BindBuffer(GL_SHADER_STORAGE_BUFFER, buf);
-    m_gl->BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(texels.size() * 4),
+    const int n = t->side(), components = cache.buffers ? 4 : 3;
+    std::vector<float> texels(static_cast<std::size_t>(n) * n * components, 0.0f);
+    interleave_table(*t, components, texels.data());
+    const gl::GlApi& g = *m_gl;
+    GLuint object = 0;
+    if (cache.buffers) {
+        g.GenBuffers(1, &object);
+        g.BindBuffer(GL_SHADER_STORAGE_BUFFER, object);
+        g.BufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(texels.size() * 4),
                      texels.data(), GL_STATIC_DRAW);
-    m_table_buffers.emplace(t.get(), CachedTable{t, buf});
-    return buf;
+    } else {
+        g.GenTextures(1, &object);
+        g.BindTexture(GL_TEXTURE_2D, object);
+        g.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, n, n, 0, GL_RGB, GL_FLOAT, texels.data());
+        texel_fetch_only(g, GL_TEXTURE_2D);
+    }
+    cache.entries.emplace(t.get(), CachedTable{t, object});
+    return object;
 }
 
-unsigned GlBackend::table_texture(const std::shared_ptr<const LevelTable>& t) {
-    auto it = m_tables.find(t.get());
-    if (it != m_tables.end()) return it->second.texture;
-    if (m_tables.size() >= kMaxCachedTables) {
-        m_gl->DeleteTextures(1, &m_tables.begin()->second.texture);
-        m_tables.erase(m_tables.begin());
-    }
-    const int n = t->side();
-    std::vector<float> texels(static_cast<std::size_t>(n) * n * 3, 0.0f);
-    interleave_table(*t, 3, texels.data());
-    GLuint tex = 0;
-    m_gl->GenTextures(1, &tex);
-    m_gl->BindTexture(GL_TEXTURE_2D, tex);
-    m_gl->PixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    m_gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, n, n, 0, GL_RGB, GL_FLOAT, texels.data());
-    texel_fetch_only(*m_gl, GL_TEXTURE_2D);
-    m_tables.emplace(t.get(), CachedTable{t, tex});
-    return tex;
+void GlBackend::delete_table(const TableCache& cache, unsigned object) {
+    if (cache.buffers)
+        m_gl->DeleteBuffers(1, &object);
+    else
+        m_gl->DeleteTextures(1, &object);
 }
 
 GlBackend::Work::Work() = default;
@@ -267,22 +263,23 @@ Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const Prep
     return w;
 }
 
-Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
-                                      RenderStats* stats) {
-    auto w = prepare(tex, nullptr, q);
+Result<core::Image> GlBackend::render_one(const PreparedTexton& tex, const PreparedMix* mix,
+                                          const NoiseRequest& q, RenderStats* stats) {
+    auto w = prepare(tex, mix, q);
     if (!w) return w.error();
     render_batch({&w.value()});
     if (stats) *stats = w.value().stats;
     return std::move(w.value().image);
 }
 
+Result<core::Image> GlBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
+                                      RenderStats* stats) {
+    return render_one(tex, nullptr, q, stats);
+}
+
 Result<core::Image> GlBackend::render_mix(const PreparedMix& mix, const NoiseRequest& q,
                                           RenderStats* stats) {
-    auto w = prepare(mix.level(0), &mix, q);
-    if (!w) return w.error();
-    render_batch({&w.value()});
-    if (stats) *stats = w.value().stats;
-    return std::move(w.value().image);
+    return render_one(mix.level(0), &mix, q, stats);
 }
 
 std::vector<Result<core::Image>> GlBackend::render_many(const PreparedTexton& tex,
@@ -564,7 +561,8 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
                     masks.push_back(tex);
                 }
             } else if (win.table) {
-                g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, table_buffer(win.table));
+                g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3,
+                                 cached_table(m_table_buffers, win.table));
             } else {
                 upload(2, thresholds.data(), 16); // the limit model reads no table
             }
@@ -685,7 +683,7 @@ void GlBackend::set_surface_uniforms(unsigned prog, const PreparedTexton& tex, s
     const std::vector<std::uint32_t>& thresholds = noise.thresholds();
     auto loc = [&](const char* name) { return g.GetUniformLocation(prog, name); };
     g.ActiveTexture(GL_TEXTURE0);
-    g.BindTexture(GL_TEXTURE_2D, table_texture(table));
+    g.BindTexture(GL_TEXTURE_2D, cached_table(m_table_textures, table));
     g.Uniform1i(loc("u_table"), 0);
     g.Uniform1i(loc("u_pad"), table->pad);
     g.Uniform1i(loc("u_r"), tex.size());

@@ -110,7 +110,6 @@ public:
 private:
     GlBackend(std::string name, std::unique_ptr<GlContext> context);
     Result<bool> init(bool allow_software, const GlslSources& sources);
-    unsigned table_texture(const std::shared_ptr<const LevelTable>& table);
 
     std::string m_name;
     std::unique_ptr<GlContext> m_context;
@@ -150,14 +149,21 @@ private:
     // Uniforms shared by surface_lib.glsl's users (the compute and the mesh programs).
     void set_surface_uniforms(unsigned program, const PreparedTexton& texton, std::uint64_t seed,
                               double mni);
-    std::map<std::string, int> m_uniforms;
+    // Level tables uploaded once and kept (at most 32 of each kind): RGB32F textures for the
+    // surface and mesh programs, vec4 storage buffers for the noise.
     struct CachedTable {
         std::shared_ptr<const LevelTable> table; // keeps the key alive while cached
-        unsigned texture = 0;
+        unsigned object = 0;                     // the texture or buffer
     };
-    std::map<const LevelTable*, CachedTable> m_tables;        // textures (surface, mesh)
-    std::map<const LevelTable*, CachedTable> m_table_buffers; // buffers (noise; `texture` = buffer)
-    unsigned table_buffer(const std::shared_ptr<const LevelTable>& table);
+    struct TableCache {
+        bool buffers = false;
+        std::map<const LevelTable*, CachedTable> entries;
+    };
+    TableCache m_table_textures{false, {}}, m_table_buffers{true, {}};
+    unsigned cached_table(TableCache& cache, const std::shared_ptr<const LevelTable>& table);
+    void delete_table(const TableCache& cache, unsigned object);
+    Result<core::Image> render_one(const PreparedTexton& texton, const PreparedMix* mix,
+                                   const NoiseRequest& request, RenderStats* stats);
 };
 
 } // namespace textond::render
