@@ -374,46 +374,42 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
 
 namespace {
 
-// The encoder's scratch (interleaved pixels, the encoded bytes), reused while small: serve maps
-// every allocation over 128 kB on its own, so fresh buffers per tile cost page faults each time.
-// A process-wide pool of at most 16 buffers of at most 2 MiB each (32 MiB in all).
-class Scratch {
+// Buffers reused while small: serve maps every allocation over 128 kB on its own, so a fresh
+// buffer per tile costs page faults each time. At most 16 of at most 2 MiB each are kept (32 MiB)
+// for each kind: the encoder's scratch (interleaved pixels, the encoded stream) and the strings
+// of encoded images (recycle_encoded).
+template <class Buffer> class Spares {
 public:
-    Scratch() {
-        std::lock_guard lock(s_mutex);
-        if (!s_pool.empty()) {
-            bytes = std::move(s_pool.back());
-            s_pool.pop_back();
-        }
-        bytes.clear();
+    Buffer take() {
+        std::lock_guard lock(m_mutex);
+        if (m_free.empty()) return {};
+        Buffer b = std::move(m_free.back());
+        m_free.pop_back();
+        b.clear();
+        return b;
     }
-    ~Scratch() {
-        if (bytes.capacity() > (std::size_t{2} << 20)) return;
-        std::lock_guard lock(s_mutex);
-        if (s_pool.size() < 16) s_pool.push_back(std::move(bytes));
+    void give(Buffer&& b) {
+        if (b.capacity() < 4096 || b.capacity() > (std::size_t{2} << 20)) return;
+        std::lock_guard lock(m_mutex);
+        if (m_free.size() < 16) m_free.push_back(std::move(b));
     }
+
+private:
+    std::mutex m_mutex;
+    std::vector<Buffer> m_free;
+};
+
+Spares<std::vector<unsigned char>> g_scratch;
+Spares<std::string> g_encoded;
+
+// One scratch buffer for a scope.
+struct Scratch {
+    Scratch() : bytes(g_scratch.take()) {}
+    ~Scratch() { g_scratch.give(std::move(bytes)); }
     Scratch(const Scratch&) = delete;
     Scratch& operator=(const Scratch&) = delete;
     std::vector<unsigned char> bytes;
-
-private:
-    static inline std::mutex s_mutex;
-    static inline std::vector<std::vector<unsigned char>> s_pool;
 };
-
-std::mutex g_encoded_mutex;
-std::vector<std::string> g_encoded; // the pool of recycle_encoded
-std::size_t g_encoded_bytes = 0;
-constexpr std::size_t kEncodedMax = std::size_t{2} << 20, kEncodedPool = std::size_t{32} << 20;
-
-std::string take_encoded() {
-    std::lock_guard lock(g_encoded_mutex);
-    if (g_encoded.empty()) return {};
-    std::string s = std::move(g_encoded.back());
-    g_encoded.pop_back();
-    g_encoded_bytes -= s.capacity();
-    return s;
-}
 
 struct EncodeInput {
     ImageSpec spec;
@@ -499,18 +495,13 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
         out.reset(); // never reuse an encoder in an unknown state
         return make_error(ErrorCode::internal, "cannot encode: " + err);
     }
-    std::string bytes = take_encoded();
+    std::string bytes = g_encoded.take();
     bytes.assign(reinterpret_cast<const char*>(buffer.data()), buffer.size());
     return bytes;
 }
 
 void recycle_encoded(std::string&& bytes) {
-    const std::size_t c = bytes.capacity();
-    if (c < 4096 || c > kEncodedMax) return;
-    std::lock_guard lock(g_encoded_mutex);
-    if (g_encoded_bytes + c > kEncodedPool) return;
-    g_encoded_bytes += c;
-    g_encoded.push_back(std::move(bytes));
+    g_encoded.give(std::move(bytes));
 }
 
 Result<bool> encode_image_file(const core::Image& image, const std::string& path, Encoding e,
