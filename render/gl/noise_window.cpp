@@ -68,8 +68,12 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     const bool limit = q.level >= tex.limit_level();
     win.limit_model = limit;
     const auto& mean = tex.texton().mean;
-    rec.f(10, mean[0], nc == 3 ? mean[1] : mean[0], nc == 3 ? mean[2] : mean[0], 0.0);
-    rec.u(2, static_cast<std::uint32_t>(q.seed), static_cast<std::uint32_t>(q.seed >> 32), 0, 0);
+    // The mean (grey repeats its channel) and the noise's scale 1 / sqrt(lambda).
+    auto mean_and_scale = [&](double scale) {
+        rec.f(10, mean[0], nc == 3 ? mean[1] : mean[0], nc == 3 ? mean[2] : mean[0], scale);
+    };
+    const auto seed_lo = static_cast<std::uint32_t>(q.seed);
+    const auto seed_hi = static_cast<std::uint32_t>(q.seed >> 32);
     rec.i(7, 0, 0, 0, nc);
     if (limit) {
         const auto& lm = tex.limit(q.level);
@@ -87,6 +91,8 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
             rec.f(18 + c, row[0], row[1], row[2], 0.0);
         }
         const std::int64_t q0x = q.x0 - 2, q0y = q.y0 - 2;
+        rec.u(2, seed_lo, seed_hi, 0, 0);
+        mean_and_scale(0.0); // the limit model has no scale
         rec.u(3, 0, 0, lo(q0x), hi(q0x));
         rec.u(4, lo(q0y), hi(q0y), 0, 0);
         return win;
@@ -115,15 +121,13 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     const bool tileable = q.period[0] > 0;
     rec.i(0, 0, q.level, st, sub_log2);
     rec.i(1, table->length, r, tex.order(), a);
-    rec.u(2, static_cast<std::uint32_t>(q.seed), static_cast<std::uint32_t>(q.seed >> 32), lo(bcx),
-          hi(bcx));
+    rec.u(2, seed_lo, seed_hi, lo(bcx), hi(bcx));
     rec.u(3, lo(bcy), hi(bcy), 0, 0);
     rec.i(4, 0, 0, static_cast<std::int64_t>(grid.thresholds.size()), 0);
     rec.i(5, tileable ? q.period[0] : 0, tileable ? q.period[1] : 0,
           tileable ? floor_mod(bcx, q.period[0]) : 0, tileable ? floor_mod(bcy, q.period[1]) : 0);
     rec.i(6, ox, oy, 0, 0);
-    rec.f(10, mean[0], nc == 3 ? mean[1] : mean[0], nc == 3 ? mean[2] : mean[0],
-          1.0 / std::sqrt(grid.lambda));
+    mean_and_scale(1.0 / std::sqrt(grid.lambda));
     win.thresholds = grid.thresholds;
 
     // The window's cells from the base cell: up to the last pixel's reach (the shader's
