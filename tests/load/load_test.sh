@@ -93,13 +93,18 @@ if [ -n "${server_pid:-}" ] || [ "${BENCH:-0}" = 1 ]; then
         printf "cold: server %.3f CPU-ms/tile, one-thread render + encode %.3f ms: %.2fx\n", s, b, s / b }'
 fi
 
-# The warm path against nginx serving one of the same tiles from disk on this machine, with the
-# same wrk threads, connections and duration: the ratio is what the cached path costs over a
-# static file server.
+# The warm path against nginx serving the same 64 tiles from disk, at the same paths, through the
+# same wrk script, threads, connections and duration: both sides pay the same client cost (the Lua
+# request() builds each URL, and wrk shares this machine's cores with the server), so the ratio
+# is what the cached path costs over a static file server.
 if command -v nginx >/dev/null || [ -x /usr/sbin/nginx ]; then
     ngx=$(command -v nginx || echo /usr/sbin/nginx)
     static=$(mktemp -d)
-    curl -sf -o "$static/tile.png" "$URL/v1/textons/$id/tiles/0/0/0.png?seed=7"
+    for k in $(seq 0 63); do
+        f="v1/textons/$id/tiles/0/$((k % 8))/$((k / 8)).png"
+        mkdir -p "$static/$(dirname "$f")"
+        curl -sf -o "$static/$f" "$URL/$f?seed=7"
+    done
     nport=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
     cat >"$static/nginx.conf" <<NGINX
 worker_processes auto;
@@ -115,8 +120,9 @@ http {
 NGINX
     if "$ngx" -c "$static/nginx.conf" -p "$static" 2>/dev/null; then
         sleep 0.3
-        nrps=$(wrk -t "$THREADS" -c "$CONNECTIONS" -d "$DURATION" "http://127.0.0.1:$nport/tile.png" |
-               awk '/Requests\/sec/ {print $2}')
+        read -r _ _ nrps _ _ _ nerr _ <<<"$(TEXTON=$id MODE=warm SEED=7 wrk -t "$THREADS" \
+            -c "$CONNECTIONS" -d "$DURATION" -s "$here/tiles.lua" "http://127.0.0.1:$nport" | grep '^WRK')"
+        [ "${nerr:-0}" = 0 ] || echo "nginx answered $nerr requests with an error status"
         kill "$(cat "$static/nginx.pid")" 2>/dev/null || true
         awk -v w="$rps" -v n="$nrps" 'BEGIN {
             printf "nginx static, same bytes: %.0f/s; warm tiles / nginx = %.2fx\n", n, n ? w / n : 0 }'
