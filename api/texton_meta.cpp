@@ -21,8 +21,8 @@ nlohmann::json canonical_params(const core::AnalysisParams& p) {
             {"periodic", p.periodic}};
 }
 
-void to_json(nlohmann::json& j, const TextonMeta& m) {
-    j = nlohmann::json{
+nlohmann::json file_meta_json(const TextonMeta& m) {
+    return nlohmann::json{
         {"id", m.id},
         {"version", m.version},
         {"exemplar", {{"width", m.exemplar_width}, {"height", m.exemplar_height}}},
@@ -36,16 +36,42 @@ void to_json(nlohmann::json& j, const TextonMeta& m) {
         {"mni_default", m.mni_default},
         {"rme", m.rme},
         {"rme_uncorrected", m.rme_uncorrected},
-        {"timings_ms",
-         {{"periodic", m.timings.periodic_ms},
-          {"model", m.timings.model_ms},
-          {"projections", m.timings.projections_ms},
-          {"correction", m.timings.correction_ms},
-          {"rme", m.timings.rme_ms},
-          {"total", m.timings.total_ms}}},
         {"coefficients_sha256", m.coefficients_sha256},
     };
+}
+
+nlohmann::json provenance_json(const TextonMeta& m) {
+    nlohmann::json j = nlohmann::json::object();
+    if (m.timings) {
+        const core::AnalysisTimings& t = *m.timings;
+        j["timings_ms"] = {{"periodic", t.periodic_ms},
+                           {"model", t.model_ms},
+                           {"projections", t.projections_ms},
+                           {"correction", t.correction_ms},
+                           {"rme", t.rme_ms},
+                           {"total", t.total_ms}};
+    }
     if (!m.created.empty()) j["created"] = m.created;
+    return j;
+}
+
+void read_provenance(const nlohmann::json& j, TextonMeta& m) {
+    if (const auto it = j.find("timings_ms"); it != j.end()) {
+        core::AnalysisTimings t;
+        it->at("periodic").get_to(t.periodic_ms);
+        it->at("model").get_to(t.model_ms);
+        it->at("projections").get_to(t.projections_ms);
+        it->at("correction").get_to(t.correction_ms);
+        it->at("rme").get_to(t.rme_ms);
+        it->at("total").get_to(t.total_ms);
+        m.timings = t;
+    }
+    if (const auto it = j.find("created"); it != j.end()) it->get_to(m.created);
+}
+
+void to_json(nlohmann::json& j, const TextonMeta& m) {
+    j = file_meta_json(m);
+    j.update(provenance_json(m));
 }
 
 void from_json(const nlohmann::json& j, TextonMeta& m) {
@@ -67,15 +93,10 @@ void from_json(const nlohmann::json& j, TextonMeta& m) {
     j.at("mni_default").get_to(m.mni_default);
     j.at("rme").get_to(m.rme);
     j.at("rme_uncorrected").get_to(m.rme_uncorrected);
-    const auto& t = j.at("timings_ms");
-    t.at("periodic").get_to(m.timings.periodic_ms);
-    t.at("model").get_to(m.timings.model_ms);
-    t.at("projections").get_to(m.timings.projections_ms);
-    t.at("correction").get_to(m.timings.correction_ms);
-    t.at("rme").get_to(m.timings.rme_ms);
-    t.at("total").get_to(m.timings.total_ms);
     j.at("coefficients_sha256").get_to(m.coefficients_sha256);
-    m.created = j.value("created", std::string());
+    m.timings.reset();
+    m.created.clear();
+    read_provenance(j, m);
 }
 
 } // namespace textond::api

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace textond::api {
@@ -28,9 +29,11 @@ struct TextonMeta {
     double mni_default = kDefaultMni;
     double rme = 0;
     double rme_uncorrected = 0;
-    core::AnalysisTimings timings;
     std::string coefficients_sha256; // of the float32 coefficients as stored, checked on load
-    std::string created;             // RFC 3339 UTC, set when the service stores it; may be empty
+    // Provenance: how this copy came to be, not what it is. Never in the texton file, which is
+    // content-addressed and must be the same bytes whoever analysed it and when.
+    std::optional<core::AnalysisTimings> timings; // unknown for a texton read from a file alone
+    std::string created; // RFC 3339 UTC, set when the service stores it; may be empty
 
     core::AnalysisParams params() const;
 };
@@ -38,7 +41,16 @@ struct TextonMeta {
 // The parameters that change the texton, in a canonical JSON form (keys sorted): part of the id.
 nlohmann::json canonical_params(const core::AnalysisParams& p);
 
+// Everything but the provenance: what the texton file carries (same analysis, same bytes).
+nlohmann::json file_meta_json(const TextonMeta& m);
+// `created` and `timings_ms`, each only when known.
+nlohmann::json provenance_json(const TextonMeta& m);
+// Takes `created` and `timings_ms` from j where present (the other fields are left alone).
+void read_provenance(const nlohmann::json& j, TextonMeta& m);
+
+// Both together: the metadata answer, `textond analyze`'s summary, the shared store's index.
 void to_json(nlohmann::json& j, const TextonMeta& m);
+// Provenance is optional (absent from files; files written before it moved out carry it).
 void from_json(const nlohmann::json& j, TextonMeta& m);
 
 } // namespace textond::api

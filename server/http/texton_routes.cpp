@@ -54,7 +54,7 @@ bool constant_time_equal(const std::string& a, const std::string& b) {
 
 nlohmann::json Service::texton_json(const api::TextonMeta& meta) const {
     nlohmann::json j = meta;
-    j["analysis_ms"] = meta.timings.total_ms;
+    if (meta.timings) j["analysis_ms"] = meta.timings->total_ms;
     const std::string base = "/v1/textons/" + meta.id;
     nlohmann::json links;
     for (const auto& [name, suffix] : kLinkTemplates) links[name] = base + suffix;

@@ -37,6 +37,7 @@ TextonStore::TextonStore(std::string dir, std::size_t prepared_cache,
                          std::chrono::milliseconds recheck)
     : m_dir((fs::path(dir) / "textons").string()),
       m_exemplars((fs::path(dir) / "exemplars").string()),
+      m_provenance((fs::path(dir) / "provenance").string()),
       m_quarantine((fs::path(dir) / "quarantine").string()),
       m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache), m_shared(std::move(shared)),
       m_recheck(recheck) {}
@@ -51,6 +52,22 @@ std::string TextonStore::exemplar_path_of(const std::string& id) const {
     return (fs::path(m_exemplars) / (id + ".png")).string();
 }
 
+std::string TextonStore::provenance_path_of(const std::string& id) const {
+    if (!api::is_texton_id(id)) throw std::logic_error("TextonStore: unchecked id");
+    return (fs::path(m_provenance) / (id + ".json")).string();
+}
+
+api::TextonMeta TextonStore::with_provenance(const std::string& id, api::TextonMeta meta) const {
+    auto text = io::read_file(provenance_path_of(id));
+    if (!text) return meta; // none kept (fetched from a store without it, or lost): unknown
+    try {
+        api::read_provenance(nlohmann::json::parse(text.value()), meta);
+    } catch (const std::exception& e) {
+        spdlog::warn("store: unreadable provenance of texton {} ({}); ignored", id, e.what());
+    }
+    return meta;
+}
+
 Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_dir,
                                                        std::size_t prepared_cache,
                                                        std::unique_ptr<store::RedisStore> shared,
@@ -58,7 +75,7 @@ Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_d
     std::unique_ptr<TextonStore> s(
         new TextonStore(data_dir, prepared_cache, std::move(shared), recheck));
     std::error_code ec;
-    for (const std::string& d : {s->m_dir, s->m_exemplars, s->m_quarantine}) {
+    for (const std::string& d : {s->m_dir, s->m_exemplars, s->m_provenance, s->m_quarantine}) {
         fs::create_directories(d, ec);
         if (ec) return make_error(ErrorCode::io, "cannot create " + d + ": " + ec.message());
     }
@@ -86,16 +103,17 @@ Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_d
             continue;
         }
         s->m_sizes[stem] = fs::file_size(entry.path(), ec);
-        s->m_index[stem] = std::move(r.value().meta);
+        s->m_index[stem] = s->with_provenance(stem, std::move(r.value().meta));
     }
     if (ec) return make_error(ErrorCode::io, "cannot list " + s->m_dir + ": " + ec.message());
-    // Exemplars of textons that were never completed (a crash between the two writes) or whose
-    // texton was quarantined, and unfinished writes.
-    for (const auto& entry : fs::directory_iterator(s->m_exemplars, ec)) {
-        const std::string name = entry.path().filename().string();
-        const std::string stem = entry.path().stem().string();
-        if ((!name.empty() && name[0] == '.') || !s->m_index.count(stem)) fs::remove(entry, ec);
-    }
+    // Exemplars and provenance of textons that were never completed (a crash between the
+    // writes) or whose texton was quarantined, and unfinished writes.
+    for (const std::string& dir : {s->m_exemplars, s->m_provenance})
+        for (const auto& entry : fs::directory_iterator(dir, ec)) {
+            const std::string name = entry.path().filename().string();
+            const std::string stem = entry.path().stem().string();
+            if ((!name.empty() && name[0] == '.') || !s->m_index.count(stem)) fs::remove(entry, ec);
+        }
     spdlog::info("store: {} textons in {}{}{}", s->m_index.size(), s->m_dir,
                  s->m_shared ? " (a cache of " + s->m_shared->describe() + ")" : "",
                  s->m_quarantined.empty()
@@ -113,6 +131,7 @@ void TextonStore::quarantine_locked(const std::string& id, const std::string& wh
     fs::rename(from, fs::path(m_quarantine) / name, ec);
     if (ec) fs::remove(from, ec); // never leave it where it could be served
     fs::remove(exemplar_path_of(id), ec);
+    fs::remove(provenance_path_of(id), ec);
     drop_local_locked(id);
     m_quarantined.push_back(name);
     spdlog::error("store: texton {} is damaged ({}); moved to {}/{}", id, why, m_quarantine, name);
@@ -196,7 +215,16 @@ Result<api::TextonMeta> TextonStore::fetch_shared(const std::string& id) {
         return got.error();
     }
     if (!got.value()) return make_error(ErrorCode::not_found, "no texton " + id);
-    auto w = write_local(id, got.value()->file, &got.value()->exemplar_png);
+    // The analysing replica's provenance travels in the shared store's metadata.
+    nlohmann::json provenance = nlohmann::json::object();
+    try {
+        api::TextonMeta theirs;
+        api::read_provenance(nlohmann::json::parse(got.value()->meta_json), theirs);
+        provenance = api::provenance_json(theirs);
+    } catch (const std::exception&) {
+        // Absent or unreadable: the texton is served without it.
+    }
+    auto w = write_local(id, got.value()->file, &got.value()->exemplar_png, provenance);
     if (!w) return w.error();
     std::lock_guard lock(m_mutex);
     auto it = m_index.find(id);
@@ -206,9 +234,14 @@ Result<api::TextonMeta> TextonStore::fetch_shared(const std::string& id) {
 
 // Writes a texton file (and its exemplar) here, verifies it like every load, then indexes it.
 Result<bool> TextonStore::write_local(const std::string& id, const std::string& file,
-                                      const std::string* exemplar_png) {
+                                      const std::string* exemplar_png,
+                                      const nlohmann::json& provenance) {
     if (exemplar_png && !exemplar_png->empty()) {
         auto w = io::write_file_atomic(exemplar_path_of(id), *exemplar_png);
+        if (!w) return w.error();
+    }
+    if (!provenance.empty()) {
+        auto w = io::write_file_atomic(provenance_path_of(id), provenance.dump(2) + "\n");
         if (!w) return w.error();
     }
     const std::string path = path_of(id);
@@ -216,6 +249,7 @@ Result<bool> TextonStore::write_local(const std::string& id, const std::string& 
     auto w = io::write_file_atomic(path, file);
     if (!w) {
         fs::remove(exemplar_path_of(id), ec);
+        fs::remove(provenance_path_of(id), ec);
         return w.error();
     }
     fsync_directory(m_dir);
@@ -223,13 +257,16 @@ Result<bool> TextonStore::write_local(const std::string& id, const std::string& 
     if (!r || r.value().meta.id != id) {
         fs::remove(path, ec);
         fs::remove(exemplar_path_of(id), ec);
+        fs::remove(provenance_path_of(id), ec);
         spdlog::error("store: texton {} fails verification: {}", id,
                       r ? "its metadata names another id" : r.error().message);
         return make_error(ErrorCode::io, "texton " + id + " fails verification; it is not served");
     }
+    api::TextonMeta meta = std::move(r.value().meta);
+    api::read_provenance(provenance, meta);
     std::lock_guard lock(m_mutex);
     m_sizes[id] = fs::file_size(path, ec);
-    m_index[id] = r.value().meta;
+    m_index[id] = std::move(meta);
     m_checked[id] = std::chrono::steady_clock::now();
     return true;
 }
@@ -294,7 +331,7 @@ Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exempl
             return false;
         }
     }
-    auto w = write_local(id, file.value(), &png);
+    auto w = write_local(id, file.value(), &png, api::provenance_json(record.meta));
     if (!w) return w.error();
     return true;
 }
@@ -314,6 +351,7 @@ Result<bool> TextonStore::remove(const std::string& id) {
     fs::remove(path_of(id), ec);
     if (ec) return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
     fs::remove(exemplar_path_of(id), ec);
+    fs::remove(provenance_path_of(id), ec);
     fsync_directory(m_dir);
     drop_local_locked(id);
     return true;

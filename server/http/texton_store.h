@@ -2,7 +2,9 @@
 // Textons on disk, content-addressed: <data>/textons/<id>.exr (the texton file of
 // api/TEXTON_FORMAT.md), and the exemplar it came from as <data>/exemplars/<id>.png (8-bit, for
 // people and the quality panel; written before the texton, so a texton has its exemplar unless it
-// predates them). Writes are atomic (temporary file, fsync, rename, fsync of the
+// predates them), and how this copy came to be (`created`, the analysis' `timings_ms`) as
+// <data>/provenance/<id>.json, outside the file so that the file is the same bytes whoever analysed
+// it. Writes are atomic (temporary file, fsync, rename, fsync of the
 // directory), so after a crash a texton is complete or absent. Every file is verified (metadata,
 // coefficient checksum, id = file name) when the store opens and again whenever it is loaded; a
 // file that fails is moved to <data>/quarantine/ and reported, never served. Ids are checked
@@ -76,14 +78,18 @@ private:
     Result<api::TextonMeta> fetch_shared(const std::string& id);
     Result<api::TextonMeta> recheck(const std::string& id, api::TextonMeta local);
     Result<bool> write_local(const std::string& id, const std::string& file,
-                             const std::string* exemplar_png);
+                             const std::string* exemplar_png,
+                             const nlohmann::json& provenance = nlohmann::json::object());
     void drop_local_locked(const std::string& id);
     std::string path_of(const std::string& id) const;
     std::string exemplar_path_of(const std::string& id) const;
+    std::string provenance_path_of(const std::string& id) const;
+    // The file's metadata with this copy's provenance added when there is one.
+    api::TextonMeta with_provenance(const std::string& id, api::TextonMeta meta) const;
     void quarantine_locked(const std::string& id, const std::string& why);
     Result<io::TextonRecord> load_verified(const std::string& id);
 
-    const std::string m_dir, m_exemplars, m_quarantine;
+    const std::string m_dir, m_exemplars, m_provenance, m_quarantine;
     const std::size_t m_prepared_capacity;
     const std::unique_ptr<store::RedisStore> m_shared;
     const std::chrono::milliseconds m_recheck;

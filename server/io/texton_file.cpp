@@ -72,8 +72,9 @@ TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams
 }
 
 Result<std::string> texton_file_bytes(const TextonRecord& record) {
-    const nlohmann::json meta = record.meta;
-    return encode_image_memory(record.texton.alpha, Encoding::exr, {{kMetaAttribute, meta.dump()}});
+    // Without provenance: two analyses of one exemplar give one file, byte for byte.
+    return encode_image_memory(record.texton.alpha, Encoding::exr,
+                               {{kMetaAttribute, api::file_meta_json(record.meta).dump()}});
 }
 
 Result<bool> write_texton_file(const std::string& path, const TextonRecord& record) {

@@ -268,14 +268,15 @@ Result<bool> RedisStore::put(const std::string& id, const std::string& file,
 }
 
 Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
-    auto r = command({"HMGET", texton_key(id), "file", "sha256", "exemplar", "exemplar_sha256"});
+    auto r =
+        command({"HMGET", texton_key(id), "file", "sha256", "exemplar", "exemplar_sha256", "meta"});
     if (!r) return r.error();
     const redisReply* a = r.value()->r;
-    if (a->type != REDIS_REPLY_ARRAY || a->elements != 4)
+    if (a->type != REDIS_REPLY_ARRAY || a->elements != 5)
         return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-    std::optional<std::string> fields[4];
+    std::optional<std::string> fields[5];
     bool any = false;
-    for (std::size_t i = 0; i < 4; ++i) {
+    for (std::size_t i = 0; i < 5; ++i) {
         fields[i] = Reply::string(a->element[i]);
         any = any || fields[i];
     }
@@ -289,7 +290,8 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
         return damaged("file");
     if (!fields[2] || !fields[3] || io::sha256_hex(*fields[2]) != *fields[3])
         return damaged("exemplar");
-    return std::optional<Texton>{Texton{std::move(*fields[0]), std::move(*fields[2])}};
+    return std::optional<Texton>{
+        Texton{std::move(*fields[0]), std::move(*fields[2]), fields[4].value_or("")}};
 }
 
 Result<RedisStore::Presence> RedisStore::presence(const std::string& id) {

@@ -54,6 +54,7 @@ public:
     struct Texton {
         std::string file;
         std::string exemplar_png; // empty when stored without one
+        std::string meta_json;    // as put (provenance included); not checksummed, advisory
     };
     // Both checked against their sha256; nullopt when absent.
     Result<std::optional<Texton>> get(const std::string& id);

@@ -18,35 +18,11 @@
 using namespace textond;
 namespace fs = std::filesystem;
 
-namespace {
-struct RunResult {
-    int code = -1;
-    std::string out, err;
-};
-
-RunResult run(const std::string& args) {
-    const fs::path errfile =
-        fs::temp_directory_path() / ("textond-cli-err-" + std::to_string(::getpid()));
-    const std::string cmd = std::string(TEXTOND_BINARY) + " " + args + " 2>" + errfile.string();
-    RunResult r;
-    FILE* p = ::popen(cmd.c_str(), "r");
-    std::array<char, 4096> buf{};
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-    const int status = ::pclose(p);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::FILE* e = std::fopen(errfile.c_str(), "r");
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), e)) r.err.append(buf.data(), n);
-    std::fclose(e);
-    return r;
-}
-
-} // namespace
-
 TEST(Cli, HelpForEveryCommand) {
     for (const char* c :
          {"--help", "analyze --help", "synth --help", "bench --help", "render --help",
           "bench render --help", "bench tile --help", "serve --help", "mix --help"}) {
-        const RunResult r = run(c);
+        const test::RunResult r = test::run(c);
         EXPECT_EQ(r.code, 0) << c;
         EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
     }
@@ -55,8 +31,8 @@ TEST(Cli, HelpForEveryCommand) {
 // The baseline load_test.sh divides by: three positive timings whose sum is the third, and the
 // PNG size of a stored 256x256 RGB tile (196,608 bytes of pixels plus the format's framing).
 TEST(Cli, BenchTilePrintsRenderEncodeAndTheirSum) {
-    const RunResult r =
-        run("bench tile --count 5 --size 32 --exemplar " + test::exemplar_path("etr_sand01.png"));
+    const test::RunResult r = test::run("bench tile --count 5 --size 32 --exemplar " +
+                                        test::exemplar_path("etr_sand01.png"));
     ASSERT_EQ(r.code, 0) << r.err;
     double v[3] = {0, 0, 0};
     const char* rows[3] = {"| render |", "| encode |", "| render + encode |"};
@@ -78,9 +54,9 @@ TEST(Cli, BenchTilePrintsRenderEncodeAndTheirSum) {
 TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
     const std::string texton = test::temp_path("sand.exr"), v1 = test::temp_path("sand.texton"),
                       png = test::temp_path("dsn.png");
-    const RunResult r =
-        run("analyze " + test::exemplar_path("etr_sand01.png") +
-            " --size 32 --iterations 20 --seed 3 -o " + texton + " --export-v1 " + v1);
+    const test::RunResult r =
+        test::run("analyze " + test::exemplar_path("etr_sand01.png") +
+                  " --size 32 --iterations 20 --seed 3 -o " + texton + " --export-v1 " + v1);
     ASSERT_EQ(r.code, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j.at("id").get<std::string>().size(), 64u);
@@ -89,8 +65,8 @@ TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
     EXPECT_TRUE(j.at("timings_ms").contains("total"));
     EXPECT_TRUE(fs::exists(v1));
 
-    const RunResult s =
-        run("synth " + texton + " --method dsn --width 96 --height 64 --seed 1 -o " + png);
+    const test::RunResult s =
+        test::run("synth " + texton + " --method dsn --width 96 --height 64 --seed 1 -o " + png);
     ASSERT_EQ(s.code, 0) << s.err;
     auto img = io::decode_image_file(png);
     ASSERT_TRUE(img.ok());
@@ -101,8 +77,9 @@ TEST(Cli, AnalyzePrintsJsonAndWritesATextonThatSynthReads) {
 TEST(Cli, SynthFromAnExemplarAtAnySizeAndFormat) {
     for (const char* method : {"adsn", "rpn"}) {
         const std::string out = test::temp_path(std::string(method) + ".exr");
-        const RunResult r = run("synth " + test::exemplar_path("skimage_gravel.png") +
-                                " --method " + method + " --width 700 --height 300 -o " + out);
+        const test::RunResult r =
+            test::run("synth " + test::exemplar_path("skimage_gravel.png") + " --method " + method +
+                      " --width 700 --height 300 -o " + out);
         ASSERT_EQ(r.code, 0) << r.err;
         auto img = io::decode_image_file(out);
         ASSERT_TRUE(img.ok());
@@ -131,7 +108,7 @@ TEST(Cli, ErrorsGoToStderrWithNonZeroExit) {
         {"synth " + ex + " --method rpn --width 0 -o x.png", 2, "--width"},
     };
     for (const Case& c : cases) {
-        const RunResult r = run(c.args);
+        const test::RunResult r = test::run(c.args);
         EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.err;
         EXPECT_TRUE(r.out.empty()) << c.args;
         EXPECT_NE(r.err.find(c.says), std::string::npos) << c.args << "\n" << r.err;
@@ -141,12 +118,14 @@ TEST(Cli, ErrorsGoToStderrWithNonZeroExit) {
 TEST(Cli, RenderWritesTheAskedWindowOnEverySoftwareBackend) {
     const std::string texton = test::temp_path("render-sand.exr");
     ASSERT_EQ(
-        run("analyze " + test::exemplar_path("etr_sand01.png") + " --size 32 -o " + texton).code,
+        test::run("analyze " + test::exemplar_path("etr_sand01.png") + " --size 32 -o " + texton)
+            .code,
         0);
     for (const char* backend : {"cpu", "osmesa", "auto"}) {
         const std::string out = test::temp_path(std::string("render-") + backend + ".png");
-        const RunResult r = run("render " + texton + " --x -1099511627776 --y 77 --w 80 --h 48" +
-                                " --lod -1 --seed 9 --backend " + backend + " --png16 -o " + out);
+        const test::RunResult r =
+            test::run("render " + texton + " --x -1099511627776 --y 77 --w 80 --h 48" +
+                      " --lod -1 --seed 9 --backend " + backend + " --png16 -o " + out);
         ASSERT_EQ(r.code, 0) << backend << "\n" << r.err;
         const auto j = nlohmann::json::parse(r.out);
         EXPECT_EQ(j.at("noise").get<std::string>(), "textond-noise/1");
@@ -159,8 +138,8 @@ TEST(Cli, RenderWritesTheAskedWindowOnEverySoftwareBackend) {
     }
     // An exemplar as INPUT is analysed first; a level above the switch uses the limit model.
     const std::string out = test::temp_path("render-far.exr");
-    const RunResult r = run("render " + test::exemplar_path("skimage_gravel.png") +
-                            " --size 16 --lod 24 --w 32 --h 32 -o " + out);
+    const test::RunResult r = test::run("render " + test::exemplar_path("skimage_gravel.png") +
+                                        " --size 16 --lod 24 --w 32 --h 32 -o " + out);
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(nlohmann::json::parse(r.out).at("limit_model").get<bool>());
 
@@ -178,7 +157,7 @@ TEST(Cli, RenderWritesTheAskedWindowOnEverySoftwareBackend) {
         {"render " + texton, 2, "-o"},
     };
     for (const Case& c : cases) {
-        const RunResult e = run(c.args);
+        const test::RunResult e = test::run(c.args);
         EXPECT_EQ(e.code, c.code) << c.args << "\n" << e.err;
         EXPECT_NE(e.err.find(c.says), std::string::npos) << c.args << "\n" << e.err;
     }
@@ -187,9 +166,10 @@ TEST(Cli, RenderWritesTheAskedWindowOnEverySoftwareBackend) {
 // textond mix: the default ramp runs across the window, from U's mean colour to V's.
 TEST(Cli, MixWritesTheTransitionAcrossTheWindow) {
     const std::string out = test::temp_path("mix.exr");
-    const RunResult r = run("mix " + test::exemplar_path("etr_sand01.png") + " " +
-                            test::exemplar_path("etr_pebbles04.png") +
-                            " --size 16 --iterations 10 --levels 5 --w 2048 --h 64 -o " + out);
+    const test::RunResult r =
+        test::run("mix " + test::exemplar_path("etr_sand01.png") + " " +
+                  test::exemplar_path("etr_pebbles04.png") +
+                  " --size 16 --iterations 10 --levels 5 --w 2048 --h 64 -o " + out);
     ASSERT_EQ(r.code, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j.at("rme").size(), 5u);
@@ -203,22 +183,25 @@ TEST(Cli, MixWritesTheTransitionAcrossTheWindow) {
         return s / (64 * 128);
     };
     // Blue: sand is yellow, the pebbles grey, so the blue mean rises from left to right.
-    const RunResult su = run("analyze " + test::exemplar_path("etr_sand01.png") + " --size 16");
-    const RunResult sv = run("analyze " + test::exemplar_path("etr_pebbles04.png") + " --size 16");
+    const test::RunResult su =
+        test::run("analyze " + test::exemplar_path("etr_sand01.png") + " --size 16");
+    const test::RunResult sv =
+        test::run("analyze " + test::exemplar_path("etr_pebbles04.png") + " --size 16");
     const double bu = nlohmann::json::parse(su.out).at("mean")[2];
     const double bv = nlohmann::json::parse(sv.out).at("mean")[2];
     EXPECT_NEAR(column_mean(0), bu + (bv - bu) * 64 / 2048.0, 0.3 * std::fabs(bv - bu));
     EXPECT_NEAR(column_mean(2048 - 128), bv - (bv - bu) * 64 / 2048.0, 0.3 * std::fabs(bv - bu));
     for (const char* bad : {"--levels 1", "--ramp 1,2,3", "--ramp 0,0,0,0,10", "--mask-scale 0"}) {
-        const RunResult e = run("mix " + test::exemplar_path("etr_sand01.png") + " " +
-                                test::exemplar_path("etr_pebbles04.png") + " " + bad + " -o x.png");
+        const test::RunResult e =
+            test::run("mix " + test::exemplar_path("etr_sand01.png") + " " +
+                      test::exemplar_path("etr_pebbles04.png") + " " + bad + " -o x.png");
         EXPECT_EQ(e.code, 2) << bad << "\n" << e.err;
     }
-    EXPECT_EQ(run("mix " + test::exemplar_path("etr_sand01.png") + " -o x.png").code, 2);
+    EXPECT_EQ(test::run("mix " + test::exemplar_path("etr_sand01.png") + " -o x.png").code, 2);
 }
 
 TEST(Cli, ServeHelpShowsEveryFlagWithItsEnvironmentVariable) {
-    const RunResult r = run("serve --help");
+    const test::RunResult r = test::run("serve --help");
     ASSERT_EQ(r.code, 0);
     for (const char* flag : {"--host", "--port", "--data", "--backend", "--api-key", "--cache-mb",
                              "--max-upload-mb", "--max-pixels", "--formats", "--http-threads",
@@ -233,7 +216,7 @@ TEST(Cli, ServeHelpShowsEveryFlagWithItsEnvironmentVariable) {
 // Every flag the help documents is one the parser takes (--web-dir and --listen-backlog were
 // documented and refused until the image's chroot build served no page).
 TEST(Cli, ServeAcceptsEveryFlagItsHelpDocuments) {
-    const RunResult help = run("serve --help");
+    const test::RunResult help = test::run("serve --help");
     ASSERT_EQ(help.code, 0);
     std::set<std::string> flags;
     std::istringstream lines(help.out);
@@ -252,7 +235,7 @@ TEST(Cli, ServeAcceptsEveryFlagItsHelpDocuments) {
         if (flag == "--help") continue;
         // A value flag without its value says so; a switch goes on to serve, so give it a bad
         // port to stop at. Neither may be an unknown option.
-        const RunResult r = run("serve --port 70000 " + flag);
+        const test::RunResult r = test::run("serve --port 70000 " + flag);
         EXPECT_EQ(r.err.find("unknown option"), std::string::npos) << flag << ": " << r.err;
     }
 }
@@ -271,7 +254,7 @@ TEST(Cli, ServeRefusesBadConfigurationFromFlagsAndEnvironment) {
           Case{"TEXTOND_PORT=-1 " + std::string(TEXTOND_BINARY) + " serve", "--port"}}) {
         // Cases that set the environment run the binary themselves through the shell.
         const bool env = c.command.rfind("TEXTOND_", 0) == 0;
-        RunResult r;
+        test::RunResult r;
         if (env) {
             const fs::path errfile = test::temp_path("serve-env-err");
             const int status =
@@ -283,7 +266,7 @@ TEST(Cli, ServeRefusesBadConfigurationFromFlagsAndEnvironment) {
                 r.err.append(buf.data(), n);
             std::fclose(e);
         } else {
-            r = run(c.command);
+            r = test::run(c.command);
         }
         EXPECT_EQ(r.code, 2) << c.command << "\n" << r.err;
         EXPECT_NE(r.err.find(c.says), std::string::npos) << c.command << "\n" << r.err;

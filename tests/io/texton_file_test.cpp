@@ -55,6 +55,34 @@ TEST(TextonFile, IdIsContentAddressedAndThreadIndependent) {
     EXPECT_NE(io::texton_id(changed, a.params), a.record.meta.id);
 }
 
+// Content-addressed means one id, one body: replicas that analyse the same exemplar on their
+// own must serve the same texton.exr (and ETag). Timings and the store time stay out of it.
+TEST(TextonFile, TwoAnalysesOfOneExemplarAreTheSameBytes) {
+    const Analysed a = analyse(1), b = analyse(2);
+    ASSERT_TRUE(a.record.meta.timings);
+    auto fa = io::texton_file_bytes(a.record), fb = io::texton_file_bytes(b.record);
+    ASSERT_TRUE(fa.ok() && fb.ok());
+    EXPECT_EQ(fa.value(), fb.value());
+
+    // Provenance that differs cannot change the bytes, and none of it is in them.
+    io::TextonRecord late = a.record;
+    late.meta.created = "2031-01-01T00:00:00Z";
+    late.meta.timings->total_ms += 1234.5;
+    auto fl = io::texton_file_bytes(late);
+    ASSERT_TRUE(fl.ok());
+    EXPECT_EQ(fl.value(), fa.value());
+    EXPECT_EQ(fa.value().find("timings_ms"), std::string::npos);
+    EXPECT_EQ(fa.value().find("created"), std::string::npos);
+
+    // Read back, a file has no provenance: it is not the file's to tell.
+    const std::string path = test::temp_path("provenance.exr");
+    ASSERT_TRUE(io::write_texton_file(path, late).ok());
+    auto back = io::read_texton_file(path);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    EXPECT_FALSE(back.value().meta.timings);
+    EXPECT_TRUE(back.value().meta.created.empty());
+}
+
 TEST(TextonFile, DamagedFileIsRefused) {
     Analysed a = analyse(1);
     a.record.meta.coefficients_sha256 = std::string(64, '0');

@@ -168,6 +168,41 @@ TEST(Store, SameTileSameBytesAndEtagAfterARestart) {
     EXPECT_EQ(c.Get(("/v1/textons/" + id + tile).c_str(), {{"If-None-Match", etag}})->status, 304);
 }
 
+// `textond analyze -o` and an upload write one file, byte for byte; the upload's provenance
+// (created, timings) is kept beside it and survives a restart.
+TEST(Store, CliAndUploadWriteTheSameTextonFileAndProvenanceSurvivesARestart) {
+    const std::string data = fresh_dir("store-provenance");
+    const std::string cli_file = temp_path("cli-texton.exr");
+    const RunResult cli = run("analyze " + exemplar_path("etr_floor01.png") +
+                              " --size 24 --iterations 10 -o " + cli_file);
+    ASSERT_EQ(cli.code, 0) << cli.err;
+    std::string id, served, created;
+    {
+        ServerProcess server(data);
+        auto c = server.client();
+        id = upload(c, "etr_floor01.png", "?size=24&iterations=10");
+        EXPECT_EQ(json::parse(cli.out).at("id"), id);
+        auto file = c.Get(("/v1/textons/" + id + "/texton.exr").c_str());
+        ASSERT_EQ(file->status, 200);
+        served = file->body;
+        const json meta = json::parse(c.Get(("/v1/textons/" + id).c_str())->body);
+        created = meta.at("created");
+        EXPECT_GT(meta.at("timings_ms").at("total").get<double>(), 0.0);
+        ASSERT_EQ(server.terminate(10000), 0);
+    }
+    EXPECT_EQ(served, read_file(cli_file));
+    EXPECT_EQ(read_file(data + "/textons/" + id + ".exr"), served);
+
+    ServerProcess again(data);
+    auto c = again.client();
+    const json meta = json::parse(c.Get(("/v1/textons/" + id).c_str())->body);
+    EXPECT_EQ(meta.at("created"), created);
+    EXPECT_GT(meta.at("analysis_ms").get<double>(), 0.0);
+    // Deleting the texton deletes its provenance.
+    ASSERT_EQ(c.Delete(("/v1/textons/" + id).c_str())->status, 204);
+    EXPECT_EQ(files_in(data + "/provenance"), 0);
+}
+
 TEST(Serve, EnvironmentConfiguresAndFlagsWin) {
     // TEXTOND_API_KEY guards writes; TEXTOND_MAX_REGION_PIXELS is overridden by its flag.
     ::setenv("TEXTOND_API_KEY", "from-env", 1);

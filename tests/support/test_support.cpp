@@ -5,9 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace textond::test {
@@ -85,6 +88,24 @@ Estimate estimate_of(const std::vector<double>& v) {
     for (double x : v) s += (x - e.mean) * (x - e.mean);
     e.se = std::sqrt(s / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
     return e;
+}
+
+RunResult run(const std::string& args) {
+    const std::string errfile = temp_path("run-stderr");
+    const std::string cmd = std::string(TEXTOND_BINARY) + " " + args + " 2>" + errfile;
+    RunResult r;
+    FILE* p = ::popen(cmd.c_str(), "r");
+    if (!p) return r;
+    std::array<char, 4096> buf{};
+    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
+    const int status = ::pclose(p);
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    if (std::FILE* e = std::fopen(errfile.c_str(), "r")) {
+        while (std::size_t n = std::fread(buf.data(), 1, buf.size(), e))
+            r.err.append(buf.data(), n);
+        std::fclose(e);
+    }
+    return r;
 }
 
 } // namespace textond::test

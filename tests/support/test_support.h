@@ -18,6 +18,13 @@ double max_abs_diff(const core::Image& a, const core::Image& b);
 // A path in the system temp directory, unique to this test process.
 std::string temp_path(const std::string& name);
 
+// Runs the textond binary with `args` (a shell command line after the program's name).
+struct RunResult {
+    int code = -1;
+    std::string out, err;
+};
+RunResult run(const std::string& args);
+
 // Sample moments of one plane (double accumulation).
 struct Moments {
     double mean = 0, variance = 0, excess_kurtosis = 0;
