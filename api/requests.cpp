@@ -5,6 +5,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <initializer_list>
 #include <set>
@@ -36,6 +37,13 @@ std::optional<ApiError> check_fields(const Query& q, std::initializer_list<const
     return std::nullopt;
 }
 
+// "1" and "200", not std::to_string's "1.000000".
+std::string number_text(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
 const std::string* field(const Query& q, const char* name) {
     auto it = q.find(name);
     return it == q.end() ? nullptr : &it->second;
@@ -65,10 +73,10 @@ std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
     if (const std::string* s = field(q, "mni")) {
         auto v = parse_finite(*s);
         if (!v || *v < core::noise::kMinMni || *v > core::noise::kMaxMni)
-            return bad(
-                "invalid_parameter",
-                "mni (mean number of impacts per pixel) must be a number in [1, 200], not '" +
-                    s->substr(0, 40) + "'");
+            return bad("invalid_parameter",
+                       "mni (mean number of impacts per pixel) must be a number in [" +
+                           number_text(core::noise::kMinMni) + ", " +
+                           number_text(core::noise::kMaxMni) + "], not '" + s->substr(0, 40) + "'");
         out.mni = *v;
     }
     return std::nullopt;
@@ -361,13 +369,12 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
             auto v = parse_finite(*s);
             if (!v || *v < lo || *v > hi)
                 return bad("invalid_parameter", std::string(name) + " must be a number in [" +
-                                                    std::to_string(lo) + ", " + std::to_string(hi) +
-                                                    "]");
+                                                    number_text(lo) + ", " + number_text(hi) + "]");
             dst = *v;
         }
         return std::nullopt;
     };
-    if (auto e = number("mni", 1, 200, out.mni)) return e;
+    if (auto e = number("mni", core::noise::kMinMni, core::noise::kMaxMni, out.mni)) return e;
     if (auto e = number("scale", mesh ? 0 : 1e-9, 1e9, out.scale)) return e;
     if (!mesh) return std::nullopt;
     if (auto e = number("fov", 5, 150, out.fov)) return e;

@@ -1,0 +1,314 @@
+// The request parsers of api/ as tables, without HTTP: each row is one request and the error
+// code it must give ("" = accepted). Bounds are tested on both sides (the last accepted value
+// and the first refused one), so moving any limit by one step fails a row. The HTTP table in
+// tests/server/bad_requests_test.cpp stays the end-to-end check.
+#include "api/requests.h"
+#include "core/grid_poisson.h"
+#include "core/noise_levels.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace textond::api {
+namespace {
+
+const std::string kId(64, 'a');
+
+struct Row {
+    std::string what;
+    std::function<std::optional<ApiError>()> parse;
+    std::string code; // "" when the request is valid
+};
+
+void check(const std::vector<Row>& rows) {
+    for (const Row& r : rows) {
+        SCOPED_TRACE(r.what);
+        const std::optional<ApiError> e = r.parse();
+        if (r.code.empty()) {
+            EXPECT_FALSE(e) << e->code << ": " << e->message;
+            continue;
+        }
+        ASSERT_TRUE(e) << "accepted, expected " << r.code;
+        EXPECT_EQ(e->code, r.code) << e->message;
+        EXPECT_EQ(e->status, 400);
+        EXPECT_FALSE(e->message.empty());
+    }
+}
+
+Row tile(std::string what, std::string z, std::string x, std::string y, std::string ext, Query q,
+         std::string code) {
+    return {std::move(what),
+            [=] {
+                TileRequest t;
+                return parse_tile(kId, z, x, y, ext, q, t);
+            },
+            std::move(code)};
+}
+
+TEST(Requests, TileTable) {
+    const std::string big = std::to_string((std::int64_t{1} << 62) / 256 - 1); // last tile at z 0
+    const std::string over = std::to_string((std::int64_t{1} << 62) / 256);
+    const std::string low = std::to_string(-(std::int64_t{1} << 62) / 256); // starts at -2^62
+    const std::string below = std::to_string(-(std::int64_t{1} << 62) / 256 - 1);
+    check({
+        tile("plain", "0", "0", "0", "png", {}, ""),
+        tile("negative indices", "3", "-17", "-4", "exr", {}, ""),
+        tile("png16", "0", "1", "1", "png16", {}, ""),
+        tile("jpeg is not a format", "0", "0", "0", "jpg", {}, "invalid_format"),
+        tile("finest level", std::to_string(core::noise::kMinLevel), "0", "0", "png", {}, ""),
+        tile("past the finest level", std::to_string(core::noise::kMinLevel - 1), "0", "0", "png",
+             {}, "level_out_of_range"),
+        tile("coarsest level", std::to_string(core::noise::kMaxLevel), "0", "0", "png", {}, ""),
+        tile("past the coarsest level", std::to_string(core::noise::kMaxLevel + 1), "0", "0", "png",
+             {}, "level_out_of_range"),
+        tile("level is not a number", "x", "0", "0", "png", {}, "invalid_parameter"),
+        tile("last tile on the plane", "0", big, "0", "png", {}, ""),
+        tile("first tile off the plane", "0", over, "0", "png", {}, "coordinate_out_of_range"),
+        tile("last tile on the plane, negative side", "0", low, "0", "png", {}, ""),
+        tile("first tile off the plane, negative side", "0", "0", below, "png", {},
+             "coordinate_out_of_range"),
+        tile("a coarser level has a smaller plane", "1", big, "0", "png", {},
+             "coordinate_out_of_range"),
+        tile("index overflows int64", "0", "9223372036854775807", "0", "png", {},
+             "coordinate_out_of_range"),
+        tile("index is not an integer", "0", "1.5", "0", "png", {}, "coordinate_out_of_range"),
+        tile("mni at its floor", "0", "0", "0", "png", {{"mni", "1"}}, ""),
+        tile("mni under its floor", "0", "0", "0", "png", {{"mni", "0.999"}}, "invalid_parameter"),
+        tile("mni at its ceiling", "0", "0", "0", "png", {{"mni", "200"}}, ""),
+        tile("mni over its ceiling", "0", "0", "0", "png", {{"mni", "200.001"}},
+             "invalid_parameter"),
+        tile("mni is NaN", "0", "0", "0", "png", {{"mni", "nan"}}, "invalid_parameter"),
+        tile("largest seed", "0", "0", "0", "png", {{"seed", "18446744073709551615"}}, ""),
+        tile("seed overflows", "0", "0", "0", "png", {{"seed", "18446744073709551616"}},
+             "invalid_parameter"),
+        tile("negative seed", "0", "0", "0", "png", {{"seed", "-1"}}, "invalid_parameter"),
+        tile("size 512", "0", "0", "0", "png", {{"size", "512"}}, ""),
+        tile("size 384", "0", "0", "0", "png", {{"size", "384"}}, "invalid_parameter"),
+        tile("unknown field", "0", "0", "0", "png", {{"sede", "1"}}, "unknown_parameter"),
+        tile("a field twice", "0", "0", "0", "png", {{"seed", "1"}, {"seed", "2"}},
+             "invalid_parameter"),
+        {"bad id",
+         [] {
+             TileRequest t;
+             return parse_tile("../../etc/passwd", "0", "0", "0", "png", {}, t);
+         },
+         "invalid_id"},
+        {"upper-case id",
+         [] {
+             TileRequest t;
+             return parse_tile(std::string(64, 'A'), "0", "0", "0", "png", {}, t);
+         },
+         "invalid_id"},
+    });
+}
+
+TEST(Requests, TileValuesArriveInTheStruct) {
+    TileRequest t;
+    ASSERT_FALSE(parse_tile(kId, "-2", "-3", "5", "png16",
+                            {{"seed", "9"}, {"mni", "12.5"}, {"size", "512"}}, t));
+    EXPECT_EQ(t.id, kId);
+    EXPECT_EQ(t.level, -2);
+    EXPECT_EQ(t.x0(), -3 * 512);
+    EXPECT_EQ(t.y0(), 5 * 512);
+    EXPECT_EQ(t.format, ImageFormat::png16);
+    EXPECT_EQ(t.noise.seed, 9u);
+    EXPECT_EQ(t.noise.mni, 12.5);
+    // The web map's zoom counts the other way: zoom 0 is the coarsest level.
+    TileRequest m;
+    ASSERT_FALSE(parse_map_tile(kId, "0", "0", "0", "png", {}, m));
+    EXPECT_EQ(m.level, kMapMaxLevel);
+    ASSERT_FALSE(parse_map_tile(kId, std::to_string(kMapMaxZoom), "0", "0", "png", {}, m));
+    EXPECT_EQ(m.level, kMapMaxLevel - kMapMaxZoom);
+    EXPECT_TRUE(parse_map_tile(kId, std::to_string(kMapMaxZoom + 1), "0", "0", "png", {}, m));
+    EXPECT_TRUE(parse_map_tile(kId, "-1", "0", "0", "png", {}, m));
+}
+
+Row region(std::string what, Query q, std::string code, std::int64_t max_pixels = 8'388'608) {
+    return {std::move(what),
+            [=] {
+                RegionRequest r;
+                Limits limits;
+                limits.max_region_pixels = max_pixels;
+                return parse_region(kId, "png", q, limits, r);
+            },
+            std::move(code)};
+}
+
+TEST(Requests, RegionTable) {
+    const std::string edge = std::to_string((std::int64_t{1} << 62) - 100);
+    check({
+        region("defaults", {}, ""),
+        region("widest", {{"w", "16384"}, {"h", "1"}}, ""),
+        region("too wide", {{"w", "16385"}, {"h", "1"}}, "invalid_parameter"),
+        region("empty", {{"w", "0"}}, "invalid_parameter"),
+        region("at the pixel budget", {{"w", "100"}, {"h", "100"}}, "", 10000),
+        region("over the pixel budget", {{"w", "100"}, {"h", "101"}}, "region_too_large", 10000),
+        region("at the plane's edge", {{"x", edge}, {"w", "100"}}, ""),
+        region("over the plane's edge", {{"x", edge}, {"w", "101"}}, "coordinate_out_of_range"),
+        region("x not an integer", {{"x", "1e3"}}, "coordinate_out_of_range"),
+        region("level out of range", {{"z", "25"}}, "level_out_of_range"),
+        region("mni out of range", {{"mni", "201"}}, "invalid_parameter"),
+        region("tile-only field", {{"size", "256"}}, "unknown_parameter"),
+    });
+}
+
+TEST(Requests, TileableListAndKitTables) {
+    auto tileable = [](std::string what, Query q, std::string code) {
+        return Row{std::move(what),
+                   [=] {
+                       TileableRequest t;
+                       Limits limits;
+                       limits.max_tileable_side = 1024;
+                       return parse_tileable(kId, "exr", q, limits, t);
+                   },
+                   std::move(code)};
+    };
+    auto list = [](std::string what, Query q, std::string code) {
+        return Row{std::move(what),
+                   [=] {
+                       ListRequest l;
+                       return parse_list(q, l);
+                   },
+                   std::move(code)};
+    };
+    auto kit = [](std::string what, Query q, std::string code) {
+        return Row{std::move(what),
+                   [=] {
+                       NoiseParams n;
+                       return parse_kit(kId, q, n);
+                   },
+                   std::move(code)};
+    };
+    check({
+        tileable("smallest", {{"w", "8"}, {"h", "8"}}, ""),
+        tileable("too small", {{"w", "7"}}, "invalid_parameter"),
+        tileable("largest", {{"w", "1024"}, {"h", "1024"}}, ""),
+        tileable("over the configured side", {{"h", "1025"}}, "invalid_parameter"),
+        list("defaults", {}, ""),
+        list("limit 1", {{"limit", "1"}}, ""),
+        list("limit 0", {{"limit", "0"}}, "invalid_parameter"),
+        list("limit 1000", {{"limit", "1000"}}, ""),
+        list("limit 1001", {{"limit", "1001"}}, "invalid_parameter"),
+        list("cursor", {{"after", kId}}, ""),
+        list("cursor that is no id", {{"after", "zz"}}, "invalid_id"),
+        kit("mni", {{"mni", "45"}}, ""),
+        kit("seed is not a kit field", {{"seed", "1"}}, "unknown_parameter"),
+        kit("mni under its floor", {{"mni", "0.5"}}, "invalid_parameter"),
+    });
+}
+
+TEST(Requests, AnalysisTable) {
+    auto analysis = [](std::string what, Query q, std::string code) {
+        return Row{std::move(what),
+                   [=] {
+                       core::AnalysisParams p;
+                       return parse_analysis(q, p);
+                   },
+                   std::move(code)};
+    };
+    check({
+        analysis("defaults", {}, ""),
+        analysis("smallest support", {{"size", "8"}}, ""),
+        analysis("support too small", {{"size", "7"}}, "invalid_parameter"),
+        analysis("largest support", {{"size", "256"}}, ""),
+        analysis("support too large", {{"size", "257"}}, "invalid_parameter"),
+        analysis("nearest", {{"order", "0"}}, ""),
+        analysis("cubic", {{"order", "3"}}, ""),
+        analysis("no quadratic", {{"order", "2"}}, "invalid_parameter"),
+        analysis("order 4", {{"order", "4"}}, "invalid_parameter"),
+        analysis("one iteration", {{"iterations", "1"}}, ""),
+        analysis("no iterations", {{"iterations", "0"}}, "invalid_parameter"),
+        analysis("most iterations", {{"iterations", "1000"}}, ""),
+        analysis("too many iterations", {{"iterations", "1001"}}, "invalid_parameter"),
+        analysis("periodic false", {{"periodic", "false"}}, ""),
+        analysis("periodic maybe", {{"periodic", "maybe"}}, "invalid_parameter"),
+        analysis("typo", {{"iteration", "5"}}, "unknown_parameter"),
+    });
+    core::AnalysisParams p;
+    ASSERT_FALSE(parse_analysis(
+        {{"size", "48"}, {"order", "3"}, {"iterations", "7"}, {"seed", "5"}, {"periodic", "0"}},
+        p));
+    EXPECT_EQ(p.size, 48);
+    EXPECT_EQ(p.order, 3);
+    EXPECT_EQ(p.iterations, 7);
+    EXPECT_EQ(p.seed, 5u);
+    EXPECT_FALSE(p.periodic);
+}
+
+TEST(Requests, MixAndSurfaceTables) {
+    const std::string other(64, 'b');
+    auto mix = [&](std::string what, Query q, bool mask, std::string code) {
+        q.emplace("u", kId);
+        q.emplace("v", other);
+        return Row{std::move(what),
+                   [=] {
+                       MixRequest m;
+                       return parse_mix(q, mask, m);
+                   },
+                   std::move(code)};
+    };
+    auto surface = [](std::string what, Query q, bool mesh, std::string code) {
+        return Row{std::move(what),
+                   [=] {
+                       SurfaceParams s;
+                       return parse_surface(kId, q, mesh, s);
+                   },
+                   std::move(code)};
+    };
+    check({
+        mix("ramp defaults", {}, false, ""),
+        mix("fewest levels", {{"levels", "2"}}, false, ""),
+        mix("one level", {{"levels", "1"}}, false, "invalid_parameter"),
+        mix("most levels", {{"levels", std::to_string(core::kMaxMixLevels)}}, false, ""),
+        mix("too many levels", {{"levels", std::to_string(core::kMaxMixLevels + 1)}}, false,
+            "invalid_parameter"),
+        mix("ramp of no width", {{"width", "0"}}, false, "invalid_parameter"),
+        mix("scale without a mask", {{"scale", "2"}}, false, "invalid_parameter"),
+        mix("mask placement", {{"scale", "2"}, {"x0", "-10"}}, true, ""),
+        mix("infinite offset", {{"x0", "inf"}}, false, "invalid_parameter"),
+        {"mix without v",
+         [] {
+             MixRequest m;
+             return parse_mix({{"u", kId}}, false, m);
+         },
+         "invalid_parameter"},
+        surface("defaults", {}, false, ""),
+        surface("mni at its floor", {{"mni", "1"}}, false, ""),
+        surface("mni under its floor", {{"mni", "0.99"}}, false, "invalid_parameter"),
+        surface("mni at its ceiling", {{"mni", "200"}}, false, ""),
+        surface("mni over its ceiling", {{"mni", "200.5"}}, false, "invalid_parameter"),
+        surface("camera is a mesh field", {{"fov", "40"}}, false, "unknown_parameter"),
+        surface("narrowest view", {{"fov", "5"}}, true, ""),
+        surface("too narrow a view", {{"fov", "4.9"}}, true, "invalid_parameter"),
+        surface("smallest mesh image", {{"width", "16"}, {"height", "16"}}, true, ""),
+        surface("mesh image too large", {{"width", "2049"}}, true, "invalid_parameter"),
+        surface("eye without target", {{"eye", "0,0,5"}}, true, "invalid_parameter"),
+        surface("eye and target", {{"eye", "0,0,5"}, {"target", "0,0,0"}}, true, ""),
+        surface("eye of two numbers", {{"eye", "0,5"}, {"target", "0,0,0"}}, true,
+                "invalid_parameter"),
+    });
+}
+
+TEST(Requests, StrictNumbers) {
+    EXPECT_EQ(parse_i64("+12"), 12);
+    EXPECT_EQ(parse_i64("-9223372036854775808"), INT64_MIN);
+    EXPECT_FALSE(parse_i64("9223372036854775808"));
+    EXPECT_FALSE(parse_i64(""));
+    EXPECT_FALSE(parse_i64("12 "));
+    EXPECT_FALSE(parse_i64("0x10"));
+    EXPECT_FALSE(parse_u64("-1"));
+    EXPECT_FALSE(parse_u64("+1"));
+    EXPECT_EQ(parse_finite("1e3"), 1000.0);
+    EXPECT_FALSE(parse_finite("inf"));
+    EXPECT_FALSE(parse_finite("nan"));
+    EXPECT_FALSE(parse_finite("1e999"));
+    EXPECT_FALSE(parse_finite(std::string(65, '1')));
+}
+
+} // namespace
+} // namespace textond::api
