@@ -4,7 +4,7 @@ BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 ARGS   ?= serve
 
-.PHONY: deps build run run-edge test bench load load-replicas image-check format clean
+.PHONY: deps build run run-edge test bench load load-replicas image-check format tidy clean
 
 deps:
 	bash docker/install-deps.sh
@@ -43,6 +43,10 @@ image-check:
 
 format:
 	clang-format -i $$(git ls-files '*.h' '*.cpp')
+
+# clang-tidy over core/, render/, server/, api/ (what CI's tidy_check runs; about 5 minutes).
+tidy: build
+	tests/style/tidy_check.sh build/release
 
 clean:
 	rm -rf build

@@ -94,7 +94,7 @@ void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float*
                         SurfaceStats* stats) const {
     Vec3 u1, u2;
     tangent_frame(n, u1, u2);
-    const int r = m_t.size, nc = m_t.channels;
+    const int r = m_t.size, nc = std::min(m_t.channels, 3); // 1 or 3 (checked at load)
     const double half = 0.5 * r;
     // Every point within the r-cube around y lies within r sqrt(3) / 2 of y, and the texton's
     // support (with its interpolation) within r/2 + 2 of the centre in each tangent direction.
@@ -133,7 +133,7 @@ void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float*
                     const double z2 = d[0] * u2[0] + d[1] * u2[1] + d[2] * u2[2];
                     if (stats && std::fabs(z1) < half && std::fabs(z2) < half) ++stats->impacts;
                     if (std::fabs(z1) >= half + 2.0 || std::fabs(z2) >= half + 2.0) continue;
-                    double v[3];
+                    double v[3] = {0, 0, 0};
                     h(z1, z2, v);
                     for (int c = 0; c < nc; ++c) acc[c] += eps * w * v[c];
                 }

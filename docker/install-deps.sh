@@ -27,8 +27,8 @@ runtime=(
 )
 tests=(
     openimageio-tools googletest libgtest-dev
-    # the format check (tests/style/format_check.sh)
-    clang-format
+    # the style checks (tests/style/format_check.sh, tidy_check.sh)
+    clang-format clang-tidy
     # the deflate benchmark (tests/bench: zlib against libdeflate on tile bytes)
     zlib1g-dev libdeflate-dev
     # the API schema and deployment tests (Debian's python, not whatever python3 is first on

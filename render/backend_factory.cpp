@@ -133,7 +133,7 @@ const char* to_string(BackendKind kind) {
 }
 
 Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& options) {
-    auto cpu = [&](std::string reason) {
+    auto cpu = [&](const std::string& reason) {
         auto b = std::make_shared<CpuBackend>(options.threads);
         return BackendChoice{b, nullptr, reason + b->renderer(), {}};
     };

@@ -430,6 +430,7 @@ bool render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads
     // Every level's model once (each lookup takes the texton's lock), and the window's normals
     // once: each pixel's 5 x 5 taps share them with its neighbours, as in render_limit.
     std::vector<const core::noise::LimitModel*> models;
+    models.reserve(static_cast<std::size_t>(mix.levels()));
     for (int l = 0; l < mix.levels(); ++l) models.push_back(&mix.level(l).limit(q.level));
     const int zw = q.width + 4, zh = q.height + 4;
     std::vector<float> z(static_cast<std::size_t>(zw) * zh * 3);

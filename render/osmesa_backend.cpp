@@ -22,7 +22,8 @@ public:
         if (!lib)
             return make_error(ErrorCode::unsupported,
                               "osmesa: libOSMesa.so.8 not found (Debian package libosmesa6)");
-        std::unique_ptr<OsmesaContext> c(new OsmesaContext(lib));
+        // The library stays loaded for the life of the process: it is never dlclosed.
+        std::unique_ptr<OsmesaContext> c(new OsmesaContext());
         c->m_create = reinterpret_cast<CreateFn>(dlsym(lib, "OSMesaCreateContextAttribs"));
         c->m_make_current = reinterpret_cast<MakeCurrentFn>(dlsym(lib, "OSMesaMakeCurrent"));
         c->m_get_proc = reinterpret_cast<GetProcFn>(dlsym(lib, "OSMesaGetProcAddress"));
@@ -67,8 +68,7 @@ public:
     std::string platform() const override { return "OSMesa"; }
 
 private:
-    explicit OsmesaContext(void* lib) : m_lib(lib), m_pixel(4) {}
-    void* m_lib;
+    OsmesaContext() : m_pixel(4) {}
     std::vector<unsigned char> m_pixel; // OSMesa wants a colour buffer; we draw into an FBO
     OSMesaContext m_ctx = nullptr;
     CreateFn m_create = nullptr;

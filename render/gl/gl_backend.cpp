@@ -295,6 +295,7 @@ std::vector<Result<core::Image>> GlBackend::render_many(const PreparedTexton& te
     const double gpu_ms = render_batch(batch);
     if (stats) stats->gpu_ms = gpu_ms;
     std::vector<Result<core::Image>> out;
+    out.reserve(works.size());
     for (auto& w : works)
         out.push_back(w ? std::move(w.value().image) : Result<core::Image>(w.error()));
     return out;

@@ -282,6 +282,9 @@ int serve_command(const Argv& argv) {
     svc.run();
     // run() returned: stop() was called by the signal thread (or the listener failed).
     if (signal_thread.joinable()) {
+        // Wakes the signal thread's sigwait (SIGTERM is blocked in every thread, so nothing is
+        // terminated): its one way out when the listener failed without a signal.
+        // NOLINTNEXTLINE(bugprone-bad-signal-to-kill-thread)
         pthread_kill(signal_thread.native_handle(), SIGTERM);
         signal_thread.join();
     }

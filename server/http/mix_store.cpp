@@ -73,7 +73,9 @@ void MixStore::quarantine(const std::string& id, const std::string& why) {
     for (const char* suffix : {".exr", ".mask.exr"}) {
         const fs::path from = fs::path(m_dir) / (id + suffix);
         if (!fs::exists(from, ec)) continue;
-        fs::rename(from, dir / (id + suffix + "." + stamp), ec);
+        std::string name = id;
+        name.append(suffix).append(".").append(stamp);
+        fs::rename(from, dir / name, ec);
         if (ec) fs::remove(from, ec); // never leave it where it could be rendered
     }
     spdlog::error("mixes: {} refused at load ({}); moved to {}", id, why, dir.string());

@@ -235,7 +235,7 @@ void Service::install_hooks() {
             return httplib::Server::HandlerResponse::Handled;
         }));
     m_http.set_exception_handler([](const httplib::Request& req, httplib::Response& res,
-                                    std::exception_ptr ep) {
+                                    const std::exception_ptr& ep) {
         std::string what = "unknown exception";
         try {
             std::rethrow_exception(ep);

@@ -307,7 +307,7 @@ void Service::texton_kit(const httplib::Request& req, const std::string& id,
     res.set_header("Cache-Control", "public, max-age=86400");
     res.set_header("Content-Disposition",
                    "attachment; filename=\"" + engine_kit_directory(id) + ".tar\"");
-    res.set_content(std::move(tar.value()), "application/x-tar");
+    res.set_content(tar.value(), "application/x-tar");
 }
 
 void Service::delete_texton(const httplib::Request& req, const std::string& id,

@@ -32,7 +32,7 @@ void fsync_directory(const std::string& dir) {
 
 } // namespace
 
-TextonStore::TextonStore(std::string dir, std::size_t prepared_cache,
+TextonStore::TextonStore(const std::string& dir, std::size_t prepared_cache,
                          std::unique_ptr<store::RedisStore> shared,
                          std::chrono::milliseconds recheck)
     : m_dir((fs::path(dir) / "textons").string()),

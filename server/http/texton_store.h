@@ -73,7 +73,7 @@ public:
     store::RedisStore* shared() const { return m_shared.get(); }
 
 private:
-    TextonStore(std::string dir, std::size_t prepared_cache,
+    TextonStore(const std::string& dir, std::size_t prepared_cache,
                 std::unique_ptr<store::RedisStore> shared, std::chrono::milliseconds recheck);
     Result<api::TextonMeta> fetch_shared(const std::string& id);
     Result<api::TextonMeta> recheck(const std::string& id, api::TextonMeta local);

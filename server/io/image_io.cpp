@@ -430,8 +430,11 @@ template <class T> void interleave(const core::Image& image, float scale, T* out
             const float v = planes[c][k];
             if constexpr (std::is_same_v<T, float>)
                 out[k * nc + c] = v;
-            else // round to nearest, as OpenImageIO's own conversion does
+            else // round to nearest, as OpenImageIO's own conversion does (and the GL shader:
+                 // the same bits on every backend); never negative here, so +0.5 is right
+                // NOLINTBEGIN(bugprone-incorrect-roundings)
                 out[k * nc + c] = static_cast<T>(std::clamp(v, 0.0f, 1.0f) * scale + 0.5f);
+            // NOLINTEND(bugprone-incorrect-roundings)
         }
 }
 

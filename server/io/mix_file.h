@@ -16,6 +16,8 @@ namespace textond::io {
 
 inline constexpr const char* kMixAttribute = "textond:mix";
 
+// nlohmann::json's noexcept move calls its invariant check, which clang-tidy takes for a throw.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct MixRecord {
     nlohmann::json meta; // id, u, v, levels, size, order, channels, rme, field, created, ...
     std::vector<core::Texton> levels;

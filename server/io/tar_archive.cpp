@@ -1,5 +1,6 @@
 #include "server/io/tar_archive.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 
@@ -35,17 +36,17 @@ Result<std::string> tar_archive(const std::vector<TarEntry>& entries) {
             return make_error(ErrorCode::invalid_argument, "tar: bad entry path " + e.path);
         char h[kBlock];
         std::memset(h, 0, kBlock);
-        std::memcpy(h, e.path.data(), e.path.size()); // name
+        std::copy_n(e.path.data(), e.path.size(), h); // name (fixed width: no NUL needed)
         octal(h + 100, 8, 0644);                      // mode
         octal(h + 108, 8, 0);                         // uid
         octal(h + 116, 8, 0);                         // gid
         octal(h + 124, 12, e.bytes.size());           // size
         octal(h + 136, 12, 0);                        // mtime: fixed, for equal bytes
         h[156] = '0';                                 // regular file
-        std::memcpy(h + 257, "ustar", 6);             // magic with its NUL
-        std::memcpy(h + 263, "00", 2);                // version
-        std::memcpy(h + 265, "textond", 7);           // uname
-        std::memcpy(h + 297, "textond", 7);           // gname
+        std::copy_n("ustar", 6, h + 257);             // magic with its NUL
+        std::copy_n("00", 2, h + 263);                // version (fixed width, no NUL)
+        std::copy_n("textond", 7, h + 265);           // uname (the header is zeroed)
+        std::copy_n("textond", 7, h + 297);           // gname
         // The checksum is taken with its own field as eight spaces.
         std::memset(h + 148, ' ', 8);
         unsigned sum = 0;
