@@ -1,5 +1,6 @@
 #include "server/cli/analysis_options.h"
 #include "server/cli/commands.h"
+#include "server/http/texton_service.h"
 #include "server/io/image_io.h"
 #include "server/io/texton_file.h"
 
@@ -125,13 +126,14 @@ int analyze_command(const Argv& argv) {
     const std::string& path = a.positional[0];
     auto image = io::decode_image_file(path, limits.value());
     if (!image) return fail(1, path + ": " + image.error().message);
-    auto result =
-        core::analyze_texton(image.value(), params.value(), progress_reporter("analyze " + path));
-    if (!result)
-        return fail(result.error().code == ErrorCode::invalid_argument ? 2 : 1,
-                    result.error().message);
-
-    const io::TextonRecord record = io::make_record(image.value(), params.value(), result.value());
+    // The upload's own step (POST /v1/textons runs it on the analysis pool): one exemplar and one
+    // set of parameters give one texton file, byte for byte, whichever way it was made.
+    auto analysed = http::TextonService::analyse(image.value(), params.value(),
+                                                 progress_reporter("analyze " + path));
+    if (!analysed)
+        return fail(analysed.error().code == ErrorCode::invalid_argument ? 2 : 1,
+                    analysed.error().message);
+    const io::TextonRecord& record = analysed.value();
     if (a.options.count("--output")) {
         auto w = io::write_texton_file(a.get("--output"), record);
         if (!w) return fail(1, w.error().message);

@@ -108,6 +108,12 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
         s->m_render_slots.add(s->m_config.gpu_batch_tiles);
     s->m_pool =
         std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
+    io::DecodeLimits limits;
+    limits.max_pixels = s->m_config.max_pixels;
+    limits.formats = s->m_config.formats;
+    s->m_textons = std::make_unique<TextonService>(
+        *s->m_store, *s->m_pool, s->m_metrics, s->m_decode_slots, std::move(limits),
+        std::chrono::milliseconds(s->m_config.queue_timeout_ms));
     auto mixes = MixStore::open(s->m_config.data_dir);
     if (!mixes) return mixes.error();
     s->m_mixes = std::move(mixes.value());

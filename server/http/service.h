@@ -12,6 +12,7 @@
 #include "server/http/image_cache.h"
 #include "server/http/metrics.h"
 #include "server/http/mix_store.h"
+#include "server/http/texton_service.h"
 #include "server/http/texton_store.h"
 
 #include <httplib.h>
@@ -77,6 +78,9 @@ private:
     void delete_texton(const httplib::Request& req, const std::string& id, httplib::Response& res);
     void list_textons(const httplib::Request& req, httplib::Response& res);
     nlohmann::json texton_json(const api::TextonMeta& meta) const;
+    void send_refused(httplib::Response& res, const TextonService::Refused& r);
+    void send_ingested(const httplib::Request& req, httplib::Response& res,
+                       const TextonService::Ingested& in);
     bool authorised(const httplib::Request& req, httplib::Response& res) const;
 
     // image_routes.cpp
@@ -125,6 +129,7 @@ private:
     std::unique_ptr<TextonStore> m_store;
     std::unique_ptr<AnalysisPool> m_pool;
     std::unique_ptr<MixStore> m_mixes;
+    std::unique_ptr<TextonService> m_textons; // the ingest workflow behind POST /v1/textons
     ImageCache m_cache;
     std::unique_ptr<render::Renderer> m_renderer; // every evaluation goes through it
     struct StaticFile {

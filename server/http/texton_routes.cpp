@@ -50,6 +50,56 @@ bool constant_time_equal(const std::string& a, const std::string& b) {
     return diff == 0;
 }
 
+// A multipart upload's parts, every byte counted against the upload limit and the server's
+// budget for bodies in memory; at most 64 parts. `status` is the response's status so far
+// (cpp-httplib sets 413 when its own limit stopped the read).
+std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, std::size_t limit,
+                                        int status, Body& counted,
+                                        std::vector<httplib::MultipartFormData>& parts) {
+    const bool ok = reader(
+        [&](const httplib::MultipartFormData& part) {
+            parts.push_back(part);
+            return parts.size() <= 64 && counted.count(part.name.size(), limit);
+        },
+        [&](const char* data, std::size_t n) {
+            if (!counted.count(n, limit)) return false;
+            parts.back().content.append(data, n);
+            return true;
+        });
+    if (ok) return std::nullopt;
+    // The rest of the body is unread: what follows on the connection is not a request.
+    if (ConnectionStream* c = current_connection()) c->close_after_response();
+    if (counted.over_budget())
+        return api::ApiError{429, "overloaded",
+                             "the server holds too many request bodies now; retry shortly"};
+    if (counted.over_limit() || status == 413)
+        return api::ApiError{413, "payload_too_large",
+                             "request body is over the upload limit of " + std::to_string(limit) +
+                                 " bytes"};
+    return api::ApiError{400, "bad_request", "could not read the request body"};
+}
+
+// The one `exemplar` part of a form; the other parts are analysis fields.
+std::optional<api::ApiError> exemplar_part(const std::vector<httplib::MultipartFormData>& parts,
+                                           api::Query& fields, std::string_view& bytes) {
+    bytes = {};
+    for (const auto& part : parts) {
+        if (part.name != "exemplar") {
+            fields.emplace(part.name, part.content);
+            continue;
+        }
+        if (!bytes.empty())
+            return api::ApiError{400, "invalid_parameter",
+                                 "more than one 'exemplar' field in the form"};
+        bytes = part.content;
+        if (bytes.empty()) return api::ApiError{400, "empty_body", "the 'exemplar' field is empty"};
+    }
+    if (bytes.empty())
+        return api::ApiError{400, "missing_exemplar",
+                             "multipart upload without an 'exemplar' file field"};
+    return std::nullopt;
+}
+
 } // namespace
 
 nlohmann::json Service::texton_json(const api::TextonMeta& meta) const {
@@ -88,128 +138,56 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     // Every byte is counted here, chunked or not: cpp-httplib checks its limit against
     // Content-Length alone (a chunked 300 MB upload was read whole into memory).
     Body counted(m_bodies);
-    std::string& body = counted.bytes;
     std::vector<httplib::MultipartFormData> parts;
     const bool multipart = req.is_multipart_form_data();
     const std::size_t limit = m_config.max_upload_bytes;
-    bool read_ok = true;
-    if (multipart) {
-        read_ok = reader(
-            [&](const httplib::MultipartFormData& part) {
-                parts.push_back(part);
-                return parts.size() <= 64 && counted.count(part.name.size(), limit);
-            },
-            [&](const char* data, std::size_t n) {
-                if (!counted.count(n, limit)) return false;
-                parts.back().content.append(data, n);
-                return true;
-            });
-        if (!read_ok && (counted.over_limit() || counted.over_budget())) {
-            if (ConnectionStream* c = current_connection()) c->close_after_response();
-            if (counted.over_budget()) {
-                res.set_header("Retry-After", "1");
-                return send_error(res, {429, "overloaded",
-                                        "the server holds too many request "
-                                        "bodies now; retry shortly"});
-            }
-            return send_error(res, {413, "payload_too_large",
-                                    "request body is over the upload limit of " +
-                                        std::to_string(limit) + " bytes"});
-        }
-    } else if (auto e = read_body(reader, limit, counted)) {
+    if (auto e = multipart ? read_parts(reader, limit, res.status, counted, parts)
+                           : read_body(reader, limit, counted)) {
         if (e->status == 429) res.set_header("Retry-After", "1");
         return send_error(res, *e);
     }
-    if (!read_ok) {
-        if (ConnectionStream* c = current_connection()) c->close_after_response();
-        if (res.status == 413)
-            return send_error(res, {413, "payload_too_large",
-                                    "request body is over the upload limit of " +
-                                        std::to_string(limit) + " bytes"});
-        return send_error(res, {400, "bad_request", "could not read the request body"});
-    }
     // Parameters come from the query and, for multipart uploads, from the other form fields.
     api::Query fields = req.params;
-    std::string_view bytes = body;
-    if (multipart) {
-        bytes = {};
-        for (const auto& part : parts) {
-            const std::string& name = part.name;
-            if (name == "exemplar") {
-                if (!bytes.empty())
-                    return send_error(res, {400, "invalid_parameter",
-                                            "more than one 'exemplar' field in the form"});
-                bytes = part.content;
-                if (bytes.empty())
-                    return send_error(res, {400, "empty_body", "the 'exemplar' field is empty"});
-            } else {
-                fields.emplace(name, part.content);
-            }
-        }
-        if (bytes.empty())
-            return send_error(res, {400, "missing_exemplar",
-                                    "multipart upload without an 'exemplar' file field"});
-    }
+    std::string_view bytes = counted.bytes;
+    if (multipart)
+        if (auto e = exemplar_part(parts, fields, bytes)) return send_error(res, *e);
     core::AnalysisParams params;
     if (auto e = api::parse_analysis(fields, params)) return send_error(res, *e);
     if (bytes.empty())
         return send_error(res, {400, "empty_body",
                                 "no exemplar: send the image as the body (Content-Type: image/*) "
                                 "or as the 'exemplar' field of a multipart form"});
+    auto ingest = m_textons->ingest(bytes, params);
+    if (const auto* refused = std::get_if<TextonService::Refused>(&ingest))
+        return send_refused(res, *refused);
+    send_ingested(req, res, std::get<TextonService::Ingested>(ingest));
+}
 
-    io::DecodeLimits limits;
-    limits.max_pixels = m_config.max_pixels;
-    limits.formats = m_config.formats;
-    auto slot = admit_decode(res);
-    if (!slot) return;
-    auto image = io::decode_image_memory(bytes, limits);
-    slot.reset();
-    if (!image) {
-        const Error& err = image.error();
-        const char* code = err.code == ErrorCode::too_large     ? "image_too_large"
-                           : err.code == ErrorCode::unsupported ? "unsupported_media_type"
-                                                                : "invalid_image";
-        return send_error(res, to_api_error(err, code));
+void Service::send_refused(httplib::Response& res, const TextonService::Refused& r) {
+    using Stage = TextonService::Refused::Stage;
+    const Error& err = r.error;
+    switch (r.stage) {
+    case Stage::busy:
+        return refuse(res, r.admit, "every decoder is busy; retry shortly");
+    case Stage::decode:
+        return send_error(
+            res, to_api_error(err, err.code == ErrorCode::too_large     ? "image_too_large"
+                                   : err.code == ErrorCode::unsupported ? "unsupported_media_type"
+                                                                        : "invalid_image"));
+    case Stage::check:
+        return send_error(res, {422, "exemplar_too_small", err.message});
+    case Stage::lookup:
+        break;
     }
-    const core::Image& u = image.value();
-    if (auto err = core::validate_analysis(params, u.width, u.height, u.channels))
-        return send_error(res, {422, "exemplar_too_small", err->message});
+    send_error(res, to_api_error(err));
+}
 
-    const std::string id = io::texton_id(u, params);
-    // Known here or to another replica (shared store): no analysis. With the shared store down,
-    // nothing could be stored, so fail now rather than after the analysis.
-    if (auto meta = m_store->find(id))
-        return send_json(res, 200, texton_json(meta.value()));
-    else if (meta.error().code != ErrorCode::not_found)
-        return send_error(res, to_api_error(meta.error()));
-
-    auto exemplar = std::make_shared<core::Image>(std::move(image.value()));
-    TextonStore* store = m_store.get();
-    Metrics* metrics = &m_metrics;
-    auto submitted = m_pool->submit(
-        id,
-        [exemplar, params, store, metrics,
-         id](const core::ProgressFn& progress) -> Result<AnalysisOutcome> {
-            if (auto meta = store->find(id)) return AnalysisOutcome{meta.value(), false};
-            const auto t0 = std::chrono::steady_clock::now();
-            auto result = core::analyze_texton(*exemplar, params, progress);
-            const double ms =
-                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                    .count();
-            metrics->analysis(result.ok(), ms);
-            if (!result) return result.error();
-            auto put =
-                store->put(io::make_record(*exemplar, params, result.value()), exemplar.get());
-            if (!put) return put.error();
-            auto meta = store->find(id);
-            if (!meta) return meta.error();
-            spdlog::info("analysed {}: {}x{}x{}, r = {}, RME {:.4f}, {:.0f} ms{}", id,
-                         exemplar->width, exemplar->height, exemplar->channels, params.size,
-                         meta.value().rme, ms,
-                         put.value() ? "" : " (another replica stored it first)");
-            return AnalysisOutcome{meta.value(), put.value()};
-        });
+void Service::send_ingested(const httplib::Request& req, httplib::Response& res,
+                            const TextonService::Ingested& in) {
+    if (in.known) return send_json(res, 200, texton_json(*in.known));
+    const AnalysisPool::Submitted& submitted = in.submitted;
     if (!submitted.job) return send_pool_full(res);
+    const std::string& id = in.id;
     const std::string status_url = "/v1/textons/" + id + "/status";
     // RFC 7240: a client that prefers not to wait gets 202 and polls the status URL.
     if (req.get_header_value("Prefer").find("respond-async") != std::string::npos) {

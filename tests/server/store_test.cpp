@@ -168,7 +168,8 @@ TEST(Store, SameTileSameBytesAndEtagAfterARestart) {
     EXPECT_EQ(c.Get(("/v1/textons/" + id + tile).c_str(), {{"If-None-Match", etag}})->status, 304);
 }
 
-// `textond analyze -o` and an upload write one file, byte for byte; the upload's provenance
+// `textond analyze -o` and an upload both run TextonService::analyse and write one file, byte for
+// byte; the upload's provenance
 // (created, timings) is kept beside it and survives a restart.
 TEST(Store, CliAndUploadWriteTheSameTextonFileAndProvenanceSurvivesARestart) {
     const std::string data = fresh_dir("store-provenance");

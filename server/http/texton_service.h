@@ -1,0 +1,72 @@
+#pragma once
+// The texton ingest workflow without HTTP: exemplar bytes are decoded (under a decoder slot),
+// checked against the parameters and content-addressed; a texton stored already (here or in the
+// shared store) is answered at once, any other is analysed on the pool and stored. The upload
+// route only reads the body and turns the outcome into a response; `textond analyze` runs the
+// same analyse() step, so both write the same texton file for the same exemplar and parameters.
+#include "api/texton_meta.h"
+#include "core/image.h"
+#include "core/result.h"
+#include "core/texton_analysis.h"
+#include "server/http/admission.h"
+#include "server/http/analysis_pool.h"
+#include "server/http/metrics.h"
+#include "server/http/texton_store.h"
+#include "server/io/image_io.h"
+#include "server/io/texton_file.h"
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+
+namespace textond::http {
+
+class TextonService {
+public:
+    TextonService(TextonStore& store, AnalysisPool& pool, Metrics& metrics,
+                  RenderSlots& decode_slots, io::DecodeLimits limits,
+                  std::chrono::milliseconds decode_wait);
+
+    // Exemplar and parameters to the stored form of a texton: coefficients, RME, id, timings
+    // (SOT paper section 3 through core::analyze_texton). What the pool runs for an upload and
+    // what `textond analyze` runs.
+    static Result<io::TextonRecord> analyse(const core::Image& exemplar,
+                                            const core::AnalysisParams& params,
+                                            const core::ProgressFn& progress);
+
+    struct Ingested {
+        std::string id;
+        std::optional<api::TextonMeta> known; // stored already: nothing was submitted
+        AnalysisPool::Submitted submitted;    // otherwise the job; a null job: the queue is full
+    };
+    struct Refused {
+        enum class Stage {
+            busy,   // no decoder slot freed in time (`admit` says why)
+            decode, // the bytes are no image this service takes (error: too_large, unsupported,
+                    // or any other for a corrupt file)
+            check,  // the parameters do not fit the exemplar (too small for the support)
+            lookup, // the store could not say whether the texton exists (shared store down)
+        } stage;
+        Error error;
+        RenderSlots::Admit admit = RenderSlots::Admit::granted;
+    };
+    // `gone` tells the decoder-slot wait that the client left.
+    std::variant<Ingested, Refused> ingest(std::string_view bytes,
+                                           const core::AnalysisParams& params,
+                                           const std::function<bool()>& gone = {});
+
+private:
+    AnalysisPool::Submitted submit(const std::string& id, core::Image exemplar,
+                                   const core::AnalysisParams& params);
+
+    TextonStore& m_store;
+    AnalysisPool& m_pool;
+    Metrics& m_metrics;
+    RenderSlots& m_decode_slots;
+    const io::DecodeLimits m_limits;
+    const std::chrono::milliseconds m_decode_wait;
+};
+
+} // namespace textond::http
