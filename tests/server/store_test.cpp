@@ -169,8 +169,7 @@ TEST(Store, SameTileSameBytesAndEtagAfterARestart) {
 }
 
 // `textond analyze -o` and an upload both run TextonService::analyse and write one file, byte for
-// byte; the upload's provenance
-// (created, timings) is kept beside it and survives a restart.
+// byte; the upload's provenance (created, timings) is kept beside it and survives a restart.
 TEST(Store, CliAndUploadWriteTheSameTextonFileAndProvenanceSurvivesARestart) {
     const std::string data = fresh_dir("store-provenance");
     const std::string cli_file = temp_path("cli-texton.exr");
