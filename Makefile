@@ -46,7 +46,7 @@ format:
 
 # clang-tidy over core/, render/, server/, api/ (what CI's tidy_check runs; about 5 minutes).
 tidy: build
-	tests/style/tidy_check.sh build/release
+	tests/style/tidy_check.sh $(BUILD)
 
 clean:
 	rm -rf build

@@ -15,7 +15,7 @@ namespace textond::api {
 namespace {
 
 ApiError bad(std::string code, std::string message) {
-    return {400, std::move(code), std::move(message)};
+    return {std::move(code), std::move(message)};
 }
 
 // Refuses fields the endpoint does not know and fields given twice: a typo or an ambiguous URL

@@ -13,10 +13,10 @@
 
 namespace textond::api {
 
-// What a client did wrong (or what went wrong for it): HTTP status, a stable machine-readable
-// code and a sentence for people. One JSON body everywhere (see error_body in server/http).
+// What a client did wrong (or what went wrong for it): a stable machine-readable code and a
+// sentence for people. server/http/errors.cpp alone maps a code to an HTTP status; one JSON body
+// everywhere (send_error in server/http).
 struct ApiError {
-    int status = 500;
     std::string code = "internal";
     std::string message;
 };

@@ -119,19 +119,18 @@ std::optional<api::ApiError> read_body(const httplib::ContentReader& reader, std
     if (ok) return std::nullopt;
     if (ConnectionStream* c = current_connection()) c->close_after_response();
     if (body.over_limit())
-        return api::ApiError{413, "payload_too_large",
-                             "request body is over the limit of " + std::to_string(limit) +
-                                 " bytes"};
+        return api::ApiError{"payload_too_large", "request body is over the limit of " +
+                                                      std::to_string(limit) + " bytes"};
     if (body.over_budget())
-        return api::ApiError{429, "overloaded",
+        return api::ApiError{"overloaded",
                              "the server holds too many request bodies now; retry shortly"};
-    return api::ApiError{400, "bad_request", "could not read the request body"};
+    return api::ApiError{"bad_request", "could not read the request body"};
 }
 
 std::optional<api::ApiError> check_framing(const httplib::Request& req, std::size_t max_headers) {
-    auto bad = [](std::string m) { return api::ApiError{400, "bad_framing", std::move(m)}; };
+    auto bad = [](std::string m) { return api::ApiError{"bad_framing", std::move(m)}; };
     if (req.headers.size() > max_headers)
-        return api::ApiError{431, "too_many_headers",
+        return api::ApiError{"too_many_headers",
                              "more than " + std::to_string(max_headers) + " header lines"};
     const std::size_t lengths = req.get_header_value_count("Content-Length");
     const std::size_t encodings = req.get_header_value_count("Transfer-Encoding");
@@ -148,7 +147,7 @@ std::optional<api::ApiError> check_framing(const httplib::Request& req, std::siz
         std::transform(te.begin(), te.end(), te.begin(),
                        [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
         if (te != "chunked")
-            return api::ApiError{400, "unsupported_transfer_encoding",
+            return api::ApiError{"unsupported_transfer_encoding",
                                  "only Transfer-Encoding: chunked is supported"};
         if (lengths == 1) return bad("both Content-Length and Transfer-Encoding");
         if (req.method != "POST") return bad("a chunked body is only accepted on POST routes");
@@ -156,7 +155,7 @@ std::optional<api::ApiError> check_framing(const httplib::Request& req, std::siz
     // cpp-httplib reads such a body until the client closes its side: ask for a length instead.
     if (lengths == 0 && encodings == 0 &&
         (req.method == "POST" || req.method == "PUT" || req.method == "PATCH"))
-        return api::ApiError{411, "length_required",
+        return api::ApiError{"length_required",
                              "a POST needs Content-Length (0 for no body) or a chunked body"};
     return std::nullopt;
 }

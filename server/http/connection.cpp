@@ -1,5 +1,7 @@
 #include "server/http/connection.h"
 
+#include "server/http/errors.h"
+
 #include <netdb.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -168,8 +170,8 @@ ConnectionScope::~ConnectionScope() {
     t_connection = nullptr;
 }
 
-void send_connection_error(ConnectionStream& strm, int status, const char* code,
-                           const char* message) {
+void send_connection_error(ConnectionStream& strm, const char* code, const char* message) {
+    const int status = http_status(code);
     const char* reason = status == 408   ? "Request Timeout"
                          : status == 413 ? "Content Too Large"
                          : status == 431 ? "Request Header Fields Too Large"
@@ -199,19 +201,19 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
         case ConnectionStream::Failure::none:
             break;
         case ConnectionStream::Failure::head_too_large:
-            send_connection_error(strm, 431, "header_too_large",
+            send_connection_error(strm, "header_too_large",
                                   "request line and headers are over the server's limit");
             break;
         case ConnectionStream::Failure::head_timeout:
-            send_connection_error(strm, 408, "header_timeout",
+            send_connection_error(strm, "header_timeout",
                                   "request line and headers did not arrive in time");
             break;
         case ConnectionStream::Failure::body_too_large:
-            send_connection_error(strm, 413, "payload_too_large",
+            send_connection_error(strm, "payload_too_large",
                                   "request body is over the upload limit");
             break;
         case ConnectionStream::Failure::body_timeout:
-            send_connection_error(strm, 408, "body_timeout", "request body did not arrive in time");
+            send_connection_error(strm, "body_timeout", "request body did not arrive in time");
             break;
         }
         if (!ok || closed || strm.must_close() || strm.failure() != ConnectionStream::Failure::none)

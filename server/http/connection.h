@@ -92,8 +92,7 @@ public:
 
 // A canned answer for a request the library could not be given (head too large or too slow):
 // status line, a JSON body and Connection: close, written straight to the socket.
-void send_connection_error(ConnectionStream& strm, int status, const char* code,
-                           const char* message);
+void send_connection_error(ConnectionStream& strm, const char* code, const char* message);
 
 // Connection threads: `core` kept, more started on demand up to `max` so that clients that hold
 // a thread without sending (slowloris) do not stop new clients from being served; extra threads

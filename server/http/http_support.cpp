@@ -1,5 +1,7 @@
 #include "server/http/http_support.h"
 
+#include "server/http/errors.h"
+
 #include "api/safe_text.h"
 
 #include <atomic>
@@ -47,7 +49,8 @@ void set_route(const char* route_template) {
     current_request().route = route_template;
 }
 
-void send_error(httplib::Response& res, const api::ApiError& e) noexcept {
+void send_error(httplib::Response& res, const api::ApiError& e, int status) noexcept {
+    if (status == 0) status = http_status(e.code);
     // The error path must not fail in turn: messages echo client bytes (printable() makes them
     // valid UTF-8, capped), and should anything still throw, a fixed body goes out.
     try {
@@ -57,14 +60,14 @@ void send_error(httplib::Response& res, const api::ApiError& e) noexcept {
             {"error",
              {{"code", api::printable(e.code, 64)}, {"message", api::printable(e.message, 1024)}}},
             {"request_id", ctx.id}};
-        res.status = e.status;
+        res.status = status;
         res.set_header("Cache-Control", "no-store");
         // The shared store fails fast for a second after it is found down (server/store).
-        if (e.status == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "1");
+        if (status == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "1");
         res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
                         "application/json");
     } catch (...) {
-        res.status = e.status;
+        res.status = status;
         res.body = R"({"error": {"code": "internal", "message": "error body unavailable"}})";
         res.set_header("Content-Type", "application/json");
     }
@@ -80,32 +83,45 @@ void send_json(httplib::Response& res, int status, const nlohmann::json& body,
 }
 
 api::ApiError to_api_error(const Error& e, std::string code) {
-    auto pick = [&](int status, const char* fallback) {
-        return api::ApiError{status, code.empty() ? fallback : std::move(code), e.message};
+    auto pick = [&](const char* fallback) {
+        return api::ApiError{code.empty() ? fallback : std::move(code), e.message};
     };
     switch (e.code) {
     case ErrorCode::invalid_argument:
-        return pick(400, "invalid_parameter");
+        return pick("invalid_parameter");
     case ErrorCode::too_large:
-        return pick(413, "too_large");
+        return pick("too_large");
     case ErrorCode::unsupported:
-        return pick(415, "unsupported_media_type");
+        return pick("unsupported_media_type");
     case ErrorCode::unprocessable:
-        return pick(422, "unprocessable");
+        return pick("unprocessable");
     case ErrorCode::not_found:
-        return pick(404, "not_found");
+        return pick("not_found");
     case ErrorCode::no_space:
-        return pick(507, "insufficient_storage");
+        return pick("insufficient_storage");
     case ErrorCode::unavailable:
-        return pick(503, "store_unavailable");
+        return pick("store_unavailable");
     case ErrorCode::cancelled:
-        return pick(503, "deadline_exceeded");
+        return pick("deadline_exceeded");
     case ErrorCode::io:
-        return pick(500, "storage_error");
+        return pick("storage_error");
     case ErrorCode::internal:
         break;
     }
-    return pick(500, "internal");
+    return pick("internal");
+}
+
+api::ApiError content_error(const Error& e, const char* invalid, const char* too_large) {
+    switch (e.code) {
+    case ErrorCode::too_large:
+        return {too_large, e.message};
+    case ErrorCode::unsupported:
+        return {"unsupported_media_type", e.message};
+    case ErrorCode::unprocessable:
+        return {invalid, e.message};
+    default:
+        return to_api_error(e);
+    }
 }
 
 bool etag_matches(std::string_view header, std::string_view etag) {

@@ -29,7 +29,14 @@ void begin_request(const httplib::Request& req);
 void set_route(const char* route_template);
 
 // {"error": {"code", "message"}, "request_id"} with the status, and `Cache-Control: no-store`.
-void send_error(httplib::Response& res, const api::ApiError& e) noexcept;
+// The error body with the status of e.code (server/http/errors.cpp), or `status` when given
+// (cpp-httplib's own errors, code http_error).
+void send_error(httplib::Response& res, const api::ApiError& e, int status = 0) noexcept;
+// Bytes a client sent that do not decode (an exemplar, a mask, a mesh): too large (`too_large`,
+// 413), a format not taken (unsupported_media_type, 415) or not what they claim (`invalid`,
+// 422); anything else as to_api_error.
+api::ApiError content_error(const Error& e, const char* invalid,
+                            const char* too_large = "image_too_large");
 void send_json(httplib::Response& res, int status, const nlohmann::json& body,
                const char* cache_control = "no-cache");
 

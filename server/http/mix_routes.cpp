@@ -45,10 +45,10 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
         auto slot = admit_decode(res);
         if (!slot) return;
         auto img = io::decode_image_memory(body.bytes, limits);
-        if (!img) return send_error(res, to_api_error(img.error(), "invalid_mask"));
+        if (!img) return send_error(res, content_error(img.error(), "invalid_mask"));
         m.field.mask = core::mask_from_image(img.value());
         if (auto err = m.field.validate())
-            return send_error(res, {400, "invalid_parameter", err->message});
+            return send_error(res, {"invalid_parameter", err->message});
     }
     body.bytes = std::string();
     auto u = m_store->find(m.u);
@@ -155,7 +155,7 @@ void Service::install_mix_routes() {
         const std::string rest = req.matches[1];
         const std::string first = rest.substr(0, rest.find('/'));
         if (auto e = api::check_mix_id(first)) return send_error(res, *e);
-        send_error(res, {404, "not_found", "no such endpoint under /v1/mixes/" + first});
+        send_error(res, {"not_found", "no such endpoint under /v1/mixes/" + first});
     };
     m_http.Get(R"(/v1/mixes/(.*))", fallback);
     // A content-reader route, so that cpp-httplib never reads a body nobody asked for.

@@ -200,9 +200,9 @@ void Service::install_hooks() {
                 m_config.max_upload_bytes) {
             set_route("framing");
             if (conn) conn->close_after_response();
-            send_error(res, {413, "payload_too_large",
-                             "request body is over the upload limit of " +
-                                 std::to_string(m_config.max_upload_bytes) + " bytes"});
+            send_error(res, {"payload_too_large", "request body is over the upload limit of " +
+                                                      std::to_string(m_config.max_upload_bytes) +
+                                                      " bytes"});
             return httplib::Server::HandlerResponse::Handled;
         }
         if (req.method == "OPTIONS") { // CORS preflight
@@ -231,13 +231,14 @@ void Service::install_hooks() {
     m_http.set_error_handler(
         httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
             if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
-            api::ApiError e{res.status, "http_error", "HTTP error " + std::to_string(res.status)};
-            if (res.status == 400) e = {400, "bad_request", "malformed HTTP request"};
-            if (res.status == 404) e = {404, "not_found", "no such endpoint"};
+            api::ApiError e{"http_error", "HTTP error " + std::to_string(res.status)};
+            if (res.status == 400) e = {"bad_request", "malformed HTTP request"};
+            if (res.status == 404) e = {"not_found", "no such endpoint"};
             if (res.status == 413)
-                e = {413, "payload_too_large", "request body is over the upload limit"};
-            if (res.status == 414) e = {414, "uri_too_long", "request URI is too long"};
-            send_error(res, e);
+                e = {"payload_too_large", "request body is over the upload limit"};
+            if (res.status == 414) e = {"uri_too_long", "request URI is too long"};
+            // Any other status keeps cpp-httplib's number under the code http_error.
+            send_error(res, e, e.code == "http_error" ? res.status : 0);
             return httplib::Server::HandlerResponse::Handled;
         }));
     m_http.set_exception_handler([](const httplib::Request& req, httplib::Response& res,
@@ -252,8 +253,7 @@ void Service::install_hooks() {
         spdlog::error("{} {} {}: unhandled exception: {}", current_request().id,
                       api::printable(req.method, 16), api::printable(req.path, 256),
                       api::printable(what, 512));
-        send_error(res,
-                   {500, "internal", "internal error (request id " + current_request().id + ")"});
+        send_error(res, {"internal", "internal error (request id " + current_request().id + ")"});
     });
     m_http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
         RequestContext& ctx = current_request();
@@ -352,7 +352,7 @@ void Service::install_web_routes() {
         spdlog::info("web: {} files from {}", m_web.size(), dir);
     auto serve = [this](const std::string& key, httplib::Response& res) {
         auto f = m_web.find(key);
-        if (f == m_web.end()) return send_error(res, {404, "not_found", "no such file"});
+        if (f == m_web.end()) return send_error(res, {"not_found", "no such file"});
         // The page changes with the build; revalidate rather than cache for a year.
         res.set_header("Cache-Control", "no-cache");
         res.set_content(f->second.body, f->second.content_type.c_str());
@@ -370,7 +370,7 @@ void Service::install_web_routes() {
     m_http.Post(R"(.*)",
                 [](const httplib::Request&, httplib::Response& res, const httplib::ContentReader&) {
                     set_route("unmatched");
-                    send_error(res, {404, "not_found", "no such endpoint"});
+                    send_error(res, {"not_found", "no such endpoint"});
                 });
 }
 
@@ -382,7 +382,7 @@ bool Service::within_budget(httplib::Response& res, double work_s) {
                       "of %.3g (--max-request-cpu-s): ask for fewer pixels, points or a lower mni",
                       work_s, m_config.max_request_cpu_s);
         m_metrics.not_admitted("too_large");
-        send_error(res, {413, "work_too_large", buf});
+        send_error(res, {"work_too_large", buf});
         return false;
     }
     return true;
@@ -391,11 +391,11 @@ bool Service::within_budget(httplib::Response& res, double work_s) {
 void Service::refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy) {
     if (why == RenderSlots::Admit::gone) {
         m_metrics.not_admitted("gone");
-        return send_error(res, {408, "client_gone", "the client left before the work started"});
+        return send_error(res, {"client_gone", "the client left before the work started"});
     }
     m_metrics.not_admitted("busy");
     res.set_header("Retry-After", "1");
-    send_error(res, {429, "overloaded", busy});
+    send_error(res, {"overloaded", busy});
 }
 
 std::optional<SlotGuard> Service::admit(httplib::Response& res, double work_s) {
@@ -423,7 +423,7 @@ void Service::send_work_error(httplib::Response& res, const Error& e, const rend
         m_metrics.abandoned(deadline);
         if (!deadline) {
             if (ConnectionStream* conn = current_connection()) conn->close_after_response();
-            return send_error(res, {408, "client_gone", "the client left during the work"});
+            return send_error(res, {"client_gone", "the client left during the work"});
         }
         res.set_header("Retry-After", "1");
     }
@@ -440,9 +440,9 @@ std::optional<SlotGuard> Service::admit_decode(httplib::Response& res) {
 void Service::send_pool_full(httplib::Response& res) {
     const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
     res.set_header("Retry-After", std::to_string(wait_s));
-    send_error(res, {429, "overloaded",
-                     "every analysis worker is busy and the queue is full; retry after " +
-                         std::to_string(wait_s) + " s"});
+    send_error(res,
+               {"overloaded", "every analysis worker is busy and the queue is full; retry after " +
+                                  std::to_string(wait_s) + " s"});
 }
 
 std::shared_ptr<BudgetLease> Service::lease_transfer(httplib::Response& res, std::size_t bytes) {
@@ -453,15 +453,14 @@ std::shared_ptr<BudgetLease> Service::lease_transfer(httplib::Response& res, std
     while (!m_bodies.reserve(bytes)) {
         if (conn && conn->client_gone()) {
             m_metrics.not_admitted("gone");
-            send_error(res, {408, "client_gone", "the client left before the work started"});
+            send_error(res, {"client_gone", "the client left before the work started"});
             return nullptr;
         }
         if (std::chrono::steady_clock::now() >= end) {
             m_metrics.not_admitted("busy");
             res.set_header("Retry-After", "1");
-            send_error(res, {429, "overloaded",
-                             "too many large responses in flight; retry "
-                             "shortly"});
+            send_error(res, {"overloaded", "too many large responses in flight; retry "
+                                           "shortly"});
             return nullptr;
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -472,7 +471,7 @@ std::shared_ptr<BudgetLease> Service::lease_transfer(httplib::Response& res, std
 bool Service::read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
                                 Body& body) {
     if (auto e = read_body(reader, m_config.max_upload_bytes, body)) {
-        if (e->status == 429) res.set_header("Retry-After", "1");
+        if (e->code == "overloaded") res.set_header("Retry-After", "1");
         send_error(res, *e);
         return false;
     }

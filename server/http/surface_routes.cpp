@@ -27,17 +27,17 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, const std:
             const auto& p = j.at("points");
             const auto& n = j.at("normals");
             if (!p.is_array() || !n.is_array() || p.size() != n.size())
-                return api::ApiError{400, "invalid_body",
+                return api::ApiError{"invalid_body",
                                      "points and normals must be arrays of equal length"};
             if (p.size() > render::kMaxSurfacePoints)
-                return api::ApiError{413, "payload_too_large", "at most 1000000 points"};
+                return api::ApiError{"payload_too_large", "at most 1000000 points"};
             for (std::size_t i = 0; i < p.size(); ++i)
                 for (int d = 0; d < 3; ++d) {
                     points.push_back(p.at(i).at(static_cast<std::size_t>(d)).get<float>());
                     normals.push_back(n.at(i).at(static_cast<std::size_t>(d)).get<float>());
                 }
         } catch (const std::exception& e) {
-            return api::ApiError{400, "invalid_body",
+            return api::ApiError{"invalid_body",
                                  std::string("expected {\"points\": [[x,y,z],...], \"normals\": "
                                              "[[x,y,z],...]}: ") +
                                      e.what()};
@@ -45,12 +45,12 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, const std:
         return std::nullopt;
     }
     if (body.size() % 24 != 0)
-        return api::ApiError{400, "invalid_body",
+        return api::ApiError{"invalid_body",
                              "a binary body is 6 little-endian float32 a point (x y z nx ny nz), "
                              "or send application/json"};
     const std::size_t n = body.size() / 24;
     if (n > render::kMaxSurfacePoints)
-        return api::ApiError{413, "payload_too_large", "at most 1000000 points"};
+        return api::ApiError{"payload_too_large", "at most 1000000 points"};
     std::vector<float> all(n * 6);
     std::memcpy(all.data(), body.data(), body.size());
     for (std::size_t i = 0; i < n; ++i)
@@ -116,7 +116,8 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
     auto slot = admit(res, 0.0); // parsing, the view, rasterising and encoding
     if (!slot) return;
     auto mesh = io::parse_obj(body.bytes);
-    if (!mesh) return send_error(res, to_api_error(mesh.error(), "invalid_mesh"));
+    if (!mesh)
+        return send_error(res, content_error(mesh.error(), "invalid_mesh", "payload_too_large"));
     body.bytes = std::string();
     render::Camera cam;
     cam.fov_degrees = p.fov;
@@ -130,7 +131,9 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
     {
         // What the preview costs is known before it runs: triangles x the pixels they cover.
         auto view = render::mesh_view(mesh.value(), sr, cam, p.width, p.height);
-        if (!view) return send_error(res, to_api_error(view.error(), "invalid_mesh"));
+        if (!view)
+            return send_error(res,
+                              content_error(view.error(), "invalid_mesh", "payload_too_large"));
         const std::uint64_t tests =
             render::mesh_raster_tests(mesh.value(), view.value(), p.width, p.height);
         if (!within_budget(res, mesh_work_s(tests, std::int64_t{p.width} * p.height, p.mni,

@@ -70,13 +70,12 @@ std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, st
     // The rest of the body is unread: what follows on the connection is not a request.
     if (ConnectionStream* c = current_connection()) c->close_after_response();
     if (counted.over_budget())
-        return api::ApiError{429, "overloaded",
+        return api::ApiError{"overloaded",
                              "the server holds too many request bodies now; retry shortly"};
     if (counted.over_limit() || status == 413)
-        return api::ApiError{413, "payload_too_large",
-                             "request body is over the upload limit of " + std::to_string(limit) +
-                                 " bytes"};
-    return api::ApiError{400, "bad_request", "could not read the request body"};
+        return api::ApiError{"payload_too_large", "request body is over the upload limit of " +
+                                                      std::to_string(limit) + " bytes"};
+    return api::ApiError{"bad_request", "could not read the request body"};
 }
 
 // The one `exemplar` part of a form; the other parts are analysis fields.
@@ -89,13 +88,12 @@ std::optional<api::ApiError> exemplar_part(const std::vector<httplib::MultipartF
             continue;
         }
         if (!bytes.empty())
-            return api::ApiError{400, "invalid_parameter",
-                                 "more than one 'exemplar' field in the form"};
+            return api::ApiError{"invalid_parameter", "more than one 'exemplar' field in the form"};
         bytes = part.content;
-        if (bytes.empty()) return api::ApiError{400, "empty_body", "the 'exemplar' field is empty"};
+        if (bytes.empty()) return api::ApiError{"empty_body", "the 'exemplar' field is empty"};
     }
     if (bytes.empty())
-        return api::ApiError{400, "missing_exemplar",
+        return api::ApiError{"missing_exemplar",
                              "multipart upload without an 'exemplar' file field"};
     return std::nullopt;
 }
@@ -120,7 +118,7 @@ bool Service::authorised(const httplib::Request& req, httplib::Response& res) co
         constant_time_equal(h.substr(prefix.size()), m_config.api_key))
         return true;
     res.set_header("WWW-Authenticate", "Bearer realm=\"textond\"");
-    send_error(res, {401, "unauthorized",
+    send_error(res, {"unauthorized",
                      "this server needs an API key for writes: Authorization: Bearer <key>"});
     return false;
 }
@@ -131,7 +129,7 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     if (!authorised(req, res)) return;
     if (m_stopping) {
         res.set_header("Retry-After", "5");
-        return send_error(res, {503, "shutting_down", "the service is shutting down"});
+        return send_error(res, {"shutting_down", "the service is shutting down"});
     }
     // The body is read here rather than by cpp-httplib, which would parse a body sent as
     // application/x-www-form-urlencoded (curl --data-binary's default) as form fields.
@@ -143,7 +141,7 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     const std::size_t limit = m_config.max_upload_bytes;
     if (auto e = multipart ? read_parts(reader, limit, res.status, counted, parts)
                            : read_body(reader, limit, counted)) {
-        if (e->status == 429) res.set_header("Retry-After", "1");
+        if (e->code == "overloaded") res.set_header("Retry-After", "1");
         return send_error(res, *e);
     }
     // Parameters come from the query and, for multipart uploads, from the other form fields.
@@ -154,7 +152,7 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     core::AnalysisParams params;
     if (auto e = api::parse_analysis(fields, params)) return send_error(res, *e);
     if (bytes.empty())
-        return send_error(res, {400, "empty_body",
+        return send_error(res, {"empty_body",
                                 "no exemplar: send the image as the body (Content-Type: image/*) "
                                 "or as the 'exemplar' field of a multipart form"});
     auto ingest = m_textons->ingest(bytes, params);
@@ -170,12 +168,9 @@ void Service::send_refused(httplib::Response& res, const TextonService::Refused&
     case Stage::busy:
         return refuse(res, r.admit, "every decoder is busy; retry shortly");
     case Stage::decode:
-        return send_error(
-            res, to_api_error(err, err.code == ErrorCode::too_large     ? "image_too_large"
-                                   : err.code == ErrorCode::unsupported ? "unsupported_media_type"
-                                                                        : "invalid_image"));
+        return send_error(res, content_error(err, "invalid_image"));
     case Stage::check:
-        return send_error(res, {422, "exemplar_too_small", err.message});
+        return send_error(res, {"exemplar_too_small", err.message});
     case Stage::lookup:
         break;
     }
@@ -232,7 +227,7 @@ void Service::texton_status(const std::string& id, httplib::Response& res) {
              {"progress", {{"done", meta.value().iterations}, {"total", meta.value().iterations}}},
              {"links", {{"self", self}}}});
     auto job = m_pool->find(id);
-    if (!job) return send_error(res, {404, "not_found", "no texton or analysis " + id});
+    if (!job) return send_error(res, {"not_found", "no texton or analysis " + id});
     const auto [done, total] = job->progress();
     nlohmann::json body = {{"id", id},
                            {"state", to_string(job->state())},
@@ -265,7 +260,7 @@ void Service::texton_file(const std::string& id, const std::string& ext, httplib
         return res.set_content(io::texton_v1_text(record.value(), id + ".png"), "text/plain");
     }
     if (ext != "png")
-        return send_error(res, {400, "invalid_format", "texton views are .png, .exr or .texton"});
+        return send_error(res, {"invalid_format", "texton views are .png, .exr or .texton"});
     auto png = io::encode_image_memory(visualise(record.value().texton), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_content(png.value(), "image/png");
@@ -344,7 +339,7 @@ void Service::install_texton_routes() {
         const std::string rest = req.matches[1];
         const std::string first = rest.substr(0, rest.find('/'));
         if (auto e = api::check_texton_id(first)) return send_error(res, *e);
-        send_error(res, {404, "not_found", "no such endpoint under /v1/textons/" + first});
+        send_error(res, {"not_found", "no such endpoint under /v1/textons/" + first});
     };
     m_http.Get(R"(/v1/textons/(.*))", fallback);
     m_http.Delete(R"(/v1/textons/(.*))", fallback);

@@ -187,6 +187,7 @@ Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonM
         std::error_code ec;
         fs::remove(path_of(id), ec);
         fs::remove(exemplar_path_of(id), ec);
+        fs::remove(provenance_path_of(id), ec);
         drop_local_locked(id);
         spdlog::info("store: texton {} was deleted from the shared store; dropped here", id);
         return make_error(ErrorCode::not_found, "no texton " + id + " (deleted)");
@@ -240,9 +241,14 @@ Result<bool> TextonStore::write_local(const std::string& id, const std::string& 
         auto w = io::write_file_atomic(exemplar_path_of(id), *exemplar_png);
         if (!w) return w.error();
     }
+    // This copy's provenance, or none: an older one must not outlive the copy it described.
     if (!provenance.empty()) {
         auto w = io::write_file_atomic(provenance_path_of(id), provenance.dump(2) + "\n");
         if (!w) return w.error();
+        fsync_directory(m_provenance);
+    } else {
+        std::error_code ec;
+        fs::remove(provenance_path_of(id), ec);
     }
     const std::string path = path_of(id);
     std::error_code ec;

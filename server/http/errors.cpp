@@ -1,0 +1,63 @@
+#include "server/http/errors.h"
+
+#include <spdlog/spdlog.h>
+
+namespace textond::http {
+
+const std::vector<ErrorStatus>& error_table() {
+    static const std::vector<ErrorStatus> table = {
+        // The request as sent (api/requests.cpp and the routes).
+        {"invalid_parameter", 400},
+        {"unknown_parameter", 400},
+        {"invalid_id", 400},
+        {"invalid_format", 400},
+        {"coordinate_out_of_range", 400},
+        {"level_out_of_range", 400},
+        {"region_too_large", 400},
+        {"empty_body", 400},
+        {"missing_exemplar", 400},
+        {"bad_request", 400},
+        {"bad_framing", 400},
+        {"unsupported_transfer_encoding", 400},
+        {"invalid_body", 400},
+        {"unauthorized", 401},
+        {"not_found", 404},
+        // The connection (server/http/connection.cpp, admission.cpp).
+        {"header_timeout", 408},
+        {"body_timeout", 408},
+        {"client_gone", 408},
+        {"length_required", 411},
+        {"payload_too_large", 413},
+        {"work_too_large", 413},
+        {"image_too_large", 413},
+        {"too_large", 413},
+        {"uri_too_long", 414},
+        {"unsupported_media_type", 415},
+        // The content.
+        {"invalid_image", 422},
+        {"invalid_mask", 422},
+        {"invalid_mesh", 422},
+        {"exemplar_too_small", 422},
+        {"unprocessable", 422},
+        // The server.
+        {"overloaded", 429},
+        {"header_too_large", 431},
+        {"too_many_headers", 431},
+        {"internal", 500},
+        {"storage_error", 500},
+        {"deadline_exceeded", 503},
+        {"shutting_down", 503},
+        {"store_unavailable", 503},
+        {"insufficient_storage", 507},
+    };
+    return table;
+}
+
+int http_status(std::string_view code) {
+    for (const ErrorStatus& e : error_table())
+        if (e.code == code) return e.status;
+    spdlog::error("error code '{}' is not in server/http/errors.cpp; answered 500", code);
+    return 500;
+}
+
+} // namespace textond::http
