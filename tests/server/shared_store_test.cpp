@@ -251,16 +251,21 @@ TEST(SharedStore, ADamagedValueInRedisIsNeverServed) {
 TEST(SharedStore, DeletesReachEveryReplicaAndAFlushedRedisIsRefilled) {
     RedisProcess redis(fresh_dir("shared-e-redis"));
     ServerProcess a(fresh_dir("shared-e-1"), replica_args(redis));
-    ServerProcess b(fresh_dir("shared-e-2"), replica_args(redis));
+    const std::string dir_b = fresh_dir("shared-e-2");
+    ServerProcess b(dir_b, replica_args(redis));
     auto ca = a.client();
     auto cb = b.client();
     const std::string id = upload(ca, "etr_sand01.png", "?size=32");
     ASSERT_EQ(status_of(b, "/v1/textons/" + id + "/tiles/0/0/0.png"), 200);
+    // b fetched the texton from Redis with a's provenance, kept beside its copy.
+    const fs::path provenance_b = fs::path(dir_b) / "provenance" / (id + ".json");
+    EXPECT_TRUE(fs::exists(provenance_b));
     ASSERT_EQ(ca.Delete(("/v1/textons/" + id).c_str())->status, 204);
     EXPECT_EQ(status_of(a, "/v1/textons/" + id), 404);
     // b drops its copy at its next recheck (1 s here).
     EXPECT_TRUE(eventually([&] { return status_of(b, "/v1/textons/" + id) == 404; }, 3.0));
     EXPECT_EQ(status_of(b, "/v1/textons/" + id + "/tiles/0/0/0.png"), 404);
+    EXPECT_FALSE(fs::exists(provenance_b)); // nothing of the deleted copy is left
     // Uploaded again (to b): stored again, and a finds it.
     int status = 0;
     upload(cb, "etr_sand01.png", "?size=32", &status);
