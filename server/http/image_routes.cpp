@@ -145,7 +145,7 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
     std::shared_ptr<BudgetLease> lease;
     if (const std::size_t out = encoded_bytes_at_most(format, pixels);
         out > (std::size_t{1} << 20)) {
-        lease = lease_transfer(res, out);
+        lease = m_gate.lease_transfer(res, out);
         if (!lease) return;
     }
     using Clock = std::chrono::steady_clock;
@@ -153,13 +153,13 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
         return std::chrono::duration<double>(b - a).count();
     };
     const auto t0 = Clock::now();
-    auto slot = admit(res, noise_work_s(pixels, mni, order));
+    auto slot = m_gate.admit(res, noise_work_s(pixels, mni, order));
     if (!slot) return;
     const auto t1 = Clock::now();
     m_metrics.stage("queue", seconds(t0, t1));
-    const render::Cancel cancel = work_cancel();
+    const render::Cancel cancel = m_gate.work_cancel();
     auto image = produce(cancel);
-    if (!image) return send_work_error(res, image.error(), cancel);
+    if (!image) return m_gate.send_work_error(res, image.error(), cancel);
     const auto t2 = Clock::now();
     m_metrics.stage("render", seconds(t1, t2));
     auto bytes =

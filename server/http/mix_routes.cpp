@@ -33,8 +33,8 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
                          const httplib::ContentReader& reader) {
     set_route("/v1/mixes");
     if (!authorised(req, res)) return;
-    Body body(m_bodies);
-    if (!read_request_body(reader, res, body)) return;
+    Body body(m_gate.bodies());
+    if (!m_gate.read_request_body(reader, res, body)) return;
     const bool has_mask = !body.bytes.empty();
     api::MixRequest m;
     if (auto e = api::parse_mix(req.params, has_mask, m)) return send_error(res, *e);
@@ -42,7 +42,7 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
         io::DecodeLimits limits;
         limits.max_pixels = m_config.max_pixels;
         limits.formats = m_config.formats;
-        auto slot = admit_decode(res);
+        auto slot = m_gate.admit_decode(res);
         if (!slot) return;
         auto img = io::decode_image_memory(body.bytes, limits);
         if (!img) return send_error(res, content_error(img.error(), "invalid_mask"));

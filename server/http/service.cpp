@@ -64,11 +64,8 @@ void apply_cors(bool any, const std::vector<std::string>& listed, const httplib:
 } // namespace
 
 Service::Service(ServeConfig config)
-    : m_config(std::move(config)), m_cache(m_config.cache_bytes),
-      m_render_slots(m_config.render_slots > 0 ? m_config.render_slots : cores(),
-                     static_cast<std::size_t>(m_config.render_queue)),
-      m_decode_slots(cores(), static_cast<std::size_t>(m_config.render_queue)),
-      m_bodies(m_config.body_budget_bytes), m_cors_any(m_config.cors_origin == "*"),
+    : m_config(std::move(config)), m_cache(m_config.cache_bytes), m_gate(m_config, m_metrics),
+      m_cors_any(m_config.cors_origin == "*"),
       m_cors_origins(m_cors_any ? std::vector<std::string>{} : split_list(m_config.cors_origin)) {}
 
 Service::~Service() {
@@ -105,14 +102,14 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     // one. Enough more to gather a whole batch while the cores encode the last.
     // Only when frames go there too: CPU frames and fallbacks would take the extra slots.
     if (s->m_config.render_slots == 0 && s->m_renderer->all_batched())
-        s->m_render_slots.add(s->m_config.gpu_batch_tiles);
+        s->m_gate.render_slots().add(s->m_config.gpu_batch_tiles);
     s->m_pool =
         std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
     io::DecodeLimits limits;
     limits.max_pixels = s->m_config.max_pixels;
     limits.formats = s->m_config.formats;
     s->m_textons = std::make_unique<TextonService>(
-        *s->m_store, *s->m_pool, s->m_metrics, s->m_decode_slots, std::move(limits),
+        *s->m_store, *s->m_pool, s->m_metrics, s->m_gate.decode_slots(), std::move(limits),
         std::chrono::milliseconds(s->m_config.queue_timeout_ms));
     auto mixes = MixStore::open(s->m_config.data_dir);
     if (!mixes) return mixes.error();
@@ -374,108 +371,12 @@ void Service::install_web_routes() {
                 });
 }
 
-bool Service::within_budget(httplib::Response& res, double work_s) {
-    if (!(work_s <= m_config.max_request_cpu_s)) {
-        char buf[200];
-        std::snprintf(buf, sizeof buf,
-                      "this request would take about %.3g CPU seconds, over the server's budget "
-                      "of %.3g (--max-request-cpu-s): ask for fewer pixels, points or a lower mni",
-                      work_s, m_config.max_request_cpu_s);
-        m_metrics.not_admitted("too_large");
-        send_error(res, {"work_too_large", buf});
-        return false;
-    }
-    return true;
-}
-
-void Service::refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy) {
-    if (why == RenderSlots::Admit::gone) {
-        m_metrics.not_admitted("gone");
-        return send_error(res, {"client_gone", "the client left before the work started"});
-    }
-    m_metrics.not_admitted("busy");
-    res.set_header("Retry-After", "1");
-    send_error(res, {"overloaded", busy});
-}
-
-std::optional<SlotGuard> Service::admit(httplib::Response& res, double work_s) {
-    if (!within_budget(res, work_s)) return std::nullopt;
-    ConnectionStream* conn = current_connection();
-    const auto gone = [conn] { return conn && conn->client_gone(); };
-    const auto why =
-        m_render_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms), gone);
-    if (why == RenderSlots::Admit::granted) return SlotGuard(&m_render_slots);
-    refuse(res, why, "every render slot is busy and the wait is too long; retry shortly");
-    return std::nullopt;
-}
-
-render::Cancel Service::work_cancel() const {
-    ConnectionStream* conn = current_connection();
-    return render::Cancel(std::chrono::steady_clock::now() +
-                              std::chrono::seconds(m_config.render_deadline_s),
-                          [conn] { return conn && conn->client_gone(); });
-}
-
-void Service::send_work_error(httplib::Response& res, const Error& e, const render::Cancel& cancel,
-                              const std::string& code) {
-    if (e.code == ErrorCode::cancelled) {
-        const bool deadline = cancel.deadline_passed();
-        m_metrics.abandoned(deadline);
-        if (!deadline) {
-            if (ConnectionStream* conn = current_connection()) conn->close_after_response();
-            return send_error(res, {"client_gone", "the client left during the work"});
-        }
-        res.set_header("Retry-After", "1");
-    }
-    send_error(res, to_api_error(e, code));
-}
-
-std::optional<SlotGuard> Service::admit_decode(httplib::Response& res) {
-    const auto why = m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms));
-    if (why == RenderSlots::Admit::granted) return SlotGuard(&m_decode_slots);
-    refuse(res, why, "every decoder is busy; retry shortly");
-    return std::nullopt;
-}
-
 void Service::send_pool_full(httplib::Response& res) {
     const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
     res.set_header("Retry-After", std::to_string(wait_s));
     send_error(res,
                {"overloaded", "every analysis worker is busy and the queue is full; retry after " +
                                   std::to_string(wait_s) + " s"});
-}
-
-std::shared_ptr<BudgetLease> Service::lease_transfer(httplib::Response& res, std::size_t bytes) {
-    ConnectionStream* conn = current_connection();
-    const auto end =
-        std::chrono::steady_clock::now() + std::chrono::milliseconds(m_config.queue_timeout_ms);
-    bytes = std::min(bytes, m_bodies.cap()); // one response alone always fits
-    while (!m_bodies.reserve(bytes)) {
-        if (conn && conn->client_gone()) {
-            m_metrics.not_admitted("gone");
-            send_error(res, {"client_gone", "the client left before the work started"});
-            return nullptr;
-        }
-        if (std::chrono::steady_clock::now() >= end) {
-            m_metrics.not_admitted("busy");
-            res.set_header("Retry-After", "1");
-            send_error(res, {"overloaded", "too many large responses in flight; retry "
-                                           "shortly"});
-            return nullptr;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return std::make_shared<BudgetLease>(m_bodies, bytes);
-}
-
-bool Service::read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
-                                Body& body) {
-    if (auto e = read_body(reader, m_config.max_upload_bytes, body)) {
-        if (e->code == "overloaded") res.set_header("Retry-After", "1");
-        send_error(res, *e);
-        return false;
-    }
-    return true;
 }
 
 Result<int> Service::bind() {

@@ -9,6 +9,7 @@
 #include "server/http/analysis_pool.h"
 #include "server/http/config.h"
 #include "server/http/connection.h"
+#include "server/http/gate.h"
 #include "server/http/image_cache.h"
 #include "server/http/metrics.h"
 #include "server/http/mix_store.h"
@@ -100,27 +101,8 @@ private:
     void tilejson(const httplib::Request& req, const std::string& id, httplib::Response& res,
                   bool mix = false);
     std::string etag_for(const std::string& key) const;
-    // A render slot for work estimated at `work_s` CPU seconds, or the error already sent:
-    // 413 over --max-request-cpu-s, 429 when no slot frees within --queue-timeout-ms.
-    std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
-    bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
-    // What stops admitted work: its client leaving, or --render-deadline-s from now.
-    render::Cancel work_cancel() const;
-    // The answer for work that failed: an abandoned one is counted (and gets 503 when its
-    // deadline passed; a client that left reads nothing), any other error as to_api_error.
-    void send_work_error(httplib::Response& res, const Error& e, const render::Cancel& cancel,
-                         const std::string& code = {});
-    // A decoder slot (uploads, masks), waiting like admit(): 429 sent when none frees.
-    std::optional<SlotGuard> admit_decode(httplib::Response& res);
-    // The answer for work not admitted: 408 when the client left, else 429 with `busy`.
-    void refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy);
     // 429 with a Retry-After from the analysis pool's queue (uploads and mixes).
     void send_pool_full(httplib::Response& res);
-    // `bytes` of the transfer budget for a large response, waiting like admit() (429 sent).
-    std::shared_ptr<BudgetLease> lease_transfer(httplib::Response& res, std::size_t bytes);
-    // The body of a POST route, read with the upload limit (sends the error on failure).
-    bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
-                           Body& body);
     std::string base_url(const httplib::Request& req) const;
 
     ServeConfig m_config;
@@ -137,12 +119,8 @@ private:
         std::string content_type;
     };
     std::map<std::string, StaticFile> m_web; // "/static/app.js" -> bytes, read once at start
-    RenderSlots m_render_slots;
-    // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
-    // so that many simultaneous large uploads cannot exhaust memory.
-    RenderSlots m_decode_slots;
-    BodyBudget m_bodies;   // request bodies held in memory, all requests together
-    const bool m_cors_any; // --cors-origin "*"
+    Gate m_gate;                             // slots, budgets and the answers when they are full
+    const bool m_cors_any;                   // --cors-origin "*"
     const std::vector<std::string> m_cors_origins; // else the listed origins, parsed once
     std::atomic<bool> m_stopping{false};
     int m_port = 0;

@@ -66,26 +66,27 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, const std:
 void Service::surface_points(const httplib::Request& req, const std::string& id,
                              httplib::Response& res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/surface");
-    Body body(m_bodies);
-    if (!read_request_body(reader, res, body)) return;
+    Body body(m_gate.bodies());
+    if (!m_gate.read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, false, p)) return send_error(res, *e);
     auto prepared = m_store->prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
     // Parsing a million JSON points takes hundreds of MB: inside the slot, like the evaluation.
-    auto slot = admit(res, 0.0);
+    auto slot = m_gate.admit(res, 0.0);
     if (!slot) return;
     std::vector<float> points, normals;
     if (auto e = read_points(req, body.bytes, points, normals)) return send_error(res, *e);
     body.bytes = std::string();
-    if (!within_budget(res, surface_work_s(points.size() / 3, p.mni, prepared.value()->order())))
+    if (!m_gate.within_budget(res,
+                              surface_work_s(points.size() / 3, p.mni, prepared.value()->order())))
         return;
-    const render::Cancel cancel = work_cancel();
+    const render::Cancel cancel = m_gate.work_cancel();
     render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
     const int nc = prepared.value()->channels();
     std::string evaluated_on;
     auto colours = m_renderer->surface(*prepared.value(), sr, points, normals, &evaluated_on);
-    if (!colours) return send_work_error(res, colours.error(), cancel);
+    if (!colours) return m_gate.send_work_error(res, colours.error(), cancel);
     res.set_header("X-Textond-Channels", std::to_string(nc));
     res.set_header("X-Textond-Backend", evaluated_on);
     if (wants_binary(req)) {
@@ -107,13 +108,13 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
 void Service::surface_mesh(const httplib::Request& req, const std::string& id,
                            httplib::Response& res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/mesh.png");
-    Body body(m_bodies);
-    if (!read_request_body(reader, res, body)) return;
+    Body body(m_gate.bodies());
+    if (!m_gate.read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, true, p)) return send_error(res, *e);
     auto prepared = m_store->prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
-    auto slot = admit(res, 0.0); // parsing, the view, rasterising and encoding
+    auto slot = m_gate.admit(res, 0.0); // parsing, the view, rasterising and encoding
     if (!slot) return;
     auto mesh = io::parse_obj(body.bytes);
     if (!mesh)
@@ -126,7 +127,7 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
         cam.eye = {p.eye[0], p.eye[1], p.eye[2]};
         cam.target = {p.target[0], p.target[1], p.target[2]};
     }
-    const render::Cancel cancel = work_cancel();
+    const render::Cancel cancel = m_gate.work_cancel();
     render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
     {
         // What the preview costs is known before it runs: triangles x the pixels they cover.
@@ -136,14 +137,14 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
                               content_error(view.error(), "invalid_mesh", "payload_too_large"));
         const std::uint64_t tests =
             render::mesh_raster_tests(mesh.value(), view.value(), p.width, p.height);
-        if (!within_budget(res, mesh_work_s(tests, std::int64_t{p.width} * p.height, p.mni,
-                                            prepared.value()->order())))
+        if (!m_gate.within_budget(res, mesh_work_s(tests, std::int64_t{p.width} * p.height, p.mni,
+                                                   prepared.value()->order())))
             return;
     }
     std::string evaluated_on;
     auto image = m_renderer->mesh_preview(*prepared.value(), sr, mesh.value(), cam, p.width,
                                           p.height, &evaluated_on);
-    if (!image) return send_work_error(res, image.error(), cancel);
+    if (!image) return m_gate.send_work_error(res, image.error(), cancel);
     auto png = io::encode_image_memory(image.value(), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_header("X-Textond-Backend", evaluated_on);

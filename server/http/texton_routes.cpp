@@ -135,7 +135,7 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
     // application/x-www-form-urlencoded (curl --data-binary's default) as form fields.
     // Every byte is counted here, chunked or not: cpp-httplib checks its limit against
     // Content-Length alone (a chunked 300 MB upload was read whole into memory).
-    Body counted(m_bodies);
+    Body counted(m_gate.bodies());
     std::vector<httplib::MultipartFormData> parts;
     const bool multipart = req.is_multipart_form_data();
     const std::size_t limit = m_config.max_upload_bytes;
@@ -166,7 +166,7 @@ void Service::send_refused(httplib::Response& res, const TextonService::Refused&
     const Error& err = r.error;
     switch (r.stage) {
     case Stage::busy:
-        return refuse(res, r.admit, "every decoder is busy; retry shortly");
+        return m_gate.refuse(res, r.admit, "every decoder is busy; retry shortly");
     case Stage::decode:
         return send_error(res, content_error(err, "invalid_image"));
     case Stage::check:

@@ -1,0 +1,59 @@
+#pragma once
+// The service's admission control (the primitives are in admission.h): whether a request's
+// work fits the CPU budget, a render or decoder slot to do it in, a share of the byte budget for
+// a large answer, a body read within the upload limit, and what stops admitted work. Each method
+// that refuses has already sent its answer (413, 408 client_gone, 429 with Retry-After).
+#include "core/result.h"
+#include "render/cancel.h"
+#include "server/http/admission.h"
+#include "server/http/config.h"
+#include "server/http/metrics.h"
+
+#include <httplib.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace textond::http {
+
+class Gate {
+public:
+    // `render_slots` 0: one per core; decoders are one per core.
+    Gate(const ServeConfig& config, Metrics& metrics);
+
+    // A render slot for work estimated at `work_s` CPU seconds: 413 over --max-request-cpu-s,
+    // 429 when no slot frees within --queue-timeout-ms, 408 when the client left meanwhile.
+    std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
+    bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
+    // A decoder slot (masks), waiting like admit().
+    std::optional<SlotGuard> admit_decode(httplib::Response& res);
+    // The answer for work not admitted: 408 when the client left, else 429 with `busy`.
+    void refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy);
+    // What stops admitted work: its client leaving, or --render-deadline-s from now.
+    render::Cancel work_cancel() const;
+    // The answer for work that failed: an abandoned one is counted (and gets 503 when its
+    // deadline passed; a client that left reads nothing), any other error as to_api_error.
+    void send_work_error(httplib::Response& res, const Error& e, const render::Cancel& cancel,
+                         const std::string& code = {});
+    // `bytes` of the body budget for a large response, waiting like admit() (429 sent).
+    std::shared_ptr<BudgetLease> lease_transfer(httplib::Response& res, std::size_t bytes);
+    // The body of a POST route, read with the upload limit (sends the error on failure).
+    bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
+                           Body& body);
+
+    RenderSlots& render_slots() { return m_render_slots; }
+    RenderSlots& decode_slots() { return m_decode_slots; }
+    BodyBudget& bodies() { return m_bodies; }
+
+private:
+    const ServeConfig& m_config;
+    Metrics& m_metrics;
+    RenderSlots m_render_slots;
+    // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
+    // so that many simultaneous large uploads cannot exhaust memory.
+    RenderSlots m_decode_slots;
+    BodyBudget m_bodies; // request bodies held in memory, all requests together
+};
+
+} // namespace textond::http
