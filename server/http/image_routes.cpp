@@ -122,7 +122,7 @@ void Service::serve_cached(const httplib::Request& req, httplib::Response& res,
     if (mix) {
         auto found = m_mixes->meta(id);
         if (!found) return send_error(res, to_api_error(found.error()));
-        order = found.value().value("order", 3);
+        order = found.value().order;
     } else {
         auto found = m_store->find(id);
         if (!found) return send_error(res, to_api_error(found.error()));

@@ -15,15 +15,15 @@ namespace textond::http {
 
 namespace {
 
-nlohmann::json mix_json(const nlohmann::json& meta) {
+nlohmann::json mix_json(const api::MixMeta& meta) {
     nlohmann::json j = meta;
-    const std::string base = "/v1/mixes/" + meta.at("id").get<std::string>();
+    const std::string base = "/v1/mixes/" + meta.id;
     j["links"] = {{"self", base},
                   {"tilejson", base + "/tilejson.json"},
                   {"tiles", base + "/tiles/{z}/{x}/{y}.png"},
                   {"region", base + "/region.png"},
-                  {"u", "/v1/textons/" + meta.at("u").get<std::string>()},
-                  {"v", "/v1/textons/" + meta.at("v").get<std::string>()}};
+                  {"u", "/v1/textons/" + meta.u},
+                  {"v", "/v1/textons/" + meta.v}};
     return j;
 }
 
@@ -74,12 +74,7 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
             auto eu = io::decode_image_memory(pu.value());
             auto ev = io::decode_image_memory(pv.value());
             if (!eu || !ev) return eu ? ev.error() : eu.error();
-            core::AnalysisParams p;
-            p.size = mu.size;
-            p.order = mu.order;
-            p.iterations = mu.iterations;
-            p.seed = mu.seed;
-            p.periodic = mu.periodic;
+            const core::AnalysisParams p = mu.params();
             auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
             if (!pair) return pair.error();
             auto levels = core::mix_levels(pair.value(), p, m.levels);
@@ -87,32 +82,28 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
             io::MixRecord record;
             record.levels = levels.value().levels;
             record.field = m.field;
-            nlohmann::json means = nlohmann::json::array();
-            for (const auto& t : record.levels) {
-                nlohmann::json mean = nlohmann::json::array();
-                for (int c = 0; c < t.channels; ++c)
-                    mean.push_back(t.mean[static_cast<std::size_t>(c)]);
-                means.push_back(mean);
-            }
+            api::MixMeta& meta = record.meta;
+            meta.id = id;
+            meta.version = core::kMixVersion;
+            meta.u = m.u;
+            meta.v = m.v;
+            meta.levels = m.levels;
+            meta.size = p.size;
+            meta.order = p.order;
+            meta.channels = record.levels.front().channels;
+            meta.iterations = p.iterations;
+            meta.seed = p.seed;
+            meta.periodic = p.periodic;
+            meta.grid = {pair.value().u.width, pair.value().u.height};
+            for (const auto& t : record.levels)
+                meta.means.emplace_back(t.mean.begin(), t.mean.begin() + t.channels);
+            meta.rme = levels.value().rme;
+            meta.field = io::field_json(m.field);
             const double ms =
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                     .count();
-            record.meta = {{"id", id},
-                           {"version", core::kMixVersion},
-                           {"u", m.u},
-                           {"v", m.v},
-                           {"levels", m.levels},
-                           {"size", p.size},
-                           {"order", p.order},
-                           {"channels", record.levels.front().channels},
-                           {"iterations", p.iterations},
-                           {"seed", p.seed},
-                           {"grid", {pair.value().u.width, pair.value().u.height}},
-                           {"means", means},
-                           {"rme", levels.value().rme},
-                           {"field", io::field_json(m.field)},
-                           {"analysis_ms", ms},
-                           {"created", rfc3339_now()}};
+            meta.analysis_ms = ms;
+            meta.created = rfc3339_now();
             auto put = mixes->put(record);
             if (!put) return put.error();
             spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms", id, m.u.substr(0, 12),

@@ -51,7 +51,7 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
     return e;
 }
 
-Result<nlohmann::json> MixStore::meta(const std::string& id) {
+Result<api::MixMeta> MixStore::meta(const std::string& id) {
     auto e = load(id);
     if (!e) return e.error();
     return e.value().meta;
@@ -89,7 +89,7 @@ std::vector<std::string> MixStore::quarantined() const {
 }
 
 Result<bool> MixStore::put(const io::MixRecord& record) {
-    const std::string id = record.meta.at("id");
+    const std::string& id = record.meta.id;
     if (contains(id)) return false;
     auto ok = io::write_mix_files(m_dir, record);
     if (!ok) return ok.error();

@@ -19,7 +19,7 @@ public:
     static Result<std::unique_ptr<MixStore>> open(const std::string& data_dir);
 
     bool contains(const std::string& id);
-    Result<nlohmann::json> meta(const std::string& id);
+    Result<api::MixMeta> meta(const std::string& id);
     Result<std::shared_ptr<const render::PreparedMix>> prepared(const std::string& id);
     // Writes the files (atomically); false when the mix was already there.
     Result<bool> put(const io::MixRecord& record);
@@ -30,7 +30,7 @@ public:
 private:
     struct Entry {
         std::string id;
-        nlohmann::json meta;
+        api::MixMeta meta;
         std::shared_ptr<const render::PreparedMix> prepared;
     };
     explicit MixStore(std::string dir) : m_dir(std::move(dir)) {}

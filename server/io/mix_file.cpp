@@ -62,7 +62,7 @@ std::string mix_id(const std::string& u, const std::string& v, int levels,
 }
 
 Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
-    const std::string id = r.meta.at("id");
+    const std::string& id = r.meta.id;
     if (r.field.kind == core::MixField::Kind::mask) {
         auto ok = encode_image_file(r.field.mask, dir + "/" + id + ".mask.exr", Encoding::exr);
         if (!ok) return ok.error();
@@ -76,7 +76,8 @@ Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
                 for (int x = 0; x < n; ++x)
                     stack.at(c, x, l * n + y) =
                         r.levels[static_cast<std::size_t>(l)].alpha.at(c, x, y);
-    auto bytes = encode_image_memory(stack, Encoding::exr, {{kMixAttribute, r.meta.dump()}});
+    auto bytes =
+        encode_image_memory(stack, Encoding::exr, {{kMixAttribute, nlohmann::json(r.meta).dump()}});
     if (!bytes) return bytes.error();
     return write_file_atomic(dir + "/" + id + ".exr", bytes.value());
 }
@@ -91,16 +92,17 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
     const OIIO::ImageSpec& spec = in->spec();
     MixRecord r;
     try {
-        r.meta = nlohmann::json::parse(spec.get_string_attribute(kMixAttribute));
-        const int n = r.meta.at("size"), nl = r.meta.at("levels"), nc = r.meta.at("channels");
-        const int order = r.meta.at("order");
+        r.meta =
+            nlohmann::json::parse(spec.get_string_attribute(kMixAttribute)).get<api::MixMeta>();
+        const int n = r.meta.size, nl = r.meta.levels, nc = r.meta.channels;
+        const int order = r.meta.order;
         // Today's rules, not the writer's: a file from an older build (or edited on disk) that
         // they refuse is never rendered (server/http/mix_store.cpp quarantines it).
         if (n < 8 || n > 256 || nl < 2 || nl > core::kMaxMixLevels || (nc != 1 && nc != 3) ||
             !(order == 0 || order == 1 || order == 3))
             return bad(path, "size, levels, channels or order out of range");
-        if (r.meta.at("id") != id || spec.width != n || spec.height != n * nl ||
-            spec.nchannels != nc)
+        if (r.meta.id != id || static_cast<int>(r.meta.means.size()) != nl || spec.width != n ||
+            spec.height != n * nl || spec.nchannels != nc)
             return bad(path, "size, levels or id disagree with the metadata");
         std::vector<float> buf(static_cast<std::size_t>(n) * n * nl * nc);
         if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
@@ -109,9 +111,10 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
             core::Texton t;
             t.size = n;
             t.channels = nc;
-            t.order = r.meta.at("order");
+            t.order = order;
             for (int c = 0; c < nc; ++c)
-                t.mean[static_cast<std::size_t>(c)] = r.meta.at("means").at(l).at(c);
+                t.mean[static_cast<std::size_t>(c)] =
+                    r.meta.means.at(static_cast<std::size_t>(l)).at(static_cast<std::size_t>(c));
             t.alpha = core::Image(n, n, nc);
             for (int y = 0; y < n; ++y)
                 for (int x = 0; x < n; ++x)
@@ -120,7 +123,7 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
                             buf[((static_cast<std::size_t>(l) * n + y) * n + x) * nc + c];
             r.levels.push_back(std::move(t));
         }
-        const nlohmann::json& f = r.meta.at("field");
+        const nlohmann::json& f = r.meta.field;
         r.field.x0 = f.at("x0");
         r.field.y0 = f.at("y0");
         if (f.at("kind") == "ramp") {
@@ -137,7 +140,7 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
                 return bad(path, "mask checksum mismatch");
         }
         if (auto err = r.field.validate()) return bad(path, "field: " + err->message);
-        if (mix_id(r.meta.at("u"), r.meta.at("v"), nl, r.field) != id)
+        if (mix_id(r.meta.u, r.meta.v, nl, r.field) != id)
             return bad(path, "content does not hash to its id");
     } catch (const std::exception& e) {
         return bad(path, std::string("metadata: ") + e.what());

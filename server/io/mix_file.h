@@ -3,6 +3,7 @@
 // lossless) with the metadata JSON in the header attribute "textond:mix"; a mask field's image is
 // `<id>.mask.exr`, written first and named by its sha256 in the metadata, so the main file's
 // presence means the whole mix is there.
+#include "api/mix_meta.h"
 #include "core/result.h"
 #include "core/texton.h"
 #include "core/texture_mix.h"
@@ -16,10 +17,8 @@ namespace textond::io {
 
 inline constexpr const char* kMixAttribute = "textond:mix";
 
-// nlohmann::json's noexcept move calls its invariant check, which clang-tidy takes for a throw.
-// NOLINTNEXTLINE(bugprone-exception-escape)
 struct MixRecord {
-    nlohmann::json meta; // id, u, v, levels, size, order, channels, rme, field, created, ...
+    api::MixMeta meta;
     std::vector<core::Texton> levels;
     core::MixField field;
 };
