@@ -7,10 +7,6 @@
 #include "server/io/image_io.h"
 #include "server/io/mix_file.h"
 
-#include <spdlog/spdlog.h>
-
-#include <chrono>
-
 namespace textond::http {
 
 namespace {
@@ -51,77 +47,22 @@ void Service::create_mix(const httplib::Request& req, httplib::Response& res,
             return send_error(res, {"invalid_parameter", err->message});
     }
     body.bytes = std::string();
-    auto u = m_store->find(m.u);
-    if (!u) return send_error(res, to_api_error(u.error()));
-    auto v = m_store->find(m.v);
-    if (!v) return send_error(res, to_api_error(v.error()));
-    const std::string id = io::mix_id(m.u, m.v, m.levels, m.field);
-    if (auto meta = m_mixes->meta(id)) return send_json(res, 200, mix_json(meta.value()));
-
-    // A mix is R texton analyses: it runs on the analysis pool, single flight per id, and a
-    // full pool answers 429 at once (it waited on a mutex before: 15 s became 159 s).
-    TextonStore* store = m_store.get();
-    MixStore* mixes = m_mixes.get();
-    const api::TextonMeta mu = u.value();
-    auto submitted = m_pool->submit(
-        "mix:" + id, [store, mixes, m, mu, id](const core::ProgressFn&) -> Result<AnalysisOutcome> {
-            if (mixes->contains(id)) return AnalysisOutcome{mu, false};
-            const auto t0 = std::chrono::steady_clock::now();
-            auto pu = store->exemplar_png(m.u);
-            if (!pu) return pu.error();
-            auto pv = store->exemplar_png(m.v);
-            if (!pv) return pv.error();
-            auto eu = io::decode_image_memory(pu.value());
-            auto ev = io::decode_image_memory(pv.value());
-            if (!eu || !ev) return eu ? ev.error() : eu.error();
-            const core::AnalysisParams p = mu.params();
-            auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
-            if (!pair) return pair.error();
-            auto levels = core::mix_levels(pair.value(), p, m.levels);
-            if (!levels) return levels.error();
-            io::MixRecord record;
-            record.levels = levels.value().levels;
-            record.field = m.field;
-            api::MixMeta& meta = record.meta;
-            meta.id = id;
-            meta.version = core::kMixVersion;
-            meta.u = m.u;
-            meta.v = m.v;
-            meta.levels = m.levels;
-            meta.size = p.size;
-            meta.order = p.order;
-            meta.channels = record.levels.front().channels;
-            meta.iterations = p.iterations;
-            meta.seed = p.seed;
-            meta.periodic = p.periodic;
-            meta.grid = {pair.value().u.width, pair.value().u.height};
-            for (const auto& t : record.levels)
-                meta.means.emplace_back(t.mean.begin(), t.mean.begin() + t.channels);
-            meta.rme = levels.value().rme;
-            meta.field = io::field_json(m.field);
-            const double ms =
-                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                    .count();
-            meta.analysis_ms = ms;
-            meta.created = rfc3339_now();
-            auto put = mixes->put(record);
-            if (!put) return put.error();
-            spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms", id, m.u.substr(0, 12),
-                         m.v.substr(0, 12), m.levels, ms);
-            return AnalysisOutcome{mu, put.value()};
-        });
-    if (!submitted.job) return send_pool_full(res);
-    const Result<AnalysisOutcome>& outcome = submitted.job->wait();
+    auto started = m_mix_service->start(m);
+    if (!started) return send_error(res, to_api_error(started.error()));
+    const MixService::Started& s = started.value();
+    if (s.known) return send_json(res, 200, mix_json(*s.known));
+    if (!s.submitted.job) return send_pool_full(res);
+    const Result<AnalysisOutcome>& outcome = s.submitted.job->wait();
     if (!outcome) {
         const Error& err = outcome.error();
         return send_error(
             res,
             to_api_error(err, err.code == ErrorCode::invalid_argument ? "exemplar_too_small" : ""));
     }
-    auto meta = m_mixes->meta(id);
+    auto meta = m_mixes->meta(s.id);
     if (!meta) return send_error(res, to_api_error(meta.error()));
-    const bool created = outcome.value().created && !submitted.joined;
-    if (created) res.set_header("Location", "/v1/mixes/" + id);
+    const bool created = outcome.value().created && !s.submitted.joined;
+    if (created) res.set_header("Location", "/v1/mixes/" + s.id);
     send_json(res, created ? 201 : 200, mix_json(meta.value()));
 }
 

@@ -114,6 +114,7 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     auto mixes = MixStore::open(s->m_config.data_dir);
     if (!mixes) return mixes.error();
     s->m_mixes = std::move(mixes.value());
+    s->m_mix_service = std::make_unique<MixService>(*s->m_store, *s->m_mixes, *s->m_pool);
 
     Metrics& m = s->m_metrics;
     std::vector<Metrics::CalibrationFigure> figures;

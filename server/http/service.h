@@ -12,6 +12,7 @@
 #include "server/http/gate.h"
 #include "server/http/image_cache.h"
 #include "server/http/metrics.h"
+#include "server/http/mix_service.h"
 #include "server/http/mix_store.h"
 #include "server/http/texton_service.h"
 #include "server/http/texton_store.h"
@@ -111,7 +112,8 @@ private:
     std::unique_ptr<TextonStore> m_store;
     std::unique_ptr<AnalysisPool> m_pool;
     std::unique_ptr<MixStore> m_mixes;
-    std::unique_ptr<TextonService> m_textons; // the ingest workflow behind POST /v1/textons
+    std::unique_ptr<TextonService> m_textons;  // the ingest workflow behind POST /v1/textons
+    std::unique_ptr<MixService> m_mix_service; // the workflow behind POST /v1/mixes
     ImageCache m_cache;
     std::unique_ptr<render::Renderer> m_renderer; // every evaluation goes through it
     struct StaticFile {
