@@ -14,6 +14,9 @@
 
 namespace textond::api {
 
+// field is an nlohmann::json, whose noexcept move calls its invariant check, which clang-tidy
+// takes for a throw.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct MixMeta {
     std::string id;      // io::mix_id: version, both texton ids, level count, canonical field
     std::string version; // core::kMixVersion

@@ -17,6 +17,9 @@ namespace textond::io {
 
 inline constexpr const char* kMixAttribute = "textond:mix";
 
+// MixMeta's field is an nlohmann::json, whose noexcept move calls its invariant check, which
+// clang-tidy takes for a throw.
+// NOLINTNEXTLINE(bugprone-exception-escape)
 struct MixRecord {
     api::MixMeta meta;
     std::vector<core::Texton> levels;
