@@ -120,4 +120,12 @@ bool Gate::read_request_body(const httplib::ContentReader& reader, httplib::Resp
     return true;
 }
 
+void Gate::pool_full(httplib::Response& res, const AnalysisPool& pool) {
+    const int wait_s = 1 + pool.queued() / std::max(1, pool.workers());
+    res.set_header("Retry-After", std::to_string(wait_s));
+    send_error(res,
+               {"overloaded", "every analysis worker is busy and the queue is full; retry after " +
+                                  std::to_string(wait_s) + " s"});
+}
+
 } // namespace textond::http

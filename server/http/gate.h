@@ -6,6 +6,7 @@
 #include "core/result.h"
 #include "render/cancel.h"
 #include "server/http/admission.h"
+#include "server/http/analysis_pool.h"
 #include "server/http/config.h"
 #include "server/http/metrics.h"
 
@@ -41,6 +42,9 @@ public:
     // The body of a POST route, read with the upload limit (sends the error on failure).
     bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
                            Body& body);
+
+    // 429 with a Retry-After from the analysis pool's queue (uploads and mixes).
+    void pool_full(httplib::Response& res, const AnalysisPool& pool);
 
     RenderSlots& render_slots() { return m_render_slots; }
     RenderSlots& decode_slots() { return m_decode_slots; }

@@ -49,6 +49,10 @@ bool etag_matches(std::string_view if_none_match, std::string_view etag);
 
 std::string rfc3339_now();
 
+// Writes need `Authorization: Bearer <api_key>` when an API key is set (compared in constant
+// time); 401 with WWW-Authenticate sent when not.
+bool authorised(const std::string& api_key, const httplib::Request& req, httplib::Response& res);
+
 // "a, b,c" -> {"a", "b", "c"}: spaces trimmed, empty items dropped (--formats, --cors-origin).
 std::vector<std::string> split_list(std::string_view s);
 

@@ -21,9 +21,6 @@
 #ifndef TEXTOND_GIT_COMMIT
 #define TEXTOND_GIT_COMMIT "unknown"
 #endif
-#ifndef TEXTOND_WEB_DIR
-#define TEXTOND_WEB_DIR "web"
-#endif
 #ifndef TEXTOND_VERSION
 #define TEXTOND_VERSION "0.0.0"
 #endif
@@ -75,101 +72,123 @@ Service::~Service() {
 
 Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     std::unique_ptr<Service> s(new Service(std::move(config)));
-    std::unique_ptr<store::RedisStore> shared;
-    if (!s->m_config.store_url.empty()) {
-        auto address = store::parse_redis_url(s->m_config.store_url);
-        if (!address) return address.error();
-        shared = std::make_unique<store::RedisStore>(
-            address.value(), std::chrono::milliseconds(s->m_config.store_timeout_ms));
-        if (auto ping = shared->ping(); !ping) // not fatal: local copies can still be served
-            spdlog::warn("{}; starting anyway", ping.error().message);
-    }
-    auto store = TextonStore::open(s->m_config.data_dir, 64, std::move(shared),
-                                   std::chrono::milliseconds(1000LL * s->m_config.store_recheck_s));
-    if (!store) return store.error();
-    s->m_store = std::move(store.value());
-
-    render::BackendOptions options;
-    options.threads = 0;
-    options.tile_slots = s->m_config.render_slots > 0 ? s->m_config.render_slots : cores();
-    options.batch_tiles = s->m_config.gpu_batch_tiles;
-    options.batch_wait_us = s->m_config.gpu_batch_wait_us;
-    options.batch_ms = s->m_config.gpu_batch_ms;
-    auto renderer = render::Renderer::make(s->m_config.backend, options);
-    if (!renderer) return renderer.error();
-    s->m_renderer = std::move(renderer.value());
-    // Tiles on a GL backend: a slot mostly waits for its batch, so one per core would never fill
-    // one. Enough more to gather a whole batch while the cores encode the last.
-    // Only when frames go there too: CPU frames and fallbacks would take the extra slots.
-    if (s->m_config.render_slots == 0 && s->m_renderer->all_batched())
-        s->m_gate.render_slots().add(s->m_config.gpu_batch_tiles);
-    s->m_pool =
-        std::make_unique<AnalysisPool>(s->m_config.analysis_workers, s->m_config.analysis_queue);
-    io::DecodeLimits limits;
-    limits.max_pixels = s->m_config.max_pixels;
-    limits.formats = s->m_config.formats;
-    s->m_textons = std::make_unique<TextonService>(
-        *s->m_store, *s->m_pool, s->m_metrics, s->m_gate.decode_slots(), std::move(limits),
-        std::chrono::milliseconds(s->m_config.queue_timeout_ms));
-    auto mixes = MixStore::open(s->m_config.data_dir);
-    if (!mixes) return mixes.error();
-    s->m_mixes = std::move(mixes.value());
-    s->m_mix_service = std::make_unique<MixService>(*s->m_store, *s->m_mixes, *s->m_pool);
-
-    Metrics& m = s->m_metrics;
-    std::vector<Metrics::CalibrationFigure> figures;
-    for (const auto& c : s->m_renderer->calibration())
-        figures.push_back({c.backend, c.tile_ms, c.frame_ms});
-    m.backends(s->m_renderer->tiles_backend(), s->m_renderer->frames_backend(), std::move(figures));
-    Service* self = s.get();
-    m.gauge("textond_gpu_batches", "GL batches rendered since start (0 without a GL backend).",
-            [self] { return static_cast<double>(self->m_renderer->batches()); });
-    m.gauge("textond_gpu_batched_windows", "Windows rendered in GL batches since start.",
-            [self] { return static_cast<double>(self->m_renderer->batched_windows()); });
-    m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
-            [self] { return static_cast<double>(self->m_pool->queued()); });
-    m.gauge("textond_analysis_running", "Analyses running now.",
-            [self] { return static_cast<double>(self->m_pool->running()); });
-    if (self->m_store->shared())
-        m.gauge("textond_shared_store_up", "1 when the shared texton store answers a PING.",
-                [self] { return self->m_store->shared()->ping() ? 1.0 : 0.0; });
-    m.gauge("textond_store_textons", "Textons held in the local store (or cache).",
-            [self] { return static_cast<double>(self->m_store->count()); });
-    m.gauge("textond_store_bytes", "Bytes of texton files in the store.",
-            [self] { return static_cast<double>(self->m_store->bytes()); });
-    m.gauge("textond_store_quarantined", "Damaged texton files moved aside since start.",
-            [self] { return static_cast<double>(self->m_store->quarantined().size()); });
-    m.gauge("textond_mixes_quarantined", "Mixes refused at load (damaged or invalid) since start.",
-            [self] { return static_cast<double>(self->m_mixes->quarantined().size()); });
-    m.gauge("textond_image_cache_bytes", "Bytes held by the image cache.",
-            [self] { return static_cast<double>(self->m_cache.bytes()); });
-    m.gauge("textond_image_cache_entries", "Images held by the image cache.",
-            [self] { return static_cast<double>(self->m_cache.entries()); });
-    m.gauge("textond_image_cache_budget_bytes", "The image cache's byte budget.",
-            [self] { return static_cast<double>(self->m_cache.budget()); });
-
+    if (auto err = s->open_parts()) return *err;
+    s->make_services();
+    s->add_gauges();
     s->install_hooks();
-    s->install_image_routes();   // the hot path first: cpp-httplib tries routes in order
-    s->install_surface_routes(); // before the /v1/textons/* fallback
-    s->install_texton_routes();
-    s->install_mix_routes();
-    s->install_ops_routes();
-    s->install_web_routes();
+    s->install_routes();
     return s;
 }
 
-void Service::install_hooks() {
-    const ServeConfig& c = m_config;
+std::optional<Error> Service::open_parts() {
+    std::unique_ptr<store::RedisStore> shared;
+    if (!m_config.store_url.empty()) {
+        auto address = store::parse_redis_url(m_config.store_url);
+        if (!address) return address.error();
+        shared = std::make_unique<store::RedisStore>(
+            address.value(), std::chrono::milliseconds(m_config.store_timeout_ms));
+        if (auto ping = shared->ping(); !ping) // not fatal: local copies can still be served
+            spdlog::warn("{}; starting anyway", ping.error().message);
+    }
+    auto store = TextonStore::open(m_config.data_dir, 64, std::move(shared),
+                                   std::chrono::milliseconds(1000LL * m_config.store_recheck_s));
+    if (!store) return store.error();
+    m_store = std::move(store.value());
+    auto mixes = MixStore::open(m_config.data_dir);
+    if (!mixes) return mixes.error();
+    m_mixes = std::move(mixes.value());
+
+    render::BackendOptions options;
+    options.threads = 0;
+    options.tile_slots = m_config.render_slots > 0 ? m_config.render_slots : cores();
+    options.batch_tiles = m_config.gpu_batch_tiles;
+    options.batch_wait_us = m_config.gpu_batch_wait_us;
+    options.batch_ms = m_config.gpu_batch_ms;
+    auto renderer = render::Renderer::make(m_config.backend, options);
+    if (!renderer) return renderer.error();
+    m_renderer = std::move(renderer.value());
+    // Tiles on a GL backend: a slot mostly waits for its batch, so one per core would never fill
+    // one. Enough more to gather a whole batch while the cores encode the last.
+    // Only when frames go there too: CPU frames and fallbacks would take the extra slots.
+    if (m_config.render_slots == 0 && m_renderer->all_batched())
+        m_gate.render_slots().add(m_config.gpu_batch_tiles);
+    m_pool = std::make_unique<AnalysisPool>(m_config.analysis_workers, m_config.analysis_queue);
+    return std::nullopt;
+}
+
+void Service::make_services() {
+    io::DecodeLimits limits;
+    limits.max_pixels = m_config.max_pixels;
+    limits.formats = m_config.formats;
+    m_textons = std::make_unique<TextonService>(
+        *m_store, *m_pool, m_metrics, m_gate.decode_slots(), std::move(limits),
+        std::chrono::milliseconds(m_config.queue_timeout_ms));
+    m_mix_service = std::make_unique<MixService>(*m_store, *m_mixes, *m_pool);
+    m_images = std::make_unique<ImageService>(*m_store, *m_mixes, *m_renderer, m_metrics,
+                                              m_config.png_compression);
+    m_image_routes = std::make_unique<ImageRoutes>(m_config, *m_images, *m_store, *m_mixes, m_cache,
+                                                   m_gate, m_metrics, m_port);
+    m_texton_routes = std::make_unique<TextonRoutes>(m_config, *m_store, *m_textons, *m_pool,
+                                                     m_cache, m_gate, m_stopping);
+    m_mix_routes = std::make_unique<MixRoutes>(m_config, *m_mix_service, *m_mixes, *m_pool, m_gate);
+    m_surface_routes = std::make_unique<SurfaceRoutes>(*m_store, *m_renderer, m_gate);
+    m_ops_routes = std::make_unique<OpsRoutes>(m_config, m_metrics, *m_store, *m_mixes, *m_renderer,
+                                               m_stopping);
+}
+
+void Service::add_gauges() {
+    Metrics& m = m_metrics;
+    std::vector<Metrics::CalibrationFigure> figures;
+    for (const auto& c : m_renderer->calibration())
+        figures.push_back({c.backend, c.tile_ms, c.frame_ms});
+    m.backends(m_renderer->tiles_backend(), m_renderer->frames_backend(), std::move(figures));
+    auto count = [](auto f) { return [f] { return static_cast<double>(f()); }; };
+    const render::Renderer* r = m_renderer.get();
+    m.gauge("textond_gpu_batches", "GL batches rendered since start (0 without a GL backend).",
+            count([r] { return r->batches(); }));
+    m.gauge("textond_gpu_batched_windows", "Windows rendered in GL batches since start.",
+            count([r] { return r->batched_windows(); }));
+    const AnalysisPool* pool = m_pool.get();
+    m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
+            count([pool] { return pool->queued(); }));
+    m.gauge("textond_analysis_running", "Analyses running now.",
+            count([pool] { return pool->running(); }));
+    TextonStore* store = m_store.get();
+    if (store->shared())
+        m.gauge("textond_shared_store_up", "1 when the shared texton store answers a PING.",
+                [store] { return store->shared()->ping() ? 1.0 : 0.0; });
+    m.gauge("textond_store_textons", "Textons held in the local store (or cache).",
+            count([store] { return store->count(); }));
+    m.gauge("textond_store_bytes", "Bytes of texton files in the store.",
+            count([store] { return store->bytes(); }));
+    m.gauge("textond_store_quarantined", "Damaged texton files moved aside since start.",
+            count([store] { return store->quarantined().size(); }));
+    const MixStore* mixes = m_mixes.get();
+    m.gauge("textond_mixes_quarantined", "Mixes refused at load (damaged or invalid) since start.",
+            count([mixes] { return mixes->quarantined().size(); }));
+    const ImageCache* cache = &m_cache;
+    m.gauge("textond_image_cache_bytes", "Bytes held by the image cache.",
+            count([cache] { return cache->bytes(); }));
+    m.gauge("textond_image_cache_entries", "Images held by the image cache.",
+            count([cache] { return cache->entries(); }));
+    m.gauge("textond_image_cache_budget_bytes", "The image cache's byte budget.",
+            count([cache] { return cache->budget(); }));
+}
+
+namespace {
+
+// The server's limits: threads, connections, timeouts, header and body sizes.
+void configure(HttpServer& http, const ServeConfig& c) {
     const std::size_t threads = static_cast<std::size_t>(c.http_threads < 1 ? 1 : c.http_threads);
     const std::size_t most = static_cast<std::size_t>(std::max(c.max_connections, 1));
     // Debian's prebuilt cpp-httplib ignores CPPHTTPLIB_THREAD_POOL_COUNT in our code.
-    m_http.new_task_queue = [threads, most] { return new ElasticThreadPool(threads, most); };
-    m_http.set_payload_max_length(c.max_upload_bytes);
-    m_http.set_read_timeout(c.read_timeout_s, 0);
-    m_http.set_write_timeout(c.write_timeout_s, 0);
-    m_http.set_keep_alive_max_count(static_cast<std::size_t>(c.keep_alive_max));
-    m_http.set_keep_alive_timeout(c.keep_alive_timeout_s);
-    ConnectionLimits& limits = m_http.limits;
+    http.new_task_queue = [threads, most] { return new ElasticThreadPool(threads, most); };
+    http.set_payload_max_length(c.max_upload_bytes);
+    http.set_read_timeout(c.read_timeout_s, 0);
+    http.set_write_timeout(c.write_timeout_s, 0);
+    http.set_keep_alive_max_count(static_cast<std::size_t>(c.keep_alive_max));
+    http.set_keep_alive_timeout(c.keep_alive_timeout_s);
+    ConnectionLimits& limits = http.limits;
     limits.max_header_bytes = c.max_header_bytes;
     limits.header_timeout = std::chrono::seconds(c.header_timeout_s);
     // The routes count the decoded body exactly; this bounds the bytes on the wire (chunk
@@ -180,41 +199,79 @@ void Service::install_hooks() {
     limits.write_timeout = std::chrono::seconds(c.write_timeout_s);
     limits.keep_alive_timeout = std::chrono::seconds(c.keep_alive_timeout_s);
     limits.keep_alive_max = c.keep_alive_max;
+}
 
+httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
+                                                   httplib::Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    api::ApiError e{"http_error", "HTTP error " + std::to_string(res.status)};
+    if (res.status == 400) e = {"bad_request", "malformed HTTP request"};
+    if (res.status == 404) e = {"not_found", "no such endpoint"};
+    if (res.status == 413) e = {"payload_too_large", "request body is over the upload limit"};
+    if (res.status == 414) e = {"uri_too_long", "request URI is too long"};
+    // Any other status keeps cpp-httplib's number under the code http_error.
+    send_error(res, e, e.code == "http_error" ? res.status : 0);
+    return httplib::Server::HandlerResponse::Handled;
+}
+
+void answer_exception(const httplib::Request& req, httplib::Response& res,
+                      const std::exception_ptr& ep) {
+    std::string what = "unknown exception";
+    try {
+        std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+        what = e.what();
+    } catch (...) {
+    }
+    spdlog::error("{} {} {}: unhandled exception: {}", current_request().id,
+                  api::printable(req.method, 16), api::printable(req.path, 256),
+                  api::printable(what, 512));
+    send_error(res, {"internal", "internal error (request id " + current_request().id + ")"});
+}
+
+} // namespace
+
+httplib::Server::HandlerResponse Service::pre_route(const httplib::Request& req,
+                                                    httplib::Response& res) {
+    begin_request(req);
+    ConnectionStream* conn = current_connection();
+    if (conn) conn->begin_body();
+    if (auto e = check_framing(req, static_cast<std::size_t>(m_config.max_headers))) {
+        set_route("framing");
+        if (conn) conn->close_after_response(); // its body, if any, is still on the wire
+        send_error(res, *e);
+        return httplib::Server::HandlerResponse::Handled;
+    }
+    // Over the limit by its own account: answered before a byte of it is read (cpp-httplib
+    // would read and discard it all first), and the connection closed after the answer.
+    if (req.has_header("Content-Length") &&
+        std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) >
+            m_config.max_upload_bytes) {
+        set_route("framing");
+        if (conn) conn->close_after_response();
+        send_error(res,
+                   {"payload_too_large", "request body is over the upload limit of " +
+                                             std::to_string(m_config.max_upload_bytes) + " bytes"});
+        return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.method == "OPTIONS") { // CORS preflight
+        set_route("OPTIONS *");
+        res.status = 204;
+        if (!m_config.cors_origin.empty()) {
+            res.set_header("Access-Control-Allow-Methods", "GET, HEAD, POST, DELETE, OPTIONS");
+            res.set_header("Access-Control-Allow-Headers",
+                           "Authorization, Content-Type, If-None-Match, Prefer, X-Request-Id");
+            res.set_header("Access-Control-Max-Age", "600");
+        }
+        return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+}
+
+void Service::install_hooks() {
+    configure(m_http, m_config);
     m_http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-        begin_request(req);
-        ConnectionStream* conn = current_connection();
-        if (conn) conn->begin_body();
-        if (auto e = check_framing(req, static_cast<std::size_t>(m_config.max_headers))) {
-            set_route("framing");
-            if (conn) conn->close_after_response(); // its body, if any, is still on the wire
-            send_error(res, *e);
-            return httplib::Server::HandlerResponse::Handled;
-        }
-        // Over the limit by its own account: answered before a byte of it is read (cpp-httplib
-        // would read and discard it all first), and the connection closed after the answer.
-        if (req.has_header("Content-Length") &&
-            std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) >
-                m_config.max_upload_bytes) {
-            set_route("framing");
-            if (conn) conn->close_after_response();
-            send_error(res, {"payload_too_large", "request body is over the upload limit of " +
-                                                      std::to_string(m_config.max_upload_bytes) +
-                                                      " bytes"});
-            return httplib::Server::HandlerResponse::Handled;
-        }
-        if (req.method == "OPTIONS") { // CORS preflight
-            set_route("OPTIONS *");
-            res.status = 204;
-            if (!m_config.cors_origin.empty()) {
-                res.set_header("Access-Control-Allow-Methods", "GET, HEAD, POST, DELETE, OPTIONS");
-                res.set_header("Access-Control-Allow-Headers",
-                               "Authorization, Content-Type, If-None-Match, Prefer, X-Request-Id");
-                res.set_header("Access-Control-Max-Age", "600");
-            }
-            return httplib::Server::HandlerResponse::Handled;
-        }
-        return httplib::Server::HandlerResponse::Unhandled;
+        return pre_route(req, res);
     });
     m_http.set_post_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
         RequestContext& ctx = current_request();
@@ -226,33 +283,8 @@ void Service::install_hooks() {
     });
     // Errors raised before or outside a route (404, 413 from the body limit, 414...) get the
     // same JSON body as ours; bodies a route already wrote are left alone.
-    m_http.set_error_handler(
-        httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
-            if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
-            api::ApiError e{"http_error", "HTTP error " + std::to_string(res.status)};
-            if (res.status == 400) e = {"bad_request", "malformed HTTP request"};
-            if (res.status == 404) e = {"not_found", "no such endpoint"};
-            if (res.status == 413)
-                e = {"payload_too_large", "request body is over the upload limit"};
-            if (res.status == 414) e = {"uri_too_long", "request URI is too long"};
-            // Any other status keeps cpp-httplib's number under the code http_error.
-            send_error(res, e, e.code == "http_error" ? res.status : 0);
-            return httplib::Server::HandlerResponse::Handled;
-        }));
-    m_http.set_exception_handler([](const httplib::Request& req, httplib::Response& res,
-                                    const std::exception_ptr& ep) {
-        std::string what = "unknown exception";
-        try {
-            std::rethrow_exception(ep);
-        } catch (const std::exception& e) {
-            what = e.what();
-        } catch (...) {
-        }
-        spdlog::error("{} {} {}: unhandled exception: {}", current_request().id,
-                      api::printable(req.method, 16), api::printable(req.path, 256),
-                      api::printable(what, 512));
-        send_error(res, {"internal", "internal error (request id " + current_request().id + ")"});
-    });
+    m_http.set_error_handler(httplib::Server::HandlerWithResponse(answer_http_error));
+    m_http.set_exception_handler(answer_exception);
     m_http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
         RequestContext& ctx = current_request();
         const double seconds =
@@ -266,118 +298,6 @@ void Service::install_hooks() {
                          res.get_header_value("Content-Length"), seconds * 1000.0, ctx.handler_ms);
         ctx.active = false;
     });
-}
-
-void Service::install_ops_routes() {
-    m_http.Get("/healthz", [](const httplib::Request&, httplib::Response& res) {
-        set_route("/healthz");
-        send_json(res, 200, {{"status", "ok"}, {"build", build_id()}}, "no-store");
-    });
-    m_http.Get("/readyz", [this](const httplib::Request&, httplib::Response& res) {
-        set_route("/readyz");
-        const bool writable = m_store->writable();
-        const bool ready = !m_stopping && writable && m_renderer != nullptr;
-        // A replica whose shared store is down still serves the textons it holds, so it stays
-        // in the load balancer (were it to leave, every replica would leave at once) and says
-        // it is degraded; uploads answer 503 meanwhile.
-        nlohmann::json shared = nullptr;
-        bool degraded = false;
-        if (store::RedisStore* r = m_store->shared()) {
-            auto ping = r->ping();
-            degraded = !ping;
-            shared = {{"url", r->describe()}, {"up", ping.ok()}};
-            if (!ping) shared["error"] = ping.error().message;
-        }
-        nlohmann::json calibration = nlohmann::json::array();
-        for (const auto& c : m_renderer->calibration())
-            calibration.push_back(
-                {{"backend", c.backend}, {"tiles16_ms", c.tile_ms}, {"hd_frame_ms", c.frame_ms}});
-        send_json(res, ready ? 200 : 503,
-                  {{"ready", ready},
-                   {"degraded", degraded},
-                   {"shared_store", shared},
-                   {"stopping", m_stopping.load()},
-                   {"backend",
-                    {{"name", m_renderer->frames_backend()},
-                     {"tiles", m_renderer->tiles_backend()},
-                     {"renderer", m_renderer->renderer()},
-                     {"reason", m_renderer->reason()},
-                     {"calibration", calibration}}},
-                   {"store",
-                    {{"writable", writable},
-                     {"textons", m_store->count()},
-                     {"quarantined", m_store->quarantined()},
-                     {"mixes_quarantined", m_mixes->quarantined()}}}},
-                  "no-store");
-    });
-    m_http.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
-        set_route("/metrics");
-        res.set_header("Cache-Control", "no-store");
-        res.set_content(m_metrics.prometheus_text(), "text/plain; version=0.0.4; charset=utf-8");
-    });
-    m_http.Get("/v1/openapi.yaml", [](const httplib::Request&, httplib::Response& res) {
-        set_route("/v1/openapi.yaml");
-        res.set_header("Cache-Control", "public, max-age=300");
-        res.set_content(api::kOpenApiYaml, "application/yaml");
-    });
-}
-
-// The page of server/web/, read into memory once: no stat() per request on the hot path, and
-// a request can only name a file that is in the map, never a path.
-void Service::install_web_routes() {
-    namespace fs = std::filesystem;
-    const std::string dir = m_config.web_dir.empty() ? TEXTOND_WEB_DIR : m_config.web_dir;
-    const std::map<std::string, std::string> types = {{".html", "text/html; charset=utf-8"},
-                                                      {".js", "text/javascript; charset=utf-8"},
-                                                      {".css", "text/css; charset=utf-8"},
-                                                      {".png", "image/png"},
-                                                      {".svg", "image/svg+xml"},
-                                                      {".json", "application/json"}};
-    std::error_code ec;
-    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::end(it);
-         it.increment(ec)) {
-        if (!it->is_regular_file() || m_web.size() >= 256) continue;
-        auto type = types.find(it->path().extension().string());
-        if (type == types.end()) continue;
-        auto body = io::read_file(it->path().string());
-        if (!body) continue;
-        const std::string rel = fs::relative(it->path(), dir, ec).generic_string();
-        m_web["/static/" + rel] = {std::move(body.value()), type->second};
-    }
-    if (!m_web.count("/static/index.html"))
-        spdlog::warn("web: no page in {} (the API works; / answers 404)", dir);
-    else
-        spdlog::info("web: {} files from {}", m_web.size(), dir);
-    auto serve = [this](const std::string& key, httplib::Response& res) {
-        auto f = m_web.find(key);
-        if (f == m_web.end()) return send_error(res, {"not_found", "no such file"});
-        // The page changes with the build; revalidate rather than cache for a year.
-        res.set_header("Cache-Control", "no-cache");
-        res.set_content(f->second.body, f->second.content_type.c_str());
-    };
-    m_http.Get("/", [serve](const httplib::Request&, httplib::Response& res) {
-        set_route("/");
-        serve("/static/index.html", res);
-    });
-    m_http.Get(R"(/static/(.+))", [serve](const httplib::Request& req, httplib::Response& res) {
-        set_route("/static/{file}");
-        serve("/static/" + req.matches[1].str(), res);
-    });
-    // Installed last: every other POST, as a content-reader route so that cpp-httplib never
-    // reads into memory a body that no route asked for.
-    m_http.Post(R"(.*)",
-                [](const httplib::Request&, httplib::Response& res, const httplib::ContentReader&) {
-                    set_route("unmatched");
-                    send_error(res, {"not_found", "no such endpoint"});
-                });
-}
-
-void Service::send_pool_full(httplib::Response& res) {
-    const int wait_s = 1 + m_pool->queued() / std::max(1, m_pool->workers());
-    res.set_header("Retry-After", std::to_string(wait_s));
-    send_error(res,
-               {"overloaded", "every analysis worker is busy and the queue is full; retry after " +
-                                  std::to_string(wait_s) + " s"});
 }
 
 Result<int> Service::bind() {

@@ -1,9 +1,8 @@
-// Surface noise over HTTP (texton-noise section 6): colours at 3D points with normals, and a
-// preview of an OBJ mesh textured by it. Both evaluate on the CPU.
+#include "server/http/surface_routes.h"
+
 #include "api/requests.h"
 #include "render/surface_eval.h"
 #include "server/http/http_support.h"
-#include "server/http/service.h"
 #include "server/io/image_io.h"
 #include "server/io/obj_mesh.h"
 
@@ -63,14 +62,17 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, const std:
 
 } // namespace
 
-void Service::surface_points(const httplib::Request& req, const std::string& id,
-                             httplib::Response& res, const httplib::ContentReader& reader) {
+SurfaceRoutes::SurfaceRoutes(TextonStore& store, render::Renderer& renderer, Gate& gate)
+    : m_store(store), m_renderer(renderer), m_gate(gate) {}
+
+void SurfaceRoutes::points(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/surface");
+    const std::string id = req.matches[1].str();
     Body body(m_gate.bodies());
     if (!m_gate.read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, false, p)) return send_error(res, *e);
-    auto prepared = m_store->prepared(id);
+    auto prepared = m_store.prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
     // Parsing a million JSON points takes hundreds of MB: inside the slot, like the evaluation.
     auto slot = m_gate.admit(res, 0.0);
@@ -85,7 +87,7 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
     render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
     const int nc = prepared.value()->channels();
     std::string evaluated_on;
-    auto colours = m_renderer->surface(*prepared.value(), sr, points, normals, &evaluated_on);
+    auto colours = m_renderer.surface(*prepared.value(), sr, points, normals, &evaluated_on);
     if (!colours) return m_gate.send_work_error(res, colours.error(), cancel);
     res.set_header("X-Textond-Channels", std::to_string(nc));
     res.set_header("X-Textond-Backend", evaluated_on);
@@ -105,14 +107,14 @@ void Service::surface_points(const httplib::Request& req, const std::string& id,
               "no-store");
 }
 
-void Service::surface_mesh(const httplib::Request& req, const std::string& id,
-                           httplib::Response& res, const httplib::ContentReader& reader) {
+void SurfaceRoutes::mesh(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/mesh.png");
+    const std::string id = req.matches[1].str();
     Body body(m_gate.bodies());
     if (!m_gate.read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, true, p)) return send_error(res, *e);
-    auto prepared = m_store->prepared(id);
+    auto prepared = m_store.prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
     auto slot = m_gate.admit(res, 0.0); // parsing, the view, rasterising and encoding
     if (!slot) return;
@@ -142,25 +144,13 @@ void Service::surface_mesh(const httplib::Request& req, const std::string& id,
             return;
     }
     std::string evaluated_on;
-    auto image = m_renderer->mesh_preview(*prepared.value(), sr, mesh.value(), cam, p.width,
-                                          p.height, &evaluated_on);
+    auto image = m_renderer.mesh_preview(*prepared.value(), sr, mesh.value(), cam, p.width,
+                                         p.height, &evaluated_on);
     if (!image) return m_gate.send_work_error(res, image.error(), cancel);
     auto png = io::encode_image_memory(image.value(), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_header("X-Textond-Backend", evaluated_on);
     res.set_content(png.value(), "image/png");
-}
-
-void Service::install_surface_routes() {
-    using Req = const httplib::Request&;
-    using Res = httplib::Response&;
-    using Reader = const httplib::ContentReader&;
-    m_http.Post(R"(/v1/textons/([^/]+)/surface)", [this](Req req, Res res, Reader reader) {
-        surface_points(req, req.matches[1], res, reader);
-    });
-    m_http.Post(R"(/v1/textons/([^/]+)/mesh\.png)", [this](Req req, Res res, Reader reader) {
-        surface_mesh(req, req.matches[1], res, reader);
-    });
 }
 
 } // namespace textond::http

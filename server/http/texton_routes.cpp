@@ -1,10 +1,12 @@
 // POST/GET/DELETE /v1/textons...: uploads (single flight on a bounded pool), metadata, the
 // texton's files, listing.
+#include "server/http/texton_routes.h"
+
 #include "api/requests.h"
 #include "core/texton_analysis.h"
+#include "server/http/connection.h"
 #include "server/http/engine_kit.h"
 #include "server/http/http_support.h"
-#include "server/http/service.h"
 #include "server/io/image_io.h"
 #include "server/io/texton_file.h"
 
@@ -41,13 +43,6 @@ core::Image visualise(const core::Texton& t) {
     const float scale = peak > 0 ? 0.5f / peak : 0.0f;
     for (std::size_t k = 0; k < out.data.size(); ++k) out.data[k] = 0.5f + t.alpha.data[k] * scale;
     return out;
-}
-
-bool constant_time_equal(const std::string& a, const std::string& b) {
-    unsigned char diff = a.size() == b.size() ? 0 : 1;
-    const std::string& ref = a.size() == b.size() ? b : a;
-    for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ ref[i]);
-    return diff == 0;
 }
 
 // A multipart upload's parts, every byte counted against the upload limit and the server's
@@ -98,9 +93,7 @@ std::optional<api::ApiError> exemplar_part(const std::vector<httplib::MultipartF
     return std::nullopt;
 }
 
-} // namespace
-
-nlohmann::json Service::texton_json(const api::TextonMeta& meta) const {
+nlohmann::json texton_json(const api::TextonMeta& meta) {
     nlohmann::json j = meta;
     if (meta.timings) j["analysis_ms"] = meta.timings->total_ms;
     const std::string base = "/v1/textons/" + meta.id;
@@ -110,23 +103,17 @@ nlohmann::json Service::texton_json(const api::TextonMeta& meta) const {
     return j;
 }
 
-bool Service::authorised(const httplib::Request& req, httplib::Response& res) const {
-    if (m_config.api_key.empty()) return true;
-    const std::string h = req.get_header_value("Authorization");
-    const std::string prefix = "Bearer ";
-    if (h.size() > prefix.size() && h.compare(0, prefix.size(), prefix) == 0 &&
-        constant_time_equal(h.substr(prefix.size()), m_config.api_key))
-        return true;
-    res.set_header("WWW-Authenticate", "Bearer realm=\"textond\"");
-    send_error(res, {"unauthorized",
-                     "this server needs an API key for writes: Authorization: Bearer <key>"});
-    return false;
-}
+} // namespace
 
-void Service::upload(const httplib::Request& req, httplib::Response& res,
-                     const httplib::ContentReader& reader) {
+TextonRoutes::TextonRoutes(const ServeConfig& config, TextonStore& store, TextonService& textons,
+                           AnalysisPool& pool, ImageCache& cache, Gate& gate,
+                           const std::atomic<bool>& stopping)
+    : m_config(config), m_store(store), m_textons(textons), m_pool(pool), m_cache(cache),
+      m_gate(gate), m_stopping(stopping) {}
+
+void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/textons");
-    if (!authorised(req, res)) return;
+    if (!authorised(m_config.api_key, req, res)) return;
     if (m_stopping) {
         res.set_header("Retry-After", "5");
         return send_error(res, {"shutting_down", "the service is shutting down"});
@@ -155,13 +142,13 @@ void Service::upload(const httplib::Request& req, httplib::Response& res,
         return send_error(res, {"empty_body",
                                 "no exemplar: send the image as the body (Content-Type: image/*) "
                                 "or as the 'exemplar' field of a multipart form"});
-    auto ingest = m_textons->ingest(bytes, params);
+    auto ingest = m_textons.ingest(bytes, params);
     if (const auto* refused = std::get_if<TextonService::Refused>(&ingest))
         return send_refused(res, *refused);
     send_ingested(req, res, std::get<TextonService::Ingested>(ingest));
 }
 
-void Service::send_refused(httplib::Response& res, const TextonService::Refused& r) {
+void TextonRoutes::send_refused(Res res, const TextonService::Refused& r) {
     using Stage = TextonService::Refused::Stage;
     const Error& err = r.error;
     switch (r.stage) {
@@ -177,11 +164,10 @@ void Service::send_refused(httplib::Response& res, const TextonService::Refused&
     send_error(res, to_api_error(err));
 }
 
-void Service::send_ingested(const httplib::Request& req, httplib::Response& res,
-                            const TextonService::Ingested& in) {
+void TextonRoutes::send_ingested(Req req, Res res, const TextonService::Ingested& in) {
     if (in.known) return send_json(res, 200, texton_json(*in.known));
     const AnalysisPool::Submitted& submitted = in.submitted;
-    if (!submitted.job) return send_pool_full(res);
+    if (!submitted.job) return m_gate.pool_full(res, m_pool);
     const std::string& id = in.id;
     const std::string status_url = "/v1/textons/" + id + "/status";
     // RFC 7240: a client that prefers not to wait gets 202 and polls the status URL.
@@ -207,26 +193,28 @@ void Service::send_ingested(const httplib::Request& req, httplib::Response& res,
     send_json(res, created ? 201 : 200, texton_json(outcome.value().meta));
 }
 
-void Service::get_texton(const std::string& id, httplib::Response& res) {
+void TextonRoutes::get(Req req, Res res) {
     set_route("/v1/textons/{id}");
+    const std::string id = req.matches[1].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    auto meta = m_store->find(id);
+    auto meta = m_store.find(id);
     if (!meta) return send_error(res, to_api_error(meta.error()));
     send_json(res, 200, texton_json(meta.value()), "public, max-age=60");
 }
 
-void Service::texton_status(const std::string& id, httplib::Response& res) {
+void TextonRoutes::status(Req req, Res res) {
     set_route("/v1/textons/{id}/status");
+    const std::string id = req.matches[1].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
     const std::string self = "/v1/textons/" + id;
-    if (auto meta = m_store->find(id))
+    if (auto meta = m_store.find(id))
         return send_json(
             res, 200,
             {{"id", id},
              {"state", "done"},
              {"progress", {{"done", meta.value().iterations}, {"total", meta.value().iterations}}},
              {"links", {{"self", self}}}});
-    auto job = m_pool->find(id);
+    auto job = m_pool.find(id);
     if (!job) return send_error(res, {"not_found", "no texton or analysis " + id});
     const auto [done, total] = job->progress();
     nlohmann::json body = {{"id", id},
@@ -240,18 +228,19 @@ void Service::texton_status(const std::string& id, httplib::Response& res) {
     send_json(res, 200, body);
 }
 
-void Service::texton_file(const std::string& id, const std::string& ext, httplib::Response& res) {
+void TextonRoutes::file(Req req, Res res) {
     set_route("/v1/textons/{id}/texton.{ext}");
+    const std::string id = req.matches[1].str(), ext = req.matches[2].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    if (auto found = m_store->find(id); !found) return send_error(res, to_api_error(found.error()));
+    if (auto found = m_store.find(id); !found) return send_error(res, to_api_error(found.error()));
     if (ext == "exr") {
-        auto bytes = m_store->file_bytes(id);
+        auto bytes = m_store.file_bytes(id);
         if (!bytes) return send_error(res, to_api_error(bytes.error()));
         res.set_header("Cache-Control", "public, max-age=86400");
         res.set_header("Content-Disposition", "inline; filename=\"" + id.substr(0, 12) + ".exr\"");
         return res.set_content(bytes.value(), "image/x-exr");
     }
-    auto record = m_store->record(id);
+    auto record = m_store.record(id);
     if (!record) return send_error(res, to_api_error(record.error()));
     res.set_header("Cache-Control", "public, max-age=86400");
     if (ext == "texton") {
@@ -266,14 +255,14 @@ void Service::texton_file(const std::string& id, const std::string& ext, httplib
     res.set_content(png.value(), "image/png");
 }
 
-void Service::texton_kit(const httplib::Request& req, const std::string& id,
-                         httplib::Response& res) {
+void TextonRoutes::kit(Req req, Res res) {
     set_route("/v1/textons/{id}/kit.tar");
+    const std::string id = req.matches[1].str();
     api::NoiseParams p;
     if (auto e = api::parse_kit(id, req.params, p)) return send_error(res, *e);
-    auto record = m_store->record(id);
+    auto record = m_store.record(id);
     if (!record) return send_error(res, to_api_error(record.error()));
-    auto exr = m_store->file_bytes(id);
+    auto exr = m_store.file_bytes(id);
     if (!exr) return send_error(res, to_api_error(exr.error()));
     auto tar = engine_kit_tar(record.value(), exr.value(), p.mni, "");
     if (!tar) return send_error(res, to_api_error(tar.error()));
@@ -283,24 +272,24 @@ void Service::texton_kit(const httplib::Request& req, const std::string& id,
     res.set_content(tar.value(), "application/x-tar");
 }
 
-void Service::delete_texton(const httplib::Request& req, const std::string& id,
-                            httplib::Response& res) {
+void TextonRoutes::remove(Req req, Res res) {
     set_route("/v1/textons/{id}");
-    if (!authorised(req, res)) return;
+    const std::string id = req.matches[1].str();
+    if (!authorised(m_config.api_key, req, res)) return;
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    auto r = m_store->remove(id);
+    auto r = m_store.remove(id);
     if (!r) return send_error(res, to_api_error(r.error()));
     m_cache.erase_texton(id);
     res.status = 204;
 }
 
-void Service::list_textons(const httplib::Request& req, httplib::Response& res) {
+void TextonRoutes::list(Req req, Res res) {
     set_route("/v1/textons");
     api::ListRequest q;
     if (auto e = api::parse_list(req.params, q)) return send_error(res, *e);
-    const auto listed = m_store->list(q.after, q.limit + 1);
+    const auto listed = m_store.list(q.after, q.limit + 1);
     if (!listed) return send_error(res, to_api_error(listed.error()));
-    const auto total = m_store->total();
+    const auto total = m_store.total();
     if (!total) return send_error(res, to_api_error(total.error()));
     const std::vector<api::TextonMeta>& page = listed.value();
     nlohmann::json items = nlohmann::json::array();
@@ -316,37 +305,12 @@ void Service::list_textons(const httplib::Request& req, httplib::Response& res) 
     send_json(res, 200, body, "no-cache");
 }
 
-void Service::install_texton_routes() {
-    using Req = const httplib::Request&;
-    using Res = httplib::Response&;
-    m_http.Post("/v1/textons", [this](Req req, Res res, const httplib::ContentReader& reader) {
-        upload(req, res, reader);
-    });
-    m_http.Get("/v1/textons", [this](Req req, Res res) { list_textons(req, res); });
-    m_http.Get(R"(/v1/textons/([^/]+))",
-               [this](Req req, Res res) { get_texton(req.matches[1], res); });
-    m_http.Delete(R"(/v1/textons/([^/]+))",
-                  [this](Req req, Res res) { delete_texton(req, req.matches[1], res); });
-    m_http.Get(R"(/v1/textons/([^/]+)/status)",
-               [this](Req req, Res res) { texton_status(req.matches[1], res); });
-    m_http.Get(R"(/v1/textons/([^/]+)/kit\.tar)",
-               [this](Req req, Res res) { texton_kit(req, req.matches[1], res); });
-    m_http.Get(R"(/v1/textons/([^/]+)/texton\.([a-z0-9]+))",
-               [this](Req req, Res res) { texton_file(req.matches[1], req.matches[2], res); });
-    // Anything else under /v1/textons/: a bad id is a 400 (never a path), a good one a 404.
-    auto fallback = [](Req req, Res res) {
-        set_route("/v1/textons/*");
-        const std::string rest = req.matches[1];
-        const std::string first = rest.substr(0, rest.find('/'));
-        if (auto e = api::check_texton_id(first)) return send_error(res, *e);
-        send_error(res, {"not_found", "no such endpoint under /v1/textons/" + first});
-    };
-    m_http.Get(R"(/v1/textons/(.*))", fallback);
-    m_http.Delete(R"(/v1/textons/(.*))", fallback);
-    // A content-reader route, so that cpp-httplib never reads a body nobody asked for.
-    using Reader = const httplib::ContentReader&;
-    m_http.Post(R"(/v1/textons/(.*))",
-                [fallback](Req req, Res res, Reader) { fallback(req, res); });
+void TextonRoutes::fallback(Req req, Res res) {
+    set_route("/v1/textons/*");
+    const std::string rest = req.matches[1];
+    const std::string first = rest.substr(0, rest.find('/'));
+    if (auto e = api::check_texton_id(first)) return send_error(res, *e);
+    send_error(res, {"not_found", "no such endpoint under /v1/textons/" + first});
 }
 
 } // namespace textond::http

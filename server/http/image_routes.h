@@ -1,0 +1,61 @@
+#pragma once
+// GET routes of images: tiles (game clients, z = level), map tiles and TileJSON (web maps),
+// regions (pipelines), tileable textures, the spectrum and the exemplar, of textons and of mixes.
+// Every image is a window onto one deterministic function, so its bytes are named by a strong
+// ETag and cached; the work is ImageService's, admitted through the Gate.
+#include "api/requests.h"
+#include "server/http/config.h"
+#include "server/http/gate.h"
+#include "server/http/image_cache.h"
+#include "server/http/image_service.h"
+#include "server/http/metrics.h"
+
+#include <httplib.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace textond::http {
+
+class ImageRoutes {
+public:
+    // `port`: the bound port, for absolute URLs when no --public-url is set.
+    ImageRoutes(const ServeConfig& config, ImageService& images, TextonStore& textons,
+                MixStore& mixes, ImageCache& cache, Gate& gate, Metrics& metrics, const int& port);
+
+    using Handler = httplib::Server::Handler;
+    // Game tiles (z = level) and web-map tiles (z = zoom, level = 24 - z) differ only in parsing.
+    using TileParser = decltype(&api::parse_tile);
+    Handler tile(const char* route, TileParser parse, bool mix);
+    Handler region(const char* route, bool mix);
+    void tileable(const httplib::Request& req, httplib::Response& res);
+    void spectrum(const httplib::Request& req, httplib::Response& res);
+    void exemplar(const httplib::Request& req, httplib::Response& res);
+    void tilejson(const httplib::Request& req, httplib::Response& res, bool mix);
+
+private:
+    using Produce = std::function<Result<core::Image>(const render::Cancel&)>;
+    void serve(const httplib::Request& req, httplib::Response& res, const ImageService::Job& job);
+    // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
+    void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
+                      const std::string& key, api::ImageFormat format, const Produce& produce,
+                      bool mix, std::int64_t pixels, double mni);
+    // The image's bytes, produced and encoded under a render slot; null when the answer (429,
+    // 413, 503, an error) was sent instead.
+    std::shared_ptr<CachedImage> produce_in_slot(httplib::Response& res, const std::string& id,
+                                                 api::ImageFormat format, const Produce& produce,
+                                                 double work_s);
+    std::string base_url(const httplib::Request& req) const;
+
+    const ServeConfig& m_config;
+    ImageService& m_images;
+    TextonStore& m_textons;
+    MixStore& m_mixes;
+    ImageCache& m_cache;
+    Gate& m_gate;
+    Metrics& m_metrics;
+    const int& m_port;
+};
+
+} // namespace textond::http

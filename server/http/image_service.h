@@ -1,0 +1,77 @@
+#pragma once
+// The image workflow without HTTP: a window onto a texton's (or a mix's) noise, evaluated on the
+// renderer in the caller's slot, resampled when a tileable texture asks for it, encoded, and named
+// by a key and an ETag that cover everything that changes a byte. The routes (image_routes.h) add
+// the cache, admission and the answer.
+#include "api/requests.h"
+#include "core/image.h"
+#include "core/result.h"
+#include "render/cancel.h"
+#include "render/noise_request.h"
+#include "render/renderer.h"
+#include "server/http/metrics.h"
+#include "server/http/mix_store.h"
+#include "server/http/texton_store.h"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace textond::http {
+
+// %.17g: two MNIs that differ print differently (keys, TileJSON URLs).
+std::string mni_text(double mni);
+
+render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
+                                   const api::NoiseParams& noise);
+
+class ImageService {
+public:
+    ImageService(TextonStore& textons, MixStore& mixes, render::Renderer& renderer,
+                 Metrics& metrics, int png_compression);
+
+    struct Job {
+        std::string id;
+        const char* kind = "tile"; // tile | region | tileable (metrics label)
+        api::ImageFormat format = api::ImageFormat::png;
+        render::NoiseRequest request;
+        int out_width = 0, out_height = 0; // tileable textures are resampled to the asked size
+        bool whole_machine = false;        // regions and tileables: the frame backend
+        bool mix = false;                  // id names a texture mix
+        std::int64_t pixels() const { return std::int64_t{request.width} * request.height; }
+    };
+    // One key per distinct image: everything that changes a pixel or a byte of it.
+    static std::string key(const Job& job);
+    static std::string spectrum_key(const std::string& id, const api::NoiseParams& noise);
+    // The strong ETag of a key's bytes: the build, the renderer's identity and the key.
+    std::string etag(const std::string& key) const;
+
+    // The stored texton's (or mix's) order: what admission costs a window at (not_found).
+    Result<int> order(const std::string& id, bool mix) const;
+    // The job of a tileable texture: the nearest whole number of cells, resampled to w x h.
+    Result<Job> tileable(const api::TileableRequest& t) const;
+
+    // The job's pixels, in the caller's slot.
+    Result<core::Image> render(const Job& job, const render::Cancel& cancel);
+    // The exemplar's power spectrum beside that of a window of its noise, on one log scale.
+    Result<core::Image> spectrum(const std::string& id, const api::NoiseParams& noise,
+                                 const render::Cancel& cancel);
+    // The image's bytes in `format`, tagged with the noise version and the id.
+    Result<std::string> encode(const core::Image& image, api::ImageFormat format,
+                               const std::string& id) const;
+
+private:
+    Result<core::Image> evaluate(const std::string& id, const render::NoiseRequest& q, bool mix,
+                                 bool whole_machine, const char* kind);
+    // Runs `evaluate` and adds its time to the render histogram of the backend it names.
+    Result<core::Image> timed(const char* kind,
+                              const std::function<Result<core::Image>(std::string*)>& evaluate);
+
+    TextonStore& m_textons;
+    MixStore& m_mixes;
+    render::Renderer& m_renderer;
+    Metrics& m_metrics;
+    const int m_png_compression;
+};
+
+} // namespace textond::http

@@ -1,0 +1,89 @@
+// The route table of api/openapi.yaml. cpp-httplib tries the routes of one method in the order
+// they were added, first match wins: the hot path (tiles) first, every specific route before the
+// /v1/textons/* and /v1/mixes/* fallbacks, and a catch-all POST last.
+#include "server/http/http_support.h"
+#include "server/http/service.h"
+
+namespace textond::http {
+
+namespace {
+using Req = const httplib::Request&;
+using Res = httplib::Response&;
+using Reader = const httplib::ContentReader&;
+
+// A handler that calls `method` of `group`.
+template <class Group>
+httplib::Server::Handler call(Group* group, void (Group::*method)(Req, Res)) {
+    return [group, method](Req req, Res res) { (group->*method)(req, res); };
+}
+template <class Group>
+httplib::Server::HandlerWithContentReader call(Group* group,
+                                               void (Group::*method)(Req, Res, Reader)) {
+    return [group, method](Req req, Res res, Reader reader) { (group->*method)(req, res, reader); };
+}
+} // namespace
+
+void Service::install_routes() {
+    install_get_routes();
+    TextonRoutes* t = m_texton_routes.get();
+    m_http.Post("/v1/textons", call(t, &TextonRoutes::upload));
+    m_http.Post(R"(/v1/textons/([^/]+)/surface)",
+                call(m_surface_routes.get(), &SurfaceRoutes::points));
+    m_http.Post(R"(/v1/textons/([^/]+)/mesh\.png)",
+                call(m_surface_routes.get(), &SurfaceRoutes::mesh));
+    // Content-reader fallbacks, so that cpp-httplib never reads a body nobody asked for.
+    m_http.Post(R"(/v1/textons/(.*))",
+                [](Req req, Res res, Reader) { TextonRoutes::fallback(req, res); });
+    m_http.Post("/v1/mixes", call(m_mix_routes.get(), &MixRoutes::create));
+    m_http.Post(R"(/v1/mixes/(.*))",
+                [](Req req, Res res, Reader) { MixRoutes::fallback(req, res); });
+    m_http.Post(R"(.*)", [](Req, Res res, Reader) {
+        set_route("unmatched");
+        send_error(res, {"not_found", "no such endpoint"});
+    });
+    m_http.Delete(R"(/v1/textons/([^/]+))", call(t, &TextonRoutes::remove));
+    m_http.Delete(R"(/v1/textons/(.*))", &TextonRoutes::fallback);
+}
+
+void Service::install_get_routes() {
+    ImageRoutes* i = m_image_routes.get();
+    using api::parse_map_tile;
+    using api::parse_tile;
+    m_http.Get(R"(/v1/mixes/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/region\.([a-z0-9]+))",
+               i->region("/v1/mixes/{id}/region.{format}", true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/tilejson\.json)",
+               [i](Req req, Res res) { i->tilejson(req, res, true); });
+    m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, false));
+    m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile("/v1/textons/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, false));
+    m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))",
+               i->region("/v1/textons/{id}/region.{format}", false));
+    m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", call(i, &ImageRoutes::tileable));
+    m_http.Get(R"(/v1/textons/([^/]+)/spectrum\.png)", call(i, &ImageRoutes::spectrum));
+    m_http.Get(R"(/v1/textons/([^/]+)/exemplar\.png)", call(i, &ImageRoutes::exemplar));
+    m_http.Get(R"(/v1/textons/([^/]+)/tilejson\.json)",
+               [i](Req req, Res res) { i->tilejson(req, res, false); });
+    TextonRoutes* t = m_texton_routes.get();
+    m_http.Get("/v1/textons", call(t, &TextonRoutes::list));
+    m_http.Get(R"(/v1/textons/([^/]+))", call(t, &TextonRoutes::get));
+    m_http.Get(R"(/v1/textons/([^/]+)/status)", call(t, &TextonRoutes::status));
+    m_http.Get(R"(/v1/textons/([^/]+)/kit\.tar)", call(t, &TextonRoutes::kit));
+    m_http.Get(R"(/v1/textons/([^/]+)/texton\.([a-z0-9]+))", call(t, &TextonRoutes::file));
+    m_http.Get(R"(/v1/textons/(.*))", &TextonRoutes::fallback);
+    m_http.Get(R"(/v1/mixes/([^/]+))", call(m_mix_routes.get(), &MixRoutes::get));
+    m_http.Get(R"(/v1/mixes/(.*))", &MixRoutes::fallback);
+    OpsRoutes* o = m_ops_routes.get();
+    m_http.Get("/healthz", &OpsRoutes::healthz);
+    m_http.Get("/readyz", call(o, &OpsRoutes::readyz));
+    m_http.Get("/metrics", call(o, &OpsRoutes::metrics));
+    m_http.Get("/v1/openapi.yaml", &OpsRoutes::openapi);
+    m_http.Get("/", call(o, &OpsRoutes::page));
+    m_http.Get(R"(/static/(.+))", call(o, &OpsRoutes::static_file));
+}
+
+} // namespace textond::http
