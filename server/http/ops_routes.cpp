@@ -52,7 +52,7 @@ void OpsRoutes::healthz(Req, Res res) {
 
 void OpsRoutes::readyz(Req, Res res) {
     set_route("/readyz");
-    const bool writable = m_store.writable();
+    const bool writable = m_store.local().writable();
     const bool ready = !m_stopping && writable;
     // A replica whose shared store is down still serves the textons it holds, so it stays in
     // the load balancer (were it to leave, every replica would leave at once) and says it is
@@ -82,8 +82,8 @@ void OpsRoutes::readyz(Req, Res res) {
                  {"calibration", calibration}}},
                {"store",
                 {{"writable", writable},
-                 {"textons", m_store.count()},
-                 {"quarantined", m_store.quarantined()},
+                 {"textons", m_store.local().count()},
+                 {"quarantined", m_store.local().quarantined()},
                  {"mixes_quarantined", m_mixes.quarantined()}}}},
               "no-store");
 }

@@ -158,11 +158,11 @@ void Service::add_gauges() {
         m.gauge("textond_shared_store_up", "1 when the shared texton store answers a PING.",
                 [store] { return store->shared()->ping() ? 1.0 : 0.0; });
     m.gauge("textond_store_textons", "Textons held in the local store (or cache).",
-            count([store] { return store->count(); }));
+            count([store] { return store->local().count(); }));
     m.gauge("textond_store_bytes", "Bytes of texton files in the store.",
-            count([store] { return store->bytes(); }));
+            count([store] { return store->local().bytes(); }));
     m.gauge("textond_store_quarantined", "Damaged texton files moved aside since start.",
-            count([store] { return store->quarantined().size(); }));
+            count([store] { return store->local().quarantined().size(); }));
     const MixStore* mixes = m_mixes.get();
     m.gauge("textond_mixes_quarantined", "Mixes refused at load (damaged or invalid) since start.",
             count([mixes] { return mixes->quarantined().size(); }));
