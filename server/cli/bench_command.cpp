@@ -49,6 +49,78 @@ double median_ms(const core::Image& u, const core::AnalysisParams& p, int repeat
     std::sort(ms.begin(), ms.end());
     return ms[ms.size() / 2];
 }
+// Analysis time on one thread and on all, by exemplar size (tiled past the exemplar's own).
+void timing_table(const core::Image& sand, const core::Image& gravel, int repeat, int nthreads) {
+    std::printf("Texton analysis time (median of %d runs; r = 64, order 1, 50 iterations)\n",
+                repeat);
+    std::printf("| exemplar size | channels | r  | iterations | ms (1 thread) | ms (%d threads) | "
+                "speed-up |\n",
+                nthreads);
+    std::printf("|---------------|----------|----|------------|---------------|----------------|---"
+                "-------|\n");
+    struct Row {
+        const core::Image* src;
+        int w, h;
+    };
+    const Row rows[] = {{&sand, 128, 128}, {&sand, 256, 256},   {&sand, 512, 512},
+                        {&sand, 768, 512}, {&gravel, 512, 512}, {&gravel, 768, 512}};
+    for (const Row& row : rows) {
+        const core::Image u = tile(*row.src, row.w, row.h);
+        core::AnalysisParams p;
+        p.threads = 1;
+        const double t1 = median_ms(u, p, repeat);
+        p.threads = nthreads;
+        const double tn = median_ms(u, p, repeat);
+        std::printf("| %4dx%-8d | %8d | %2d | %10d | %13.1f | %14.1f | %7.2fx |\n", row.w, row.h,
+                    u.channels, p.size, p.iterations, t1, tn, t1 / tn);
+        std::fflush(stdout);
+    }
+}
+
+// One exemplar's row: the analysed texton's RME (mean of 4 seeds) and the cropped canonical
+// texton's, before and after colour correction.
+Result<bool> rme_row(const std::filesystem::path& f, const core::Image& u, int nthreads) {
+    double rc = 0, ru = 0;
+    const int seeds = 4;
+    for (int s = 0; s < seeds; ++s) {
+        core::AnalysisParams p;
+        p.seed = static_cast<std::uint64_t>(s);
+        auto r = core::analyze_texton(u, p);
+        if (!r) return r.error();
+        rc += r.value().rme / seeds;
+        ru += r.value().rme_uncorrected / seeds;
+    }
+    const core::GaussianModel model =
+        core::estimate_gaussian_model(core::periodic_component(u, nthreads), nthreads);
+    core::Texton crop = core::cropped_canonical_texton(model, 64, 1, nthreads);
+    const double crop_rme = core::relative_model_error(model, crop.alpha, 1, 0, 0, nthreads);
+    core::apply_colour_matrix(
+        crop.alpha, core::colour_correction_matrix(model.covariance,
+                                                   core::texton_noise_covariance(crop.alpha, 1)));
+    const double crop_rme_c = core::relative_model_error(model, crop.alpha, 1, 0, 0, nthreads);
+    std::printf("| %s | %.3f | %.3f | %.3f | %.3f |\n", f.filename().string().c_str(), rc, ru,
+                crop_rme, crop_rme_c);
+    std::fflush(stdout);
+    return true;
+}
+
+int rme_table(const std::filesystem::path& dir, int nthreads) {
+    std::printf("\nRME of the analysed texton (SOT) and of the cropped canonical texton, r = 64, "
+                "order 1, 50 iterations, seeds 0-3\n");
+    std::printf("| exemplar | SOT RME (corrected) | SOT RME (uncorrected) | canonical crop RME | "
+                "canonical crop RME (corrected) |\n");
+    std::printf("|---|---|---|---|---|\n");
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        if (e.path().extension() == ".png") files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) {
+        auto u = io::decode_image_file(f.string());
+        if (!u) continue;
+        if (auto row = rme_row(f, u.value(), nthreads); !row) return fail(1, row.error().message);
+    }
+    return 0;
+}
 } // namespace
 
 int bench_command(const Argv& argv) {
@@ -74,67 +146,8 @@ int bench_command(const Argv& argv) {
     if (!sand || !gravel) return fail(1, "exemplars not found in " + dir.string());
 
     const int nthreads = core::resolve_threads(static_cast<int>(threads.value()));
-    std::printf("Texton analysis time (median of %lld runs; r = 64, order 1, 50 iterations)\n",
-                repeat.value());
-    std::printf("| exemplar size | channels | r  | iterations | ms (1 thread) | ms (%d threads) | "
-                "speed-up |\n",
-                nthreads);
-    std::printf("|---------------|----------|----|------------|---------------|----------------|---"
-                "-------|\n");
-    struct Row {
-        const core::Image* src;
-        int w, h;
-    };
-    const Row rows[] = {{&sand.value(), 128, 128},   {&sand.value(), 256, 256},
-                        {&sand.value(), 512, 512},   {&sand.value(), 768, 512},
-                        {&gravel.value(), 512, 512}, {&gravel.value(), 768, 512}};
-    for (const Row& row : rows) {
-        const core::Image u = tile(*row.src, row.w, row.h);
-        core::AnalysisParams p;
-        p.threads = 1;
-        const double t1 = median_ms(u, p, static_cast<int>(repeat.value()));
-        p.threads = nthreads;
-        const double tn = median_ms(u, p, static_cast<int>(repeat.value()));
-        std::printf("| %4dx%-8d | %8d | %2d | %10d | %13.1f | %14.1f | %7.2fx |\n", row.w, row.h,
-                    u.channels, p.size, p.iterations, t1, tn, t1 / tn);
-        std::fflush(stdout);
-    }
-
-    std::printf("\nRME of the analysed texton (SOT) and of the cropped canonical texton, r = 64, "
-                "order 1, 50 iterations, seeds 0-3\n");
-    std::printf("| exemplar | SOT RME (corrected) | SOT RME (uncorrected) | canonical crop RME | "
-                "canonical crop RME (corrected) |\n");
-    std::printf("|---|---|---|---|---|\n");
-    std::vector<std::filesystem::path> files;
-    for (const auto& e : std::filesystem::directory_iterator(dir))
-        if (e.path().extension() == ".png") files.push_back(e.path());
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files) {
-        auto u = io::decode_image_file(f.string());
-        if (!u) continue;
-        double rc = 0, ru = 0;
-        const int seeds = 4;
-        for (int s = 0; s < seeds; ++s) {
-            core::AnalysisParams p;
-            p.seed = static_cast<std::uint64_t>(s);
-            auto r = core::analyze_texton(u.value(), p);
-            if (!r) return fail(1, r.error().message);
-            rc += r.value().rme / seeds;
-            ru += r.value().rme_uncorrected / seeds;
-        }
-        const core::GaussianModel model =
-            core::estimate_gaussian_model(core::periodic_component(u.value(), nthreads), nthreads);
-        core::Texton crop = core::cropped_canonical_texton(model, 64, 1, nthreads);
-        const double crop_rme = core::relative_model_error(model, crop.alpha, 1, 0, 0, nthreads);
-        core::apply_colour_matrix(
-            crop.alpha, core::colour_correction_matrix(
-                            model.covariance, core::texton_noise_covariance(crop.alpha, 1)));
-        const double crop_rme_c = core::relative_model_error(model, crop.alpha, 1, 0, 0, nthreads);
-        std::printf("| %s | %.3f | %.3f | %.3f | %.3f |\n", f.filename().string().c_str(), rc, ru,
-                    crop_rme, crop_rme_c);
-        std::fflush(stdout);
-    }
-    return 0;
+    timing_table(sand.value(), gravel.value(), static_cast<int>(repeat.value()), nthreads);
+    return rme_table(dir, nthreads);
 }
 
 } // namespace textond::cli

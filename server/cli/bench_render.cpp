@@ -50,6 +50,301 @@ template <class F> double median_ms(int repeat, F&& f) {
     std::sort(ms.begin(), ms.end());
     return ms[ms.size() / 2];
 }
+
+using Prepared = std::shared_ptr<const render::PreparedTexton>;
+
+// What every table reads: the options, the backends and the cork texton of r = 64.
+struct Bench {
+    std::filesystem::path dir;
+    core::Image sand;
+    int repeat = 5, threads = 1, max_side = 3840;
+    std::vector<std::shared_ptr<render::Backend>> backends;
+    Prepared r64;
+};
+
+Result<Prepared> prepare(const core::Image& exemplar, int size, int order = 1) {
+    core::AnalysisParams p;
+    p.size = size;
+    p.order = order;
+    auto analysed = core::analyze_texton(exemplar, p);
+    if (!analysed) return analysed.error();
+    auto prepared = render::PreparedTexton::make(analysed.value().texton);
+    if (!prepared) return prepared.error();
+    return Prepared(prepared.value());
+}
+
+// Backends that cannot start here are named and skipped.
+Result<bool> open_backends(const std::string& names, Bench& b) {
+    std::stringstream list(names);
+    for (std::string name; std::getline(list, name, ',');) {
+        auto kind = render::parse_backend_kind(name);
+        if (!kind) return kind.error();
+        render::BackendOptions bo;
+        bo.threads = b.threads;
+        auto made = render::make_backend(kind.value(), bo);
+        if (!made) {
+            std::printf("(%s skipped: %s)\n", name.c_str(), made.error().message.c_str());
+            continue;
+        }
+        std::printf("%s: %s\n", name.c_str(), made.value().backend->renderer().c_str());
+        b.backends.push_back(made.value().backend);
+    }
+    return true;
+}
+
+struct Size {
+    int w, h;
+    const char* label;
+};
+
+// One row of the frame table: float frames (and their GPU time), then 8-bit frames on OpenGL.
+Result<bool> frame_row(const Bench& b, render::Backend& backend, const render::PreparedTexton& tex,
+                       int r, const Size& s, double adsn) {
+    render::NoiseRequest q;
+    q.width = s.w;
+    q.height = s.h;
+    q.seed = 1;
+    auto warm = backend.render(tex, q); // first use builds tables and uploads textures
+    if (!warm) return warm.error();
+    std::vector<double> gpu;
+    const double ms = median_ms(b.repeat, [&] {
+        ++q.seed;
+        render::RenderStats stats;
+        auto img = backend.render(tex, q, &stats);
+        gpu.push_back(stats.gpu_ms);
+    });
+    std::sort(gpu.begin(), gpu.end());
+    const double gpu_ms = gpu[gpu.size() / 2];
+    char gpu_text[32] = "-", u8_text[32] = "-";
+    if (gpu_ms >= 0) {
+        std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu_ms);
+        q.precision = render::Precision::u8;
+        const double ms8 = median_ms(b.repeat, [&] {
+            ++q.seed;
+            auto img = backend.render(tex, q);
+        });
+        std::snprintf(u8_text, sizeof u8_text, "%.2f", ms8);
+    }
+    std::printf("| %s | %d | %s | %.2f | %s | %s | %.2f | %.2fx |\n", backend.name().c_str(), r,
+                s.label, ms, gpu_text, u8_text, adsn, adsn / ms);
+    std::fflush(stdout);
+    return true;
+}
+
+// The paper's Table 1: frames of r = 64 and r = 256 textons against FFTW's ADSN; keeps r = 64.
+Result<bool> frames_table(Bench& b) {
+    const Size sizes[] = {{256, 256, "256x256"},
+                          {1024, 1024, "1024x1024"},
+                          {1920, 1080, "HD 1920x1080"},
+                          {3840, 2160, "4K 3840x2160"}};
+    std::printf("\nTexton noise, MNI 30, level 0, median of %d frames; ADSN = FFTW spectral "
+                "synthesis of the same texton and size (%d threads)\n",
+                b.repeat, b.threads);
+    std::printf(
+        "| backend | r | frame | ms/frame | GPU ms | ms as 8-bit | ADSN ms | ADSN / backend |\n");
+    std::printf("|---|---|---|---|---|---|---|---|\n");
+    for (int r : {64, 256}) {
+        auto prepared = prepare(b.sand, r);
+        if (!prepared) return prepared.error();
+        if (r == 64) b.r64 = prepared.value();
+        const auto& tex = *prepared.value();
+        for (const Size& s : sizes) {
+            if (s.w > b.max_side) continue;
+            const double adsn = median_ms(std::max(1, b.repeat / 2), [&] {
+                core::synthesize_from_texton(tex.texton(), core::SpectralMethod::adsn, s.w, s.h, 1,
+                                             b.threads);
+            });
+            for (const auto& backend : b.backends)
+                if (auto row = frame_row(b, *backend, tex, r, s, adsn); !row) return row;
+        }
+        std::printf("| | | | | | | | |\n");
+    }
+    return true;
+}
+
+// Milliseconds for 64 cold tiles, and the GPU's share (negative: not measured).
+std::pair<double, double> tiles_ms(const Bench& b, render::Backend& backend, bool batch) {
+    std::vector<render::NoiseRequest> qs(64);
+    std::uint64_t seed = 1;
+    std::vector<double> gpu;
+    const double ms = median_ms(b.repeat, [&] {
+        for (std::size_t t = 0; t < qs.size(); ++t) {
+            qs[t].x0 = 256 * static_cast<std::int64_t>(t % 8);
+            qs[t].y0 = 256 * static_cast<std::int64_t>(t / 8);
+            qs[t].seed = ++seed;
+            qs[t].precision = render::Precision::u8;
+        }
+        double sum = 0;
+        if (batch) {
+            render::RenderStats stats;
+            auto imgs = backend.render_many(*b.r64, qs, &stats);
+            sum = stats.gpu_ms;
+        } else {
+            for (const auto& q : qs) {
+                render::RenderStats stats;
+                auto img = backend.render(*b.r64, q, &stats);
+                sum += stats.gpu_ms;
+            }
+        }
+        gpu.push_back(sum);
+    });
+    std::sort(gpu.begin(), gpu.end());
+    return {ms, gpu[gpu.size() / 2]};
+}
+
+// What a tile server does: 64 cold 256x256 8-bit tiles of the r = 64 texton, one call each,
+// then as one batch (what concurrent requests become on a GL backend).
+void tiles_table(const Bench& b) {
+    std::printf("\n64 tiles of 256x256 as 8-bit (r = 64, MNI 30, level 0)\n");
+    std::printf(
+        "| backend | calls | ms for 64 | ms/tile | GPU ms for 64 |\n|---|---|---|---|---|\n");
+    for (const auto& backend : b.backends)
+        for (bool batch : {false, true}) {
+            if (batch && backend->name() == "cpu") continue; // no batches: the same calls
+            const auto [ms, gpu] = tiles_ms(b, *backend, batch);
+            char gpu_text[32] = "-";
+            if (gpu >= 0) std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu);
+            std::printf("| %s | %s | %.2f | %.3f | %s |\n", backend->name().c_str(),
+                        batch ? "one batch" : "64", ms, ms / 64, gpu_text);
+        }
+}
+
+Result<bool> levels_table(const Bench& b) {
+    std::printf("\nOne 256x256 tile by level (r = 64, MNI 30; levels >= 6 use the limit model)\n");
+    std::printf("| backend | level | ms/tile | ratio to level 0 |\n|---|---|---|---|\n");
+    for (const auto& backend : b.backends) {
+        double base = 0.0;
+        for (int level : {0, 3, 5, 6, 24}) {
+            render::NoiseRequest q;
+            q.level = level;
+            q.x0 = 12345;
+            q.y0 = -777;
+            auto warm = backend->render(*b.r64, q);
+            if (!warm) return warm.error();
+            const double ms = median_ms(b.repeat, [&] {
+                ++q.seed;
+                auto img = backend->render(*b.r64, q);
+            });
+            if (level == 0) base = ms;
+            std::printf("| %s | %d | %.2f | %.2fx |\n", backend->name().c_str(), level, ms,
+                        ms / base);
+        }
+    }
+    return true;
+}
+
+Result<bool> orders_table(const Bench& b) {
+    const int side = std::min(1024, b.max_side);
+    std::printf("\nOne %dx%d frame by interpolation order (r = 64, MNI 30, level 0)\n", side, side);
+    std::printf("| backend | order | ms/frame | ratio to order 1 |\n|---|---|---|---|\n");
+    Prepared by_order[4] = {nullptr, b.r64, nullptr, nullptr};
+    for (int order : {0, 3}) {
+        auto prepared = prepare(b.sand, 64, order);
+        if (!prepared) return prepared.error();
+        by_order[order] = prepared.value();
+    }
+    for (const auto& backend : b.backends) {
+        double base = 0.0;
+        for (int order : {1, 0, 3}) {
+            render::NoiseRequest q;
+            q.width = q.height = side;
+            auto warm = backend->render(*by_order[order], q);
+            if (!warm) return warm.error();
+            const double ms = median_ms(b.repeat, [&] {
+                ++q.seed;
+                auto img = backend->render(*by_order[order], q);
+            });
+            if (order == 1) base = ms;
+            std::printf("| %s | %d | %.2f | %.2fx |\n", backend->name().c_str(), order, ms,
+                        ms / base);
+        }
+    }
+    return true;
+}
+
+// A mix tile with 21 levels across it, and the time to build the levels.
+Result<bool> mix_rows(const Bench& b, render::CpuBackend& cpu1, render::NoiseRequest tile,
+                      double plain) {
+    auto other = io::decode_image_file((b.dir / "etr_pebbles04.png").string());
+    if (!other)
+        return make_error(ErrorCode::io, "etr_pebbles04.png not found in " + b.dir.string());
+    core::AnalysisParams p;
+    p.size = 64;
+    p.threads = b.threads;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto pair = core::common_models(b.sand, other.value(), true, b.threads);
+    if (!pair) return pair.error();
+    auto levels = core::mix_levels(pair.value(), p, core::kDefaultMixLevels);
+    if (!levels) return levels.error();
+    const double build =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    core::MixField f;
+    f.x0 = -128;
+    f.width = 256;
+    auto mix = render::PreparedMix::make(levels.value().levels, f);
+    if (!mix) return mix.error();
+    auto warm = cpu1.render_mix(*mix.value(), tile);
+    const double ms = median_ms(b.repeat, [&] {
+        ++tile.seed;
+        auto img = cpu1.render_mix(*mix.value(), tile);
+    });
+    std::printf("| mix tile, 21 levels across it | %.2f | %.2fx |\n", ms, ms / plain);
+    std::printf("| building the 21 levels (%d threads) | %.0f | %.0fx |\n", b.threads, build,
+                build / plain);
+    return true;
+}
+
+// Surface noise at as many points on a sphere as the tile has pixels.
+void surface_rows(const Bench& b, double plain) {
+    const int n = 65536;
+    std::vector<float> pts(3 * n), nrm(3 * n);
+    for (int i = 0; i < n; ++i) {
+        const double z = 1 - 2 * (i + 0.5) / n, rad = std::sqrt(1 - z * z), phi = i * 2.39996;
+        const float d[3] = {static_cast<float>(rad * std::cos(phi)),
+                            static_cast<float>(rad * std::sin(phi)), static_cast<float>(z)};
+        for (std::size_t k = 0; k < 3; ++k) {
+            pts[3 * static_cast<std::size_t>(i) + k] = 500 * d[k];
+            nrm[3 * static_cast<std::size_t>(i) + k] = d[k];
+        }
+    }
+    for (double mni : {30.0, 60.0}) {
+        render::SurfaceRequest sr;
+        sr.mni = mni;
+        const double ms = median_ms(b.repeat, [&] {
+            ++sr.seed;
+            auto c = render::evaluate_surface(b.r64->texton(), sr, pts, nrm, 1);
+        });
+        std::printf("| surface noise, 65536 points, MNI %.0f | %.2f | %.2fx |\n", mni, ms,
+                    ms / plain);
+    }
+}
+
+// Texture mixing and surface noise (CPU, one thread) against a plain 256x256 level-0 tile of
+// the same r = 64 texton, measured here too.
+Result<bool> cpu_table(const Bench& b) {
+    render::CpuBackend cpu1(1);
+    render::NoiseRequest tile;
+    tile.x0 = -128;
+    const double plain = median_ms(b.repeat, [&] {
+        ++tile.seed;
+        auto img = cpu1.render(*b.r64, tile);
+    });
+    std::printf("\nCPU, one thread: a 256x256 tile of the r = 64 texton (%.2f ms) against\n",
+                plain);
+    std::printf("| what | ms | ratio to the plain tile |\n|---|---|---|\n");
+    if (auto rows = mix_rows(b, cpu1, tile, plain); !rows) return rows;
+    surface_rows(b, plain);
+    return true;
+}
+
+Result<bool> run_tables(Bench& b) {
+    if (auto r = frames_table(b); !r) return r;
+    tiles_table(b);
+    if (auto r = levels_table(b); !r) return r;
+    if (auto r = orders_table(b); !r) return r;
+    return cpu_table(b);
+}
+
 } // namespace
 
 int bench_render_command(const Argv& argv) {
@@ -65,245 +360,17 @@ int bench_render_command(const Argv& argv) {
     auto threads = a.get_int("--threads", 0, 0, 256);
     auto max_side = a.get_int("--max-side", 3840, 1, 16384);
     if (!repeat || !threads || !max_side) return fail(2, "bad --repeat, --threads or --max-side");
-    const std::filesystem::path dir = a.get("--exemplars", "../shared/data/exemplars");
-    auto sand = io::decode_image_file((dir / "mypaint_HR_Cork.png").string());
-    if (!sand) return fail(1, "exemplars not found in " + dir.string());
-    const int nthreads = core::resolve_threads(static_cast<int>(threads.value()));
-
-    std::vector<std::shared_ptr<render::Backend>> backends;
-    std::stringstream list(a.get("--backends", "cpu,egl"));
-    for (std::string name; std::getline(list, name, ',');) {
-        auto kind = render::parse_backend_kind(name);
-        if (!kind) return fail(2, kind.error().message);
-        render::BackendOptions bo;
-        bo.threads = nthreads;
-        auto b = render::make_backend(kind.value(), bo);
-        if (!b) {
-            std::printf("(%s skipped: %s)\n", name.c_str(), b.error().message.c_str());
-            continue;
-        }
-        std::printf("%s: %s\n", name.c_str(), b.value().backend->renderer().c_str());
-        backends.push_back(b.value().backend);
-    }
-
-    struct Size {
-        int w, h;
-        const char* label;
-    };
-    const Size sizes[] = {{256, 256, "256x256"},
-                          {1024, 1024, "1024x1024"},
-                          {1920, 1080, "HD 1920x1080"},
-                          {3840, 2160, "4K 3840x2160"}};
-    std::printf("\nTexton noise, MNI 30, level 0, median of %lld frames; ADSN = FFTW spectral "
-                "synthesis of the same texton and size (%d threads)\n",
-                repeat.value(), nthreads);
-    std::printf(
-        "| backend | r | frame | ms/frame | GPU ms | ms as 8-bit | ADSN ms | ADSN / backend |\n");
-    std::printf("|---|---|---|---|---|---|---|---|\n");
-    std::shared_ptr<const render::PreparedTexton> r64; // reused by the table by level
-    for (int r : {64, 256}) {
-        core::AnalysisParams p;
-        p.size = r;
-        auto analysed = core::analyze_texton(sand.value(), p);
-        if (!analysed) return fail(1, analysed.error().message);
-        auto prepared = render::PreparedTexton::make(analysed.value().texton);
-        if (!prepared) return fail(1, prepared.error().message);
-        if (r == 64) r64 = prepared.value();
-        const auto& tex = *prepared.value();
-        for (const Size& s : sizes) {
-            if (s.w > max_side.value()) continue;
-            const double adsn =
-                median_ms(std::max<int>(1, static_cast<int>(repeat.value()) / 2), [&] {
-                    core::synthesize_from_texton(tex.texton(), core::SpectralMethod::adsn, s.w, s.h,
-                                                 1, nthreads);
-                });
-            for (const auto& b : backends) {
-                render::NoiseRequest q;
-                q.width = s.w;
-                q.height = s.h;
-                q.seed = 1;
-                auto warm = b->render(tex, q); // first use builds tables and uploads textures
-                if (!warm) return fail(1, warm.error().message);
-                std::vector<double> gpu;
-                const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
-                    ++q.seed;
-                    render::RenderStats stats;
-                    auto img = b->render(tex, q, &stats);
-                    gpu.push_back(stats.gpu_ms);
-                });
-                std::sort(gpu.begin(), gpu.end());
-                const double gpu_ms = gpu[gpu.size() / 2];
-                char gpu_text[32] = "-", u8_text[32] = "-";
-                if (gpu_ms >= 0) {
-                    std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu_ms);
-                    q.precision = render::Precision::u8;
-                    const double ms8 = median_ms(static_cast<int>(repeat.value()), [&] {
-                        ++q.seed;
-                        auto img = b->render(tex, q);
-                    });
-                    std::snprintf(u8_text, sizeof u8_text, "%.2f", ms8);
-                }
-                std::printf("| %s | %d | %s | %.2f | %s | %s | %.2f | %.2fx |\n", b->name().c_str(),
-                            r, s.label, ms, gpu_text, u8_text, adsn, adsn / ms);
-                std::fflush(stdout);
-            }
-        }
-        std::printf("| | | | | | | | |\n");
-    }
-    // What a tile server does: 64 cold 256x256 8-bit tiles of the r = 64 texton, one call each,
-    // then as one batch (what concurrent requests become on a GL backend).
-    std::printf("\n64 tiles of 256x256 as 8-bit (r = 64, MNI 30, level 0)\n");
-    std::printf(
-        "| backend | calls | ms for 64 | ms/tile | GPU ms for 64 |\n|---|---|---|---|---|\n");
-    for (const auto& b : backends)
-        for (bool batch : {false, true}) {
-            if (batch && b->name() == "cpu") continue; // the CPU has no batches: the same calls
-            std::vector<render::NoiseRequest> qs(64);
-            std::uint64_t seed = 1;
-            std::vector<double> gpu;
-            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
-                for (int t = 0; t < 64; ++t) {
-                    qs[static_cast<std::size_t>(t)].x0 = 256 * (t % 8);
-                    qs[static_cast<std::size_t>(t)].y0 = 256 * (t / 8);
-                    qs[static_cast<std::size_t>(t)].seed = ++seed;
-                    qs[static_cast<std::size_t>(t)].precision = render::Precision::u8;
-                }
-                double sum = 0;
-                if (batch) {
-                    render::RenderStats stats;
-                    auto imgs = b->render_many(*r64, qs, &stats);
-                    sum = stats.gpu_ms;
-                } else {
-                    for (const auto& q : qs) {
-                        render::RenderStats stats;
-                        auto img = b->render(*r64, q, &stats);
-                        sum += stats.gpu_ms;
-                    }
-                }
-                gpu.push_back(sum);
-            });
-            std::sort(gpu.begin(), gpu.end());
-            char gpu_text[32] = "-";
-            if (gpu[gpu.size() / 2] >= 0)
-                std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu[gpu.size() / 2]);
-            std::printf("| %s | %s | %.2f | %.3f | %s |\n", b->name().c_str(),
-                        batch ? "one batch" : "64", ms, ms / 64, gpu_text);
-        }
-
-    std::printf("\nOne 256x256 tile by level (r = 64, MNI 30; levels >= 6 use the limit model)\n");
-    std::printf("| backend | level | ms/tile | ratio to level 0 |\n|---|---|---|---|\n");
-    for (const auto& b : backends) {
-        double base = 0.0;
-        for (int level : {0, 3, 5, 6, 24}) {
-            render::NoiseRequest q;
-            q.level = level;
-            q.x0 = 12345;
-            q.y0 = -777;
-            auto warm = b->render(*r64, q);
-            if (!warm) return fail(1, warm.error().message);
-            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
-                ++q.seed;
-                auto img = b->render(*r64, q);
-            });
-            if (level == 0) base = ms;
-            std::printf("| %s | %d | %.2f | %.2fx |\n", b->name().c_str(), level, ms, ms / base);
-        }
-    }
-
-    const int order_side = std::min(1024, static_cast<int>(max_side.value()));
-    std::printf("\nOne %dx%d frame by interpolation order (r = 64, MNI 30, level 0)\n", order_side,
-                order_side);
-    std::printf("| backend | order | ms/frame | ratio to order 1 |\n|---|---|---|---|\n");
-    std::shared_ptr<const render::PreparedTexton> by_order[4] = {nullptr, r64, nullptr, nullptr};
-    for (int order : {0, 3}) {
-        core::AnalysisParams p;
-        p.size = 64;
-        p.order = order;
-        auto analysed = core::analyze_texton(sand.value(), p);
-        if (!analysed) return fail(1, analysed.error().message);
-        auto prepared = render::PreparedTexton::make(analysed.value().texton);
-        if (!prepared) return fail(1, prepared.error().message);
-        by_order[order] = prepared.value();
-    }
-    for (const auto& b : backends) {
-        double base = 0.0;
-        for (int order : {1, 0, 3}) {
-            render::NoiseRequest q;
-            q.width = q.height = order_side;
-            auto warm = b->render(*by_order[order], q);
-            if (!warm) return fail(1, warm.error().message);
-            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
-                ++q.seed;
-                auto img = b->render(*by_order[order], q);
-            });
-            if (order == 1) base = ms;
-            std::printf("| %s | %d | %.2f | %.2fx |\n", b->name().c_str(), order, ms, ms / base);
-        }
-    }
-
-    // Texture mixing and surface noise (CPU): against a plain 256x256 level-0 tile of the same
-    // r = 64 texton, measured here too.
-    auto other = io::decode_image_file((dir / "etr_pebbles04.png").string());
-    if (!other) return fail(1, "etr_pebbles04.png not found in " + dir.string());
-    render::CpuBackend cpu1(1);
-    render::NoiseRequest tile;
-    tile.x0 = -128;
-    const double plain = median_ms(static_cast<int>(repeat.value()), [&] {
-        ++tile.seed;
-        auto img = cpu1.render(*r64, tile);
-    });
-    std::printf("\nCPU, one thread: a 256x256 tile of the r = 64 texton (%.2f ms) against\n",
-                plain);
-    std::printf("| what | ms | ratio to the plain tile |\n|---|---|---|\n");
-    {
-        core::AnalysisParams p;
-        p.size = 64;
-        p.threads = nthreads;
-        const auto t0 = std::chrono::steady_clock::now();
-        auto pair = core::common_models(sand.value(), other.value(), true, nthreads);
-        if (!pair) return fail(1, pair.error().message);
-        auto levels = core::mix_levels(pair.value(), p, core::kDefaultMixLevels);
-        if (!levels) return fail(1, levels.error().message);
-        const double build =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                .count();
-        core::MixField f;
-        f.x0 = -128;
-        f.width = 256;
-        auto mix = render::PreparedMix::make(levels.value().levels, f);
-        if (!mix) return fail(1, mix.error().message);
-        auto warm = cpu1.render_mix(*mix.value(), tile);
-        const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
-            ++tile.seed;
-            auto img = cpu1.render_mix(*mix.value(), tile);
-        });
-        std::printf("| mix tile, 21 levels across it | %.2f | %.2fx |\n", ms, ms / plain);
-        std::printf("| building the 21 levels (%d threads) | %.0f | %.0fx |\n", nthreads, build,
-                    build / plain);
-    }
-    {
-        const int n = 65536; // as many points as the tile has pixels
-        std::vector<float> pts(3 * n), nrm(3 * n);
-        for (int i = 0; i < n; ++i) {
-            const double z = 1 - 2 * (i + 0.5) / n, rad = std::sqrt(1 - z * z), phi = i * 2.39996;
-            const float d[3] = {static_cast<float>(rad * std::cos(phi)),
-                                static_cast<float>(rad * std::sin(phi)), static_cast<float>(z)};
-            for (int k = 0; k < 3; ++k) {
-                pts[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)] = 500 * d[k];
-                nrm[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)] = d[k];
-            }
-        }
-        for (double mni : {30.0, 60.0}) {
-            render::SurfaceRequest sr;
-            sr.mni = mni;
-            const double ms = median_ms(static_cast<int>(repeat.value()), [&] {
-                ++sr.seed;
-                auto c = render::evaluate_surface(r64->texton(), sr, pts, nrm, 1);
-            });
-            std::printf("| surface noise, 65536 points, MNI %.0f | %.2f | %.2fx |\n", mni, ms,
-                        ms / plain);
-        }
-    }
+    Bench b;
+    b.dir = a.get("--exemplars", "../shared/data/exemplars");
+    auto sand = io::decode_image_file((b.dir / "mypaint_HR_Cork.png").string());
+    if (!sand) return fail(1, "exemplars not found in " + b.dir.string());
+    b.sand = std::move(sand.value());
+    b.repeat = static_cast<int>(repeat.value());
+    b.max_side = static_cast<int>(max_side.value());
+    b.threads = core::resolve_threads(static_cast<int>(threads.value()));
+    if (auto opened = open_backends(a.get("--backends", "cpu,egl"), b); !opened)
+        return fail(2, opened.error().message);
+    if (auto ran = run_tables(b); !ran) return fail(1, ran.error().message);
     return 0;
 }
 

@@ -2,6 +2,7 @@
 #include "render/cpu_backend.h"
 #include "server/cli/analysis_options.h"
 #include "server/cli/commands.h"
+#include "server/cli/window_options.h"
 #include "server/io/image_io.h"
 
 #include <nlohmann/json.hpp>
@@ -52,6 +53,46 @@ Result<std::vector<double>> numbers(const std::string& text, std::size_t n, cons
                           std::string(what) + " takes " + std::to_string(n) + " numbers");
     return v;
 }
+
+// The mixing field: a horizontal ramp across the window in texels unless --ramp or --mask.
+// Errors carry the exit code they deserve: invalid_argument (2) or io (1).
+Result<core::MixField> field_from(const Args& a, const render::NoiseRequest& q,
+                                  const io::DecodeLimits& limits) {
+    core::MixField field;
+    const double texels = std::ldexp(1.0, q.level);
+    field.x0 = static_cast<double>(q.x0) * texels;
+    field.width = std::max(1.0, q.width * texels);
+    if (a.has("--ramp") && a.has("--mask"))
+        return make_error(ErrorCode::invalid_argument, "--ramp and --mask exclude each other");
+    auto scale = a.get_double("--mask-scale", 1.0, 1.0 / 16, 1e9);
+    if (!scale) return scale.error();
+    if (a.has("--ramp")) {
+        auto r = numbers(a.get("--ramp"), 5, "--ramp");
+        if (!r) return r.error();
+        field.x0 = r.value()[0];
+        field.y0 = r.value()[1];
+        field.dx = r.value()[2];
+        field.dy = r.value()[3];
+        field.width = r.value()[4];
+    } else if (a.has("--mask")) {
+        auto img = io::decode_image_file(a.get("--mask"), limits);
+        if (!img) return make_error(ErrorCode::io, img.error().message);
+        field.kind = core::MixField::Kind::mask;
+        field.mask = core::mask_from_image(img.value());
+        auto o = numbers(a.get("--mask-origin", "0,0"), 2, "--mask-origin");
+        if (!o) return o.error();
+        field.x0 = o.value()[0];
+        field.y0 = o.value()[1];
+        field.scale = scale.value();
+    }
+    if (auto err = field.validate()) return *err;
+    return field;
+}
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 } // namespace
 
 int mix_command(const Argv& argv) {
@@ -76,53 +117,12 @@ int mix_command(const Argv& argv) {
     auto encoding = output_encoding_from(a);
     if (!encoding) return fail(2, encoding.error().message);
     auto levels = a.get_int("--levels", core::kDefaultMixLevels, 2, core::kMaxMixLevels);
-    auto x = a.get_int("--x", 0, INT64_MIN, INT64_MAX);
-    auto y = a.get_int("--y", 0, INT64_MIN, INT64_MAX);
-    auto w = a.get_int("--w", 1024, 1, render::kMaxWindowSide);
-    auto h = a.get_int("--h", 256, 1, render::kMaxWindowSide);
-    auto lod = a.get_int("--lod", 0, -4, 24);
-    auto mni = a.get_double("--mni", render::kDefaultMni, 1.0, 200.0);
-    auto scale = a.get_double("--mask-scale", 1.0, 1.0 / 16, 1e9);
-    for (const Error* e :
-         {levels ? nullptr : &levels.error(), x ? nullptr : &x.error(), y ? nullptr : &y.error(),
-          w ? nullptr : &w.error(), h ? nullptr : &h.error(), lod ? nullptr : &lod.error(),
-          mni ? nullptr : &mni.error(), scale ? nullptr : &scale.error()})
-        if (e) return fail(2, e->message);
-    render::NoiseRequest q;
-    q.x0 = x.value();
-    q.y0 = y.value();
-    q.width = static_cast<int>(w.value());
-    q.height = static_cast<int>(h.value());
-    q.level = static_cast<int>(lod.value());
-    q.seed = params.value().seed;
-    q.mni = mni.value();
-
-    // Default field: a horizontal ramp across the window, in texels.
-    core::MixField field;
-    const double texels = std::ldexp(1.0, q.level);
-    field.x0 = static_cast<double>(q.x0) * texels;
-    field.width = std::max(1.0, q.width * texels);
-    if (a.has("--ramp") && a.has("--mask")) return fail(2, "--ramp and --mask exclude each other");
-    if (a.has("--ramp")) {
-        auto r = numbers(a.get("--ramp"), 5, "--ramp");
-        if (!r) return fail(2, r.error().message);
-        field.x0 = r.value()[0];
-        field.y0 = r.value()[1];
-        field.dx = r.value()[2];
-        field.dy = r.value()[3];
-        field.width = r.value()[4];
-    } else if (a.has("--mask")) {
-        auto img = io::decode_image_file(a.get("--mask"), limits.value());
-        if (!img) return fail(1, img.error().message);
-        field.kind = core::MixField::Kind::mask;
-        field.mask = core::mask_from_image(img.value());
-        auto o = numbers(a.get("--mask-origin", "0,0"), 2, "--mask-origin");
-        if (!o) return fail(2, o.error().message);
-        field.x0 = o.value()[0];
-        field.y0 = o.value()[1];
-        field.scale = scale.value();
-    }
-    if (auto err = field.validate()) return fail(2, err->message);
+    if (!levels) return fail(2, levels.error().message);
+    auto q = window_from(a, 1024, 256);
+    if (!q) return fail(2, q.error().message);
+    q.value().seed = params.value().seed;
+    auto field = field_from(a, q.value(), limits.value());
+    if (!field) return fail(field.error().code == ErrorCode::io ? 1 : 2, field.error().message);
 
     auto u = io::decode_image_file(a.positional[0], limits.value());
     if (!u) return fail(1, u.error().message);
@@ -135,25 +135,23 @@ int mix_command(const Argv& argv) {
     auto mixed = core::mix_levels(pair.value(), params.value(), static_cast<int>(levels.value()),
                                   progress_reporter("mix", "level"));
     if (!mixed) return fail(1, mixed.error().message);
-    const double analysis_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    auto prepared = render::PreparedMix::make(mixed.value().levels, field);
+    const double analysis_ms = ms_since(t0);
+    auto prepared = render::PreparedMix::make(mixed.value().levels, field.value());
     if (!prepared) return fail(1, prepared.error().message);
-    if (auto err = prepared.value()->check(q)) return fail(2, err->message);
+    if (auto err = prepared.value()->check(q.value())) return fail(2, err->message);
     render::CpuBackend cpu(params.value().threads);
     const auto t1 = std::chrono::steady_clock::now();
-    auto image = cpu.render_mix(*prepared.value(), q);
-    const double render_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+    auto image = cpu.render_mix(*prepared.value(), q.value());
+    const double render_ms = ms_since(t1);
     if (!image) return fail(1, image.error().message);
     auto written = io::encode_image_file(image.value(), a.get("--output"), encoding.value(),
                                          {{"textond:noise", render::kNoiseVersion}});
     if (!written) return fail(1, written.error().message);
     nlohmann::json j = {
-        {"levels", levels.value()}, {"grid", {pair.value().u.width, pair.value().u.height}},
-        {"rme", mixed.value().rme}, {"analysis_ms", analysis_ms},
-        {"render_ms", render_ms},   {"width", q.width},
-        {"height", q.height},       {"output", a.get("--output")}};
+        {"levels", levels.value()},   {"grid", {pair.value().u.width, pair.value().u.height}},
+        {"rme", mixed.value().rme},   {"analysis_ms", analysis_ms},
+        {"render_ms", render_ms},     {"width", q.value().width},
+        {"height", q.value().height}, {"output", a.get("--output")}};
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
 }

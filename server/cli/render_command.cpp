@@ -2,6 +2,7 @@
 #include "server/cli/analysis_options.h"
 #include "server/cli/commands.h"
 #include "server/cli/texton_input.h"
+#include "server/cli/window_options.h"
 #include "server/io/image_io.h"
 
 #include <nlohmann/json.hpp>
@@ -39,30 +40,15 @@ int render_command(const Argv& argv) {
                                       {"--png16"});
     if (auto* code = std::get_if<int>(&parsed)) return *code;
     const Args& a = std::get<Args>(parsed);
-    render::NoiseRequest q;
-    {
-        auto x = a.get_int("--x", 0, INT64_MIN, INT64_MAX);
-        auto y = a.get_int("--y", 0, INT64_MIN, INT64_MAX);
-        auto w = a.get_int("--w", 512, 1, render::kMaxWindowSide);
-        auto h = a.get_int("--h", 512, 1, render::kMaxWindowSide);
-        auto lod = a.get_int("--lod", 0, -4, 24);
-        auto seed = a.get_u64("--seed", 0);
-        auto mni = a.get_double("--mni", render::kDefaultMni, 1.0, 200.0);
-        auto period = a.get_int("--period", 0, 0, 1 << 20);
-        for (const Error* e : {x ? nullptr : &x.error(), y ? nullptr : &y.error(),
-                               w ? nullptr : &w.error(), h ? nullptr : &h.error(),
-                               lod ? nullptr : &lod.error(), seed ? nullptr : &seed.error(),
-                               mni ? nullptr : &mni.error(), period ? nullptr : &period.error()})
-            if (e) return fail(2, e->message);
-        q.x0 = x.value();
-        q.y0 = y.value();
-        q.width = static_cast<int>(w.value());
-        q.height = static_cast<int>(h.value());
-        q.level = static_cast<int>(lod.value());
-        q.seed = seed.value();
-        q.mni = mni.value();
-        q.period = {period.value(), period.value()};
-    }
+    auto window = window_from(a, 512, 512);
+    if (!window) return fail(2, window.error().message);
+    render::NoiseRequest q = window.value();
+    auto seed = a.get_u64("--seed", 0);
+    if (!seed) return fail(2, seed.error().message);
+    auto period = a.get_int("--period", 0, 0, 1 << 20);
+    if (!period) return fail(2, period.error().message);
+    q.seed = seed.value();
+    q.period = {period.value(), period.value()};
     auto kind = render::parse_backend_kind(a.get("--backend", "auto"));
     if (!kind) return fail(2, kind.error().message);
     auto threads = a.get_int("--render-threads", 0, 0, 256);

@@ -137,8 +137,8 @@ Argv with_environment(const Argv& argv) {
     return merged;
 }
 
-Result<http::ServeConfig> config_from(const Args& a) {
-    http::ServeConfig c;
+// The numeric flags, each in its range; sizes are given in MB or kB and kept in bytes.
+std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
     auto num = [&](const char* name, long long fallback, long long lo, long long hi,
                    auto& out) -> std::optional<Error> {
         auto v = a.get_int(name, fallback, lo, hi);
@@ -181,7 +181,7 @@ Result<http::ServeConfig> config_from(const Args& a) {
           num("--max-request-cpu-s", cpu_s, 1, 86400, cpu_s),
           num("--render-deadline-s", c.render_deadline_s, 1, 86400, c.render_deadline_s),
           num("--body-budget-mb", body_budget_mb, 1, 1 << 20, body_budget_mb)})
-        if (err) return *err;
+        if (err) return err;
     c.cache_bytes = static_cast<std::size_t>(cache_mb) << 20;
     c.max_upload_bytes = static_cast<std::size_t>(upload_mb) << 20;
     c.max_pixels = static_cast<std::uint64_t>(max_pixels);
@@ -189,9 +189,29 @@ Result<http::ServeConfig> config_from(const Args& a) {
     c.body_budget_bytes = static_cast<std::size_t>(body_budget_mb) << 20;
     c.max_request_cpu_s = static_cast<double>(cpu_s);
     if (c.body_budget_bytes < c.max_upload_bytes)
-        return make_error(ErrorCode::invalid_argument,
-                          "--body-budget-mb must be at least --max-upload-mb");
+        return Error{ErrorCode::invalid_argument,
+                     "--body-budget-mb must be at least --max-upload-mb"};
     if (c.max_connections < c.http_threads) c.max_connections = c.http_threads;
+    return std::nullopt;
+}
+
+// The upload formats: a subset of the decoders we allow.
+std::optional<Error> read_formats(const Args& a, http::ServeConfig& c) {
+    if (!a.options.count("--formats")) return std::nullopt;
+    c.formats = http::split_list(a.get("--formats"));
+    const std::vector<std::string> known = {"png", "jpeg", "tiff", "openexr", "bmp"};
+    for (const auto& f : c.formats)
+        if (std::find(known.begin(), known.end(), f) == known.end())
+            return Error{ErrorCode::invalid_argument,
+                         "--formats: unknown format '" + f + "' (png, jpeg, tiff, openexr, bmp)"};
+    if (c.formats.empty())
+        return Error{ErrorCode::invalid_argument, "--formats: name at least one format"};
+    return std::nullopt;
+}
+
+Result<http::ServeConfig> config_from(const Args& a) {
+    http::ServeConfig c;
+    if (auto err = read_numbers(a, c)) return *err;
     c.host = a.get("--host", c.host);
     c.data_dir = a.get("--data", c.data_dir);
     c.store_url = a.get("--store", c.store_url);
@@ -206,21 +226,38 @@ Result<http::ServeConfig> config_from(const Args& a) {
     auto kind = render::parse_backend_kind(a.get("--backend", "auto"));
     if (!kind) return kind.error();
     c.backend = kind.value();
-    if (a.options.count("--formats")) {
-        c.formats = http::split_list(a.get("--formats"));
-        const std::vector<std::string> known = {"png", "jpeg", "tiff", "openexr", "bmp"};
-        for (const auto& f : c.formats)
-            if (std::find(known.begin(), known.end(), f) == known.end())
-                return make_error(ErrorCode::invalid_argument,
-                                  "--formats: unknown format '" + f +
-                                      "' (png, jpeg, tiff, openexr, bmp)");
-        if (c.formats.empty())
-            return make_error(ErrorCode::invalid_argument, "--formats: name at least one format");
-    }
+    if (auto err = read_formats(a, c)) return *err;
     if (spdlog::level::from_str(c.log_level) == spdlog::level::off && c.log_level != "off")
         return make_error(ErrorCode::invalid_argument,
                           "--log-level must be trace, debug, info, warn, error or off");
     return c;
+}
+
+void tune_malloc() {
+    // Cached tiles (about 200 kB each) live long and die out of order. glibc raises its mmap
+    // threshold after the first such free and then carves them from per-thread arenas, which
+    // fragment: a replica grew 96 MiB beyond a full 64 MiB cache in a 60-second soak. Fixed at
+    // 128 kB, every tile buffer is its own mapping and goes back to the system when evicted
+    // (2 MiB of growth in the same soak; tests/load/replicas_test.sh).
+    ::mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+    // Fixing the mmap threshold also fixes the trim threshold at its 128 kB default: each
+    // thread's arena then gave its top back (madvise, a TLB shootdown on every core) and faulted
+    // it in again for the next tile's small buffers, a third of the server's CPU per cold tile
+    // (issue 20: 4.0 -> 2.1 CPU-ms/tile under load_test.sh). 1 MiB kept per arena (glibc makes at
+    // most 8 per core) ends that.
+    ::mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
+}
+
+// Signals are taken by one thread with sigwait, never by a handler in a random thread: they are
+// blocked before any thread starts so every thread inherits the mask.
+sigset_t block_stop_signals() {
+    sigset_t stop_signals;
+    sigemptyset(&stop_signals);
+    sigaddset(&stop_signals, SIGINT);
+    sigaddset(&stop_signals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+    std::signal(SIGPIPE, SIG_IGN);
+    return stop_signals;
 }
 
 } // namespace
@@ -237,30 +274,12 @@ int serve_command(const Argv& argv) {
     }
     if (!args.value().positional.empty())
         return fail(2, "serve takes no positional arguments (see textond serve --help)");
-    // Cached tiles (about 200 kB each) live long and die out of order. glibc raises its mmap
-    // threshold after the first such free and then carves them from per-thread arenas, which
-    // fragment: a replica grew 96 MiB beyond a full 64 MiB cache in a 60-second soak. Fixed at
-    // 128 kB, every tile buffer is its own mapping and goes back to the system when evicted
-    // (2 MiB of growth in the same soak; tests/load/replicas_test.sh).
-    ::mallopt(M_MMAP_THRESHOLD, 128 * 1024);
-    // Fixing the mmap threshold also fixes the trim threshold at its 128 kB default: each
-    // thread's arena then gave its top back (madvise, a TLB shootdown on every core) and faulted
-    // it in again for the next tile's small buffers, a third of the server's CPU per cold tile
-    // (issue 20: 4.0 -> 2.1 CPU-ms/tile under load_test.sh). 1 MiB kept per arena (glibc makes at
-    // most 8 per core) ends that.
-    ::mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
+    tune_malloc();
     auto config = config_from(args.value());
     if (!config) return fail(2, config.error().message);
     spdlog::set_level(spdlog::level::from_str(config.value().log_level));
 
-    // Signals are taken by one thread with sigwait, never by a handler in a random thread:
-    // block them before any thread starts so every thread inherits the mask.
-    sigset_t stop_signals;
-    sigemptyset(&stop_signals);
-    sigaddset(&stop_signals, SIGINT);
-    sigaddset(&stop_signals, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
-    std::signal(SIGPIPE, SIG_IGN);
+    const sigset_t stop_signals = block_stop_signals();
 
     auto service = http::Service::create(config.value());
     if (!service) return fail(1, service.error().message);

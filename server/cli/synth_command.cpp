@@ -31,18 +31,20 @@ Reference syntheses. INPUT is an exemplar image or a texton file written by `tex
 )";
 constexpr long long kMaxSide = 16384;
 constexpr long long kMaxOutputPixels = 64LL * 1024 * 1024;
-} // namespace
 
-int synth_command(const Argv& argv) {
-    // --seed is shared with the analysis options: one seed drives both.
-    auto parsed = parse_input_command(
-        argv, "synth", kHelp, "INPUT", true,
-        {"--output", "--method", "--width", "--height", "--mni", "--x0", "--y0"}, {"--png16"});
-    if (auto* code = std::get_if<int>(&parsed)) return *code;
-    const Args& a = std::get<Args>(parsed);
-    const std::string method = a.get("--method", "");
-    if (method != "adsn" && method != "rpn" && method != "dsn")
-        return fail(2, "--method must be adsn, rpn or dsn");
+struct Synthesis {
+    std::string method; // adsn | rpn | dsn
+    int width = 512, height = 512;
+    std::uint64_t seed = 0;
+    double mni = 30.0;
+    std::int64_t x0 = 0, y0 = 0;
+};
+
+Result<Synthesis> synthesis_from(const Args& a) {
+    Synthesis s;
+    s.method = a.get("--method", "");
+    if (s.method != "adsn" && s.method != "rpn" && s.method != "dsn")
+        return make_error(ErrorCode::invalid_argument, "--method must be adsn, rpn or dsn");
     auto width = a.get_int("--width", 512, 1, kMaxSide);
     auto height = a.get_int("--height", 512, 1, kMaxSide);
     auto seed = a.get_u64("--seed", 0);
@@ -52,49 +54,68 @@ int synth_command(const Argv& argv) {
     for (const Error* e : {width ? nullptr : &width.error(), height ? nullptr : &height.error(),
                            seed ? nullptr : &seed.error(), mni ? nullptr : &mni.error(),
                            x0 ? nullptr : &x0.error(), y0 ? nullptr : &y0.error()})
-        if (e) return fail(2, e->message);
+        if (e) return *e;
     if (width.value() * height.value() > kMaxOutputPixels)
-        return fail(2, "output over " + std::to_string(kMaxOutputPixels) + " pixels");
+        return make_error(ErrorCode::invalid_argument,
+                          "output over " + std::to_string(kMaxOutputPixels) + " pixels");
+    s.width = static_cast<int>(width.value());
+    s.height = static_cast<int>(height.value());
+    s.seed = seed.value();
+    s.mni = mni.value();
+    s.x0 = x0.value();
+    s.y0 = y0.value();
+    return s;
+}
+
+// A texton file is an EXR with our metadata; anything else is an exemplar. dsn needs a texton:
+// an exemplar is analysed first. Errors: io (exit 1) for an unreadable input, else 2.
+Result<core::Image> synthesize(const Synthesis& s, const std::string& input,
+                               const core::AnalysisParams& params, const io::DecodeLimits& limits) {
+    std::optional<core::Texton> texton;
+    std::optional<core::Image> exemplar;
+    if (auto record = io::read_texton_file(input)) {
+        texton = std::move(record.value().texton);
+    } else {
+        auto image = io::decode_image_file(input, limits);
+        if (!image) return make_error(ErrorCode::io, input + ": " + image.error().message);
+        exemplar = std::move(image.value());
+    }
+    if (s.method == "dsn") {
+        if (!texton) {
+            auto result =
+                core::analyze_texton(*exemplar, params, progress_reporter("analyze " + input));
+            if (!result) return make_error(ErrorCode::invalid_argument, result.error().message);
+            spdlog::info("analysed {}: RME {:.4f}", input, result.value().rme);
+            texton = result.value().texton;
+        }
+        return core::discrete_spot_noise(*texton, s.mni, s.seed, {s.x0, s.y0, s.width, s.height});
+    }
+    const auto m = s.method == "adsn" ? core::SpectralMethod::adsn : core::SpectralMethod::rpn;
+    return texton
+               ? core::synthesize_from_texton(*texton, m, s.width, s.height, s.seed, params.threads)
+               : core::synthesize_from_exemplar(*exemplar, m, s.width, s.height, s.seed,
+                                                params.threads);
+}
+} // namespace
+
+int synth_command(const Argv& argv) {
+    // --seed is shared with the analysis options: one seed drives both.
+    auto parsed = parse_input_command(
+        argv, "synth", kHelp, "INPUT", true,
+        {"--output", "--method", "--width", "--height", "--mni", "--x0", "--y0"}, {"--png16"});
+    if (auto* code = std::get_if<int>(&parsed)) return *code;
+    const Args& a = std::get<Args>(parsed);
+    auto synthesis = synthesis_from(a);
+    if (!synthesis) return fail(2, synthesis.error().message);
     auto params = analysis_params_from(a);
     if (!params) return fail(2, params.error().message);
     auto limits = decode_limits_from(a);
     if (!limits) return fail(2, limits.error().message);
     auto encoding = output_encoding_from(a);
     if (!encoding) return fail(2, encoding.error().message);
-    const io::Encoding enc = encoding.value();
-
-    // A texton file is an EXR with our metadata; anything else is an exemplar.
-    const std::string& input = a.positional[0];
-    std::optional<core::Texton> texton;
-    std::optional<core::Image> exemplar;
-    auto record = io::read_texton_file(input);
-    if (record) {
-        texton = record.value().texton;
-    } else {
-        auto image = io::decode_image_file(input, limits.value());
-        if (!image) return fail(1, input + ": " + image.error().message);
-        exemplar = std::move(image.value());
-    }
-
-    const int w = static_cast<int>(width.value()), h = static_cast<int>(height.value());
-    const int threads = params.value().threads;
-    core::Image out;
-    if (method == "dsn") {
-        if (!texton) {
-            auto result = core::analyze_texton(*exemplar, params.value(),
-                                               progress_reporter("analyze " + input));
-            if (!result) return fail(2, result.error().message);
-            spdlog::info("analysed {}: RME {:.4f}", input, result.value().rme);
-            texton = result.value().texton;
-        }
-        out = core::discrete_spot_noise(*texton, mni.value(), seed.value(),
-                                        {x0.value(), y0.value(), w, h});
-    } else {
-        const auto m = method == "adsn" ? core::SpectralMethod::adsn : core::SpectralMethod::rpn;
-        out = texton ? core::synthesize_from_texton(*texton, m, w, h, seed.value(), threads)
-                     : core::synthesize_from_exemplar(*exemplar, m, w, h, seed.value(), threads);
-    }
-    auto written = io::encode_image_file(out, a.get("--output"), enc);
+    auto out = synthesize(synthesis.value(), a.positional[0], params.value(), limits.value());
+    if (!out) return fail(out.error().code == ErrorCode::io ? 1 : 2, out.error().message);
+    auto written = io::encode_image_file(out.value(), a.get("--output"), encoding.value());
     if (!written) return fail(1, written.error().message);
     return 0;
 }

@@ -81,6 +81,23 @@ void replace_all(std::string& s, const std::string& from, const std::string& to)
         s.replace(p, from.size(), to);
 }
 
+// 16-bit PNG: one offset and scale for every channel, so relative values are kept. Returns the
+// bytes and (offset, scale) to decode them.
+Result<std::pair<std::string, std::pair<double, double>>> texton_png16(const core::Image& alpha) {
+    float lo = 0.0f, hi = 0.0f;
+    if (!alpha.data.empty()) {
+        const auto [mn, mx] = std::minmax_element(alpha.data.begin(), alpha.data.end());
+        lo = *mn;
+        hi = *mx;
+    }
+    const double range = hi > lo ? double(hi) - lo : 1.0;
+    core::Image png = alpha;
+    for (float& v : png.data) v = static_cast<float>((double(v) - lo) / range);
+    auto bytes = io::encode_image_memory(png, io::Encoding::png16);
+    if (!bytes) return bytes.error();
+    return std::make_pair(std::move(bytes.value()), std::make_pair(double(lo), range));
+}
+
 } // namespace
 
 std::string engine_kit_directory(const std::string& id) {
@@ -93,18 +110,9 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
     const std::string& id = record.meta.id;
     const core::noise::GridPoisson grid(t.size, mni);
 
-    // 16-bit PNG: one offset and scale for every channel, so relative values are kept.
-    float lo = 0.0f, hi = 0.0f;
-    if (!t.alpha.data.empty()) {
-        const auto [mn, mx] = std::minmax_element(t.alpha.data.begin(), t.alpha.data.end());
-        lo = *mn;
-        hi = *mx;
-    }
-    const double range = hi > lo ? double(hi) - lo : 1.0;
-    core::Image png = t.alpha;
-    for (float& v : png.data) v = static_cast<float>((double(v) - lo) / range);
-    auto png16 = io::encode_image_memory(png, io::Encoding::png16);
+    auto png16 = texton_png16(t.alpha);
     if (!png16) return png16.error();
+    const auto [lo, range] = png16.value().second;
 
     nlohmann::json mean = nlohmann::json::array();
     for (int c = 0; c < t.channels; ++c) mean.push_back(t.mean[static_cast<std::size_t>(c)]);
@@ -140,7 +148,7 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
     return io::tar_archive({{dir + "README.md", readme},
                             {dir + "textond_kit.json", params.dump(2) + "\n"},
                             {dir + "texton.exr", texton_exr},
-                            {dir + "texton16.png", png16.value()},
+                            {dir + "texton16.png", png16.value().first},
                             {dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
                             {dir + "glsl/texton_eval.glsl", render::glsl::kTextonEval},
                             {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},

@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,9 @@ public:
     std::string prometheus_text() const;
 
 private:
+    // The two halves of prometheus_text, under m_mutex: the requests' time, then the work's.
+    void write_requests_locked(std::ostream& o) const;
+    void write_work_locked(std::ostream& o) const;
     struct Histogram {
         std::array<std::uint64_t, kLatencyBuckets.size()> buckets{};
         std::uint64_t count = 0;

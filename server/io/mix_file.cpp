@@ -82,6 +82,55 @@ Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
     return write_file_atomic(dir + "/" + id + ".exr", bytes.value());
 }
 
+namespace {
+
+// The levels stacked vertically in the file, each n x n, with their means from the metadata.
+std::vector<core::Texton> levels_of(const std::vector<float>& buf, const api::MixMeta& meta) {
+    const int n = meta.size, nc = meta.channels;
+    std::vector<core::Texton> levels;
+    for (int l = 0; l < meta.levels; ++l) {
+        core::Texton t;
+        t.size = n;
+        t.channels = nc;
+        t.order = meta.order;
+        for (int c = 0; c < nc; ++c)
+            t.mean[static_cast<std::size_t>(c)] =
+                meta.means.at(static_cast<std::size_t>(l)).at(static_cast<std::size_t>(c));
+        t.alpha = core::Image(n, n, nc);
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x)
+                for (int c = 0; c < nc; ++c)
+                    t.alpha.at(c, x, y) =
+                        buf[((static_cast<std::size_t>(l) * n + y) * n + x) * nc + c];
+        levels.push_back(std::move(t));
+    }
+    return levels;
+}
+
+// The field the metadata describes; a mask is read from its own file and checked against its
+// checksum. Throws on missing keys (the caller reports them as unreadable metadata).
+Result<core::MixField> field_of(const nlohmann::json& f, const std::string& mask_path) {
+    core::MixField field;
+    field.x0 = f.at("x0");
+    field.y0 = f.at("y0");
+    if (f.at("kind") == "ramp") {
+        field.dx = f.at("dx");
+        field.dy = f.at("dy");
+        field.width = f.at("width");
+        return field;
+    }
+    field.kind = core::MixField::Kind::mask;
+    field.scale = f.at("scale");
+    auto mask = decode_image_file(mask_path);
+    if (!mask) return make_error(ErrorCode::invalid_argument, "mask: " + mask.error().message);
+    field.mask = std::move(mask.value());
+    if (mask_sha256(field.mask) != f.at("sha256").get<std::string>())
+        return make_error(ErrorCode::invalid_argument, "mask checksum mismatch");
+    return field;
+}
+
+} // namespace
+
 Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) {
     const std::string path = dir + "/" + id + ".exr";
     std::error_code ec;
@@ -107,38 +156,10 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
         std::vector<float> buf(static_cast<std::size_t>(n) * n * nl * nc);
         if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
             return bad(path, in->geterror());
-        for (int l = 0; l < nl; ++l) {
-            core::Texton t;
-            t.size = n;
-            t.channels = nc;
-            t.order = order;
-            for (int c = 0; c < nc; ++c)
-                t.mean[static_cast<std::size_t>(c)] =
-                    r.meta.means.at(static_cast<std::size_t>(l)).at(static_cast<std::size_t>(c));
-            t.alpha = core::Image(n, n, nc);
-            for (int y = 0; y < n; ++y)
-                for (int x = 0; x < n; ++x)
-                    for (int c = 0; c < nc; ++c)
-                        t.alpha.at(c, x, y) =
-                            buf[((static_cast<std::size_t>(l) * n + y) * n + x) * nc + c];
-            r.levels.push_back(std::move(t));
-        }
-        const nlohmann::json& f = r.meta.field;
-        r.field.x0 = f.at("x0");
-        r.field.y0 = f.at("y0");
-        if (f.at("kind") == "ramp") {
-            r.field.dx = f.at("dx");
-            r.field.dy = f.at("dy");
-            r.field.width = f.at("width");
-        } else {
-            r.field.kind = core::MixField::Kind::mask;
-            r.field.scale = f.at("scale");
-            auto mask = decode_image_file(dir + "/" + id + ".mask.exr");
-            if (!mask) return bad(path, "mask: " + mask.error().message);
-            r.field.mask = std::move(mask.value());
-            if (mask_sha256(r.field.mask) != f.at("sha256").get<std::string>())
-                return bad(path, "mask checksum mismatch");
-        }
+        r.levels = levels_of(buf, r.meta);
+        auto field = field_of(r.meta.field, dir + "/" + id + ".mask.exr");
+        if (!field) return bad(path, field.error().message);
+        r.field = std::move(field.value());
         if (auto err = r.field.validate()) return bad(path, "field: " + err->message);
         if (mix_id(r.meta.u, r.meta.v, nl, r.field) != id)
             return bad(path, "content does not hash to its id");
