@@ -2,6 +2,8 @@
 // One interface for every way of evaluating texton noise (style.md: Filament's OpenGLPlatform).
 // A backend evaluates a window of NOISE_SPEC.md into a planar float image with the texton's
 // channels; it is deterministic (same request, same bytes) and safe to call from many threads.
+// Requests arrive checked (PreparedTexton::check, PreparedMix::check: the one place their rules
+// live, called by whoever builds the request); a backend asserts it in debug builds.
 #include "core/image.h"
 #include "core/result.h"
 #include "render/noise_request.h"

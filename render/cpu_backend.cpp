@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <cmath>
 #include <vector>
 
@@ -541,7 +542,7 @@ std::string CpuBackend::renderer() const {
 
 Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
                                        RenderStats* stats) {
-    if (auto err = tex.check(q)) return *err;
+    assert(!tex.check(q)); // checked by the caller (backend.h)
     if (q.level >= tex.limit_level()) {
         core::Image out(q.width, q.height, tex.channels());
         if (!render_limit(tex, q, m_threads, out)) return abandoned(q.cancel, "the render");
@@ -559,7 +560,7 @@ Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseReq
 
 Result<core::Image> CpuBackend::render_mix(const PreparedMix& mix, const NoiseRequest& q,
                                            RenderStats* stats) {
-    if (auto err = mix.check(q)) return *err;
+    assert(!mix.check(q));
     const PreparedTexton& first = mix.level(0);
     if (q.level >= first.limit_level()) {
         core::Image out(q.width, q.height, mix.channels());

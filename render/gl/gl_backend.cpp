@@ -9,6 +9,7 @@
 #include "render/image_buffers.h"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -246,14 +247,9 @@ Result<GlBackend::NoiseProgram*> GlBackend::noise_program(Precision p) {
 
 Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const PreparedMix* mix,
                                            const NoiseRequest& q) const {
-    if (mix) {
-        if (auto err = mix->check(q)) return *err;
-        if (q.level >= mix->level(0).limit_level())
-            return make_error(ErrorCode::unsupported,
-                              m_name + ": a mix's limit levels are CPU only");
-    } else if (auto err = tex.check(q)) {
-        return *err;
-    }
+    assert(mix ? !mix->check(q) : !tex.check(q)); // checked by the caller (backend.h)
+    if (mix && q.level >= mix->level(0).limit_level())
+        return make_error(ErrorCode::unsupported, m_name + ": a mix's limit levels are CPU only");
     Work w;
     w.window = std::make_unique<gl::NoiseWindow>(gl::make_noise_window(tex, mix, q));
     w.stats.limit_model = w.window->limit_model;

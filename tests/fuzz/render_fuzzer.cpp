@@ -85,6 +85,10 @@ void mix_render(api::Query q, std::string_view path, const api::Query& tile_quer
     nq.x0 = t.x0();
     nq.y0 = t.y0();
     nq.width = nq.height = 8;
+    if (auto err = mix.value()->check(nq)) { // as the server checks before it renders
+        if (!acceptable(*err)) fail();
+        return;
+    }
     render::CpuBackend cpu(1, 16);
     auto image = cpu.render_mix(*mix.value(), nq);
     if (!image) {
