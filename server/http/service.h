@@ -80,6 +80,7 @@ private:
     ImageCache m_cache;
     std::unique_ptr<render::Renderer> m_renderer; // every evaluation goes through it
     std::unique_ptr<ImageService> m_images;
+    std::unique_ptr<SurfaceService> m_surfaces;
     std::unique_ptr<ImageRoutes> m_image_routes;
     std::unique_ptr<TextonRoutes> m_texton_routes;
     std::unique_ptr<MixRoutes> m_mix_routes;

@@ -1,10 +1,8 @@
 #include "server/http/surface_routes.h"
 
 #include "api/requests.h"
-#include "render/surface_eval.h"
 #include "server/http/http_support.h"
 #include "server/io/image_io.h"
-#include "server/io/obj_mesh.h"
 
 #include <cstring>
 
@@ -62,8 +60,8 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, const std:
 
 } // namespace
 
-SurfaceRoutes::SurfaceRoutes(TextonStore& store, render::Renderer& renderer, Gate& gate)
-    : m_store(store), m_renderer(renderer), m_gate(gate) {}
+SurfaceRoutes::SurfaceRoutes(TextonStore& store, SurfaceService& surfaces, Gate& gate)
+    : m_store(store), m_surfaces(surfaces), m_gate(gate) {}
 
 void SurfaceRoutes::points(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/surface");
@@ -74,21 +72,20 @@ void SurfaceRoutes::points(Req req, Res res, const httplib::ContentReader& reade
     if (auto e = api::parse_surface(id, req.params, false, p)) return send_error(res, *e);
     auto prepared = m_store.prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    const render::PreparedTexton& texton = *prepared.value();
     // Parsing a million JSON points takes hundreds of MB: inside the slot, like the evaluation.
     auto slot = m_gate.admit(res, 0.0);
     if (!slot) return;
     std::vector<float> points, normals;
     if (auto e = read_points(req, body.bytes, points, normals)) return send_error(res, *e);
     body.bytes = std::string();
-    if (!m_gate.within_budget(res,
-                              surface_work_s(points.size() / 3, p.mni, prepared.value()->order())))
+    if (!m_gate.within_budget(res, SurfaceService::points_work_s(texton, p, points.size() / 3)))
         return;
     const render::Cancel cancel = m_gate.work_cancel();
-    render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
-    const int nc = prepared.value()->channels();
     std::string evaluated_on;
-    auto colours = m_renderer.surface(*prepared.value(), sr, points, normals, &evaluated_on);
+    auto colours = m_surfaces.colours(texton, p, points, normals, cancel, &evaluated_on);
     if (!colours) return m_gate.send_work_error(res, colours.error(), cancel);
+    const int nc = texton.channels();
     res.set_header("X-Textond-Channels", std::to_string(nc));
     res.set_header("X-Textond-Backend", evaluated_on);
     if (wants_binary(req)) {
@@ -116,39 +113,18 @@ void SurfaceRoutes::mesh(Req req, Res res, const httplib::ContentReader& reader)
     if (auto e = api::parse_surface(id, req.params, true, p)) return send_error(res, *e);
     auto prepared = m_store.prepared(id);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    const render::PreparedTexton& texton = *prepared.value();
     auto slot = m_gate.admit(res, 0.0); // parsing, the view, rasterising and encoding
     if (!slot) return;
-    auto mesh = io::parse_obj(body.bytes);
-    if (!mesh)
-        return send_error(res, content_error(mesh.error(), "invalid_mesh", "payload_too_large"));
+    auto preview = SurfaceService::preview(body.bytes, texton, p);
+    if (!preview)
+        return send_error(res, content_error(preview.error(), "invalid_mesh", "payload_too_large"));
     body.bytes = std::string();
-    render::Camera cam;
-    cam.fov_degrees = p.fov;
-    if (p.camera) {
-        cam.automatic = false;
-        cam.eye = {p.eye[0], p.eye[1], p.eye[2]};
-        cam.target = {p.target[0], p.target[1], p.target[2]};
-    }
+    if (!m_gate.within_budget(res, preview.value().work_s)) return;
     const render::Cancel cancel = m_gate.work_cancel();
-    render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
-    {
-        // What the preview costs is known before it runs: triangles x the pixels they cover.
-        auto view = render::mesh_view(mesh.value(), sr, cam, p.width, p.height);
-        if (!view)
-            return send_error(res,
-                              content_error(view.error(), "invalid_mesh", "payload_too_large"));
-        const std::uint64_t tests =
-            render::mesh_raster_tests(mesh.value(), view.value(), p.width, p.height);
-        if (!m_gate.within_budget(res, mesh_work_s(tests, std::int64_t{p.width} * p.height, p.mni,
-                                                   prepared.value()->order())))
-            return;
-    }
     std::string evaluated_on;
-    auto image = m_renderer.mesh_preview(*prepared.value(), sr, mesh.value(), cam, p.width,
-                                         p.height, &evaluated_on);
-    if (!image) return m_gate.send_work_error(res, image.error(), cancel);
-    auto png = io::encode_image_memory(image.value(), io::Encoding::png8);
-    if (!png) return send_error(res, to_api_error(png.error()));
+    auto png = m_surfaces.preview_png(texton, preview.value(), p, cancel, &evaluated_on);
+    if (!png) return m_gate.send_work_error(res, png.error(), cancel);
     res.set_header("X-Textond-Backend", evaluated_on);
     res.set_content(png.value(), "image/png");
 }

@@ -1,9 +1,8 @@
 #pragma once
-// Surface noise over HTTP (texton-noise section 6): colours at 3D points with normals, and a
-// preview of an OBJ mesh textured by it. The work is one call of the renderer (CPU), admitted
-// through the Gate at a cost known before it runs.
-#include "render/renderer.h"
+// Surface noise over HTTP (texton-noise section 6): the bodies (points as JSON or float32, an OBJ
+// mesh) read and admitted through the Gate at the cost SurfaceService knows before it runs.
 #include "server/http/gate.h"
+#include "server/http/surface_service.h"
 #include "server/http/texton_store.h"
 
 #include <httplib.h>
@@ -12,7 +11,7 @@ namespace textond::http {
 
 class SurfaceRoutes {
 public:
-    SurfaceRoutes(TextonStore& store, render::Renderer& renderer, Gate& gate);
+    SurfaceRoutes(TextonStore& store, SurfaceService& surfaces, Gate& gate);
 
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
@@ -21,7 +20,7 @@ public:
 
 private:
     TextonStore& m_store;
-    render::Renderer& m_renderer;
+    SurfaceService& m_surfaces;
     Gate& m_gate;
 };
 
