@@ -56,9 +56,30 @@ TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
           "glsl/texton_eval.glsl", "glsl/texton_noise.frag", "glsl/texton_noise.comp",
           "glsl/fullscreen.vert", "hlsl/texton_noise.hlsl", "NOISE_SPEC.md"}) {
         EXPECT_TRUE(fs::exists(kit.dir / f)) << f;
-        EXPECT_NE(read_file((kit.dir / f).string()).find(f == std::string("README.md") ? id : ""),
-                  std::string::npos);
+        EXPECT_FALSE(read_file((kit.dir / f).string()).empty()) << f;
     }
+    // The shaders and the spec are the repository's files byte for byte, the texton is the
+    // stored file, and the README names this texton and this MNI.
+    const fs::path src = TEXTOND_SOURCE_DIR;
+    for (const auto& [in_kit, in_repo] : std::vector<std::pair<std::string, std::string>>{
+             {"glsl/noise_lib.glsl", "render/glsl/noise_lib.glsl"},
+             {"glsl/texton_eval.glsl", "render/glsl/texton_eval.glsl"},
+             {"glsl/texton_noise.frag", "render/glsl/texton_noise.frag"},
+             {"glsl/texton_noise.comp", "render/glsl/texton_noise.comp"},
+             {"glsl/fullscreen.vert", "render/glsl/fullscreen.vert"},
+             {"hlsl/texton_noise.hlsl", "render/hlsl/texton_noise.hlsl"},
+             {"NOISE_SPEC.md", "render/NOISE_SPEC.md"}})
+        EXPECT_EQ(read_file((kit.dir / in_kit).string()), read_file((src / in_repo).string()))
+            << in_kit;
+    EXPECT_EQ(read_file((kit.dir / "texton.exr").string()),
+              c.Get("/v1/textons/" + id + "/texton.exr")->body);
+    const std::string readme = read_file((kit.dir / "README.md").string());
+    EXPECT_NE(readme.find("# textond engine kit: texton " + id), std::string::npos);
+    // Relative to the server, so that one kit is the same bytes behind any host name.
+    EXPECT_NE(readme.find("`/v1/textons/" + id + "/tiles/0/X/Y.exr?seed=S&mni=30.0`"),
+              std::string::npos)
+        << readme;
+    EXPECT_EQ(readme.find('%'), std::string::npos) << "a placeholder left in the README";
     // The parameters are the texton's and the threshold table is the spec's for that MNI.
     EXPECT_EQ(kit.params["id"], id);
     EXPECT_EQ(kit.params["r"], 32);
