@@ -2,6 +2,7 @@
 // complete or absent; a damaged file is quarantined and reported, never served; SIGTERM lets a
 // request in flight finish.
 #include "server/io/image_io.h"
+#include "server/io/texton_file.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -99,6 +100,40 @@ TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
     int status = 0;
     EXPECT_EQ(upload(c, "etr_sand01.png", "?size=16&iterations=5", &status), id);
     EXPECT_EQ(status, 201);
+}
+
+// Bit rot the decoder cannot see: one coefficient changed in a file that is otherwise whole (a
+// valid EXR with its metadata and id), so only the SHA-256 of the coefficients catches it.
+TEST(Store, AFileThatDecodesButFailsItsChecksumIsQuarantinedNeverServed) {
+    const std::string data = fresh_dir("store-checksum");
+    std::string id;
+    {
+        ServerProcess server(data);
+        auto c = server.client();
+        id = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+        ASSERT_EQ(server.terminate(10000), 0);
+    }
+    const std::string path = data + "/textons/" + id + ".exr";
+    auto record = io::read_texton_file(path);
+    ASSERT_TRUE(record.ok()) << record.error().message;
+    record.value().texton.alpha.data[17] += 1e-3f; // the metadata keeps the old checksum
+    ASSERT_TRUE(io::write_texton_file(path, record.value()).ok());
+    ASSERT_TRUE(io::decode_image_file(path).ok()) << "the damage must decode cleanly";
+    auto reread = io::read_texton_file(path);
+    ASSERT_FALSE(reread.ok());
+    EXPECT_NE(reread.error().message.find("checksum"), std::string::npos) << reread.error().message;
+
+    ServerProcess server(data);
+    auto c = server.client();
+    auto ready = c.Get("/readyz");
+    ASSERT_TRUE(ready);
+    const json r = json::parse(ready->body);
+    ASSERT_EQ(r["store"]["quarantined"].size(), 1u) << ready->body;
+    EXPECT_EQ(r["store"]["quarantined"][0].get<std::string>().rfind(id, 0), 0u);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id).c_str())->status, 404);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + "/texton.exr").c_str())->status, 404);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str())->status, 404);
+    EXPECT_FALSE(fs::exists(path));
 }
 
 TEST(Store, SigtermFinishesTheRequestInFlight) {
