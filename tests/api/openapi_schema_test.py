@@ -88,6 +88,19 @@ def main():
         except (jsonschema.ValidationError, json.JSONDecodeError) as e:
             check(False, f"{what}: {name} schema: {str(e).splitlines()[0]}")
 
+    def validate_route(method, path, status, body, what):
+        # The schema the spec gives this route's answer, named or inline.
+        answer = spec["paths"][path][method.lower()]["responses"][str(status)]
+        if "$ref" in answer:
+            answer = spec["components"]["responses"][answer["$ref"].split("/")[-1]]
+        schema = dict(answer["content"]["application/json"]["schema"])
+        schema["components"] = spec["components"]
+        try:
+            jsonschema.Draft202012Validator(schema, format_checker=jsonschema.FormatChecker()).validate(
+                json.loads(body))
+        except (jsonschema.ValidationError, json.JSONDecodeError) as e:
+            check(False, f"{what}: {method} {path} {status} schema: {str(e).splitlines()[0]}")
+
     data = tempfile.mkdtemp(prefix="textond-schema-")
     proc = subprocess.Popen([binary, "serve", "--port", "0", "--data", data, "--backend", "cpu",
                              "--log-level", "warn"], stdout=subprocess.PIPE, text=True)
@@ -99,6 +112,11 @@ def main():
         status, _, served = request(base, "GET", "/v1/openapi.yaml")
         check(status == 200 and served.decode() == spec_text, "the served spec is api/openapi.yaml")
 
+        s, _, b = request(base, "GET", "/healthz")
+        check(s == 200, "healthz")
+        validate_route("GET", "/healthz", 200, b, "healthz")
+
+        tids = []
         names = sorted(n for n in os.listdir(exemplar_dir) if n.endswith(".png"))
         check(len(names) >= 9, f"found the shared exemplars ({len(names)})")
         for name in names:
@@ -127,12 +145,39 @@ def main():
             validate("AnalysisStatus", b6, f"{name} status")
             s7, _, b7 = request(base, "GET", f"/v1/textons/{tid}/tilejson.json?seed=3")
             validate("TileJson", b7, f"{name} tilejson")
+            tids.append(tid)
 
         s, _, b = request(base, "GET", "/v1/textons?limit=5")
         page = json.loads(b)
         check(s == 200 and len(page["items"]) == 5 and page["total"] == 2 * len(names), "list pages")
+        validate_route("GET", "/v1/textons", 200, b, "list")
         for item in page["items"]:
             validate("Texton", json.dumps(item), "list item")
+
+        # A mix of two of them: created, known, fetched, its TileJSON.
+        mix_q = f"/v1/mixes?u={tids[0]}&v={tids[1]}&levels=3"
+        s, _, b = request(base, "POST", mix_q)
+        check(s == 201, f"mix creates ({s} {b[:200]!r})")
+        validate_route("POST", "/v1/mixes", 201, b, "mix created")
+        mid = json.loads(b)["id"] if s == 201 else "none"
+        s, _, b = request(base, "POST", mix_q)
+        check(s == 200, f"the same mix again is 200 ({s})")
+        validate_route("POST", "/v1/mixes", 200, b, "mix known")
+        s, _, b = request(base, "GET", f"/v1/mixes/{mid}")
+        check(s == 200, f"mix metadata ({s})")
+        validate_route("GET", "/v1/mixes/{id}", 200, b, "mix metadata")
+        s, _, b = request(base, "GET", f"/v1/mixes/{mid}/tilejson.json?seed=3")
+        check(s == 200, f"mix tilejson ({s})")
+        validate_route("GET", "/v1/mixes/{id}/tilejson.json", 200, b, "mix tilejson")
+
+        # Surface noise as JSON.
+        points = {"points": [[0, 0, 0], [10.5, -3, 2]], "normals": [[0, 0, 1], [0, 1, 0]]}
+        s, _, b = request(base, "POST", f"/v1/textons/{tids[0]}/surface?seed=2",
+                          json.dumps(points).encode(), {"Content-Type": "application/json"})
+        check(s == 200, f"surface ({s} {b[:200]!r})")
+        validate_route("POST", "/v1/textons/{id}/surface", 200, b, "surface colours")
+        check(s != 200 or len(json.loads(b)["colors"]) == 2, "one colour a point")
+
         s, _, b = request(base, "GET", "/readyz")
         validate("Readiness", b, "readyz")
         for path in ("/v1/textons/nope", "/v1/textons/" + "a" * 64, "/nothing"):
