@@ -49,9 +49,34 @@ TEST(TextureMix, EndsAreTheTwoModels) {
             EXPECT_NEAR(m1.covariance(c, d), pair.value().v.covariance(c, d), 1e-5 * sv);
         }
     }
-    // Halfway, the mean is halfway and the colour covariance lies between the two.
+    // Halfway, the mean is halfway.
     const core::GaussianModel mh = core::barycentre_model(pair.value(), 0.5, 2);
     EXPECT_NEAR(mh.mean[1], 0.5 * (pair.value().u.mean[1] + pair.value().v.mean[1]), 1e-12);
+}
+
+// The barycentre interpolates the phase-aligned spectra linearly (texture mixing, section 3:
+// t_rho = (1 - rho) phi t_u + rho t_v), so the total variance is a quadratic in rho,
+// (1 - rho)^2 A + rho^2 B + 2 rho (1 - rho) C, whose cross term C = sum |<t_u, t_v>| / N lies in
+// [0, sqrt(A B)] (Cauchy-Schwarz). Three values fix the quadratic; two more must lie on it.
+// Between the two variances it need not lie: disjoint spectra give (A + B) / 4 halfway.
+TEST(TextureMix, TotalVarianceIsTheQuadraticOfLinearSpectra) {
+    auto pair = core::common_models(load_exemplar("etr_sand01.png"),
+                                    load_exemplar("etr_pebbles04.png"), true, 2);
+    ASSERT_TRUE(pair.ok());
+    auto total = [&](double rho) {
+        const core::GaussianModel m = core::barycentre_model(pair.value(), rho, 2);
+        return m.covariance(0, 0) + m.covariance(1, 1) + m.covariance(2, 2);
+    };
+    const double a = total(0.0), b = total(1.0), half = total(0.5);
+    const double cross = 2.0 * half - 0.5 * (a + b);
+    EXPECT_GE(cross, 0.0);
+    EXPECT_LE(cross, std::sqrt(a * b) * (1 + 1e-4));
+    for (double rho : {0.25, 0.8}) {
+        const double quadratic =
+            (1 - rho) * (1 - rho) * a + rho * rho * b + 2 * rho * (1 - rho) * cross;
+        // Spectra are stored as float: relative error ~1e-6 a coefficient, 1e-4 is 100x that.
+        EXPECT_NEAR(total(rho), quadratic, 1e-4 * (a + b)) << rho;
+    }
 }
 
 // Grey and colour exemplars of different sizes meet on one grid: centre crop, grey promoted.
