@@ -289,6 +289,85 @@ TEST(NoiseLevels, LimitModelKeepsMeanAndVarianceUpToLevel24) {
     }
 }
 
+// The limit model's field (NOISE_SPEC.md section 6) is P = m + A_k sum_D kappa(D) z(P - D), so its
+// covariance at lag L is C_k(0) R(L), R(L) = sum_D kappa(D) kappa(D + L): the full colour matrix
+// at lag 0 (every entry, not channel 0 alone) and the short-range correlation at lags 1 and 2.
+// kappa itself must match the box-averaged field, R(L) ~ trace C_k(L) / trace C_k(0) (the spec's
+// "correlations at lags up to 2"); white noise of the right variance (kappa = delta) fails both.
+TEST(NoiseLevels, LimitModelHasTheColourCovarianceAndShortRangeCorrelation) {
+    const auto tex = analysed_texton("etr_sand01.png", 32);
+    CpuBackend cpu;
+    const int k0 = tex->limit_level();
+    const int lags[][2] = {{1, 0}, {0, 1}, {2, 0}, {1, 1}};
+    for (int level : {k0, k0 + 1}) {
+        const std::int64_t st = std::int64_t{1} << level;
+        const core::ColourMatrix c0 = core::box_average_covariance(tex->covariance(), st, 0, 0);
+        const core::noise::LimitModel& model = tex->limit(level);
+        auto kappa = [&](int dx, int dy) {
+            return std::abs(dx) > 2 || std::abs(dy) > 2
+                       ? 0.0
+                       : model.kappa[static_cast<std::size_t>((dy + 2) * 5 + dx + 2)];
+        };
+        auto r_kappa = [&](int lx, int ly) {
+            double r = 0;
+            for (int dy = -2; dy <= 2; ++dy)
+                for (int dx = -2; dx <= 2; ++dx) r += kappa(dx, dy) * kappa(dx + lx, dy + ly);
+            return r;
+        };
+        std::vector<double> cov[3][3], corr[4];
+        for (int w = 0; w < 16; ++w) {
+            NoiseRequest q;
+            q.seed = 21;
+            q.level = level;
+            q.x0 = 5000 * w - 40000;
+            q.y0 = -300;
+            q.width = q.height = 96;
+            auto img = cpu.render(*tex, q);
+            ASSERT_TRUE(img.ok());
+            const core::Image& f = img.value();
+            auto d = [&](int c, int x, int y) { return f.at(c, x, y) - tex->texton().mean[c]; };
+            const double n = double(f.width) * f.height;
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b) {
+                    double sum = 0;
+                    for (int y = 0; y < f.height; ++y)
+                        for (int x = 0; x < f.width; ++x) sum += d(a, x, y) * d(b, x, y);
+                    cov[a][b].push_back(sum / n);
+                }
+            for (int l = 0; l < 4; ++l) {
+                double sum = 0, pairs = 0;
+                for (int y = 0; y + lags[l][1] < f.height; ++y)
+                    for (int x = 0; x + lags[l][0] < f.width; ++x, ++pairs)
+                        for (int c = 0; c < 3; ++c)
+                            sum += d(c, x, y) * d(c, x + lags[l][0], y + lags[l][1]);
+                corr[l].push_back(sum / pairs / (c0(0, 0) + c0(1, 1) + c0(2, 2)));
+            }
+        }
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) {
+                const test::Estimate e = test::estimate_of(cov[a][b]);
+                EXPECT_NEAR(e.mean, c0(a, b), kSigmas * e.se)
+                    << "level " << level << " C(" << a << ", " << b << ")";
+            }
+        const double trace0 = c0(0, 0) + c0(1, 1) + c0(2, 2);
+        for (int l = 0; l < 4; ++l) {
+            const int lx = lags[l][0], ly = lags[l][1];
+            const test::Estimate e = test::estimate_of(corr[l]);
+            const double predicted = r_kappa(lx, ly);
+            EXPECT_NEAR(e.mean, predicted, kSigmas * e.se)
+                << "level " << level << " lag (" << lx << ", " << ly << ")";
+            const core::ColourMatrix cl =
+                core::box_average_covariance(tex->covariance(), st, lx, ly);
+            const double rho = (cl(0, 0) + cl(1, 1) + cl(2, 2)) / trace0;
+            std::printf(
+                "level %d lag (%d,%d): measured %.4f +- %.4f, kappa %.4f, box average %.4f\n",
+                level, lx, ly, e.mean, e.se, predicted, rho);
+            EXPECT_NEAR(predicted, rho, 0.005) // measured: within 1e-4 at levels 5 and 6
+                << "level " << level << " lag (" << lx << ", " << ly << ")";
+        }
+    }
+}
+
 // Texton-noise section 10: nearest-neighbour textons (order 0) leave grid-aligned discontinuities,
 // bilinear (1) and cubic (3) ones do not. At 16 pixels per texel, the gradient energy of the field
 // whose direction lies within pi/16 of an axis, over the energy within pi/16 of a diagonal: 1 for
