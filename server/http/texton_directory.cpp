@@ -187,12 +187,13 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
     return true;
 }
 
-Result<bool> TextonDirectory::erase(const std::string& id) {
+Result<bool> TextonDirectory::erase(const std::string& id, bool regardless) {
     std::lock_guard lock(m_mutex);
     if (!m_index.count(id)) return false;
     std::error_code ec;
     fs::remove(file_of(m_dir, id, kExtension), ec);
-    if (ec) return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
+    if (ec && !regardless)
+        return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
     fs::remove(file_of(m_exemplars, id, ".png"), ec);
     fs::remove(file_of(m_provenance, id, ".json"), ec);
     fsync_directory(m_dir);

@@ -43,8 +43,10 @@ public:
     // indexes it. An empty `provenance` removes an older one.
     Result<bool> write(const std::string& id, const std::string& file,
                        const std::string* exemplar_png, const nlohmann::json& provenance);
-    // Removes the texton and what came with it; false when it was not held.
-    Result<bool> erase(const std::string& id);
+    // Removes the texton and what came with it; false when it was not held. When its file
+    // cannot be removed: an error, and the texton stays held, unless `regardless` (deleted
+    // elsewhere: never served here again; a restart indexes the file and rechecks it).
+    Result<bool> erase(const std::string& id, bool regardless = false);
 
     // Ids in ascending order after `after` (exclusive), at most `limit`.
     std::vector<api::TextonMeta> list(const std::string& after, int limit) const;

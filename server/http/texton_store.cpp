@@ -58,7 +58,7 @@ Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonM
     case store::RedisStore::Presence::present:
         return local;
     case store::RedisStore::Presence::deleted:
-        (void)m_local->erase(id); // one that cannot be removed is rechecked at its next find
+        (void)m_local->erase(id, true); // never served here again, even if its file stays
         forget(id);
         spdlog::info("store: texton {} was deleted from the shared store; dropped here", id);
         return make_error(ErrorCode::not_found, "no texton " + id + " (deleted)");
