@@ -200,9 +200,9 @@ def main():
         "spec": "textond-noise/1",
         "generator": "render/tools/noise_reference.py",
         "mix32": [[x, mix32(x)] for x in [0, 1, 2, 0x80000000, 0xFFFFFFFF, 0x12345678, 0x9E3779B9]],
-        "cell_key": [[s, cx, cy, cell_key(s, cx, cy)] for s in seeds[:4] for (cx, cy) in cells],
+        "cell_key": [[s, cx, cy, cell_key(s, cx, cy)] for s in seeds for (cx, cy) in cells],
         "pixel_key": [[s, k, px, py, pixel_key(s, k, px, py)]
-                      for s in seeds[:3] for k in (-4, 0, 7, 24) for (px, py) in cells[:4]],
+                      for s in seeds for k in (-4, 0, 7, 24) for (px, py) in cells[:4]],
         "stream": [[key, [d for d in (lambda st: [st.next() for _ in range(8)])(Stream(key))]]
                    for key in [0, 1, 0xFFFFFFFF, cell_key(7, 3, -5)]],
         "exp_neg": [[mu, exp_neg(mu)] for mu in [0.0, 0.390625, 1.0, 11.71875, 78.125, 100.0]],
@@ -210,7 +210,7 @@ def main():
         "thresholds": [],
         "cell_points": [],
         "normals": [[s, k, px, py, normals(s, k, px, py, 3)]
-                    for s in seeds[:2] for k in (6, 24) for (px, py) in cells[:4]],
+                    for s in seeds[:2] + seeds[4:] for k in (6, 24) for (px, py) in cells[:4]],
         "textons": [],
         "field": [],
     }
@@ -222,7 +222,9 @@ def main():
     for (seed, mni, r, cx, cy, period) in [(0, 30.0, 64, 0, 0, None), (5, 30.0, 64, -3, 7, None),
                                             (5, 1.0, 64, 2, 2, None), (9, 200.0, 16, 1, -1, None),
                                             (3, 30.0, 64, 2**40, -(2**40), None),
-                                            (3, 30.0, 64, 7, -1, [4, 3])]:
+                                            (3, 30.0, 64, 7, -1, [4, 3]),
+                                            (0xDEADBEEFCAFEF00D, 30.0, 64, -3, -7, None),
+                                            (0x100000000, 30.0, 16, -1, 0, None)]:
         a = cell_size(r)
         table = thresholds(mni / (r * r) * a * a)
         doc["cell_points"].append({"seed": seed, "mni": mni, "r": r, "cx": cx, "cy": cy,
@@ -233,7 +235,10 @@ def main():
     doc["textons"] = textons
     cases = [(0, 30.0, 0, 0, 0), (0, 30.0, 0, 5, -3), (7, 5.0, 0, -17, 40), (7, 30.0, -2, 9, -6),
              (11, 30.0, 1, 3, 4), (11, 30.0, 2, -2, 1), (1, 30.0, 0, 2**40, -(2**40)),
-             (1, 30.0, -1, -(2**41) + 3, 2**41 + 1)]
+             (1, 30.0, -1, -(2**41) + 3, 2**41 + 1),
+             # The seed's high 32 bits (section 2 absorbs all 64) and negative cells.
+             (0xFFFFFFFF, 30.0, 0, -7, -2), (0x100000000, 30.0, 0, -3, 5),
+             (0xDEADBEEFCAFEF00D, 30.0, 1, -40, -33), (0xDEADBEEFCAFEF00D, 5.0, -2, 6, -11)]
     for ti, tex in enumerate(textons):
         for (seed, mni, level, px, py) in cases:
             doc["field"].append({"texton": ti, "seed": seed, "mni": mni, "level": level,
