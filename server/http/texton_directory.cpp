@@ -1,6 +1,7 @@
 #include "server/http/texton_directory.h"
 
 #include "api/requests.h"
+#include "server/io/crash_point.h"
 #include "server/io/image_io.h"
 
 #include <spdlog/spdlog.h>
@@ -171,6 +172,7 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
         return w.error();
     }
     fsync_directory(m_dir);
+    io::crash_point("texton-synced");
     auto r = io::read_texton_file(path);
     if (!r || r.value().meta.id != id) {
         fs::remove(path, ec);

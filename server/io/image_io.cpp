@@ -1,5 +1,7 @@
 #include "server/io/image_io.h"
 
+#include "server/io/crash_point.h"
+
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
@@ -362,6 +364,8 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
     ok = ok && ::fchmod(fd, 0644) == 0 && ::fsync(fd) == 0;
     const int saved = errno;
     ok = (::close(fd) == 0) && ok;
+    const std::string ext = target.extension().string().substr(target.has_extension() ? 1 : 0);
+    if (ok) crash_point(ext + "-written");
     if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
         const int e = ok ? errno : saved;
         ::unlink(tmp.c_str());
@@ -369,6 +373,7 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
         return make_error(full ? ErrorCode::no_space : ErrorCode::io,
                           "cannot write " + path + ": " + std::strerror(e));
     }
+    crash_point(ext + "-renamed");
     return true;
 }
 

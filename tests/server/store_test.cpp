@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -100,6 +101,50 @@ TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
     int status = 0;
     EXPECT_EQ(upload(c, "etr_sand01.png", "?size=16&iterations=5", &status), id);
     EXPECT_EQ(status, 201);
+}
+
+// The kill -9 test cannot land between a write and its rename (writes take microseconds), so
+// the server is stopped there on purpose (server/io/crash_point.h): after the exemplar's write,
+// after the texton's write, after its rename and after its directory's fsync. Each time the
+// process must have reached the point (exit 86), and after a restart the texton is absent (the
+// same upload creates it) or whole (the same upload finds it and its tile renders), with no
+// temporary file left and nothing quarantined.
+TEST(Store, ACrashAtEachPointOfATextonWriteLeavesItWholeOrAbsent) {
+    const struct {
+        const char* point;
+        bool whole;
+    } cases[] = {{"png-written", false},
+                 {"exr-written", false},
+                 {"exr-renamed", true},
+                 {"texton-synced", true}};
+    const std::string body = read_file(exemplar_path("etr_sand01.png"));
+    for (const auto& k : cases) {
+        const std::string data = fresh_dir(std::string("store-crash-") + k.point);
+        {
+            ::setenv("TEXTOND_CRASH_POINT", k.point, 1);
+            ServerProcess server(data);
+            ::unsetenv("TEXTOND_CRASH_POINT");
+            auto c = server.client();
+            auto res = c.Post("/v1/textons?size=16&iterations=5", body, "image/png");
+            EXPECT_FALSE(res) << k.point << ": answered " << res->status;
+            EXPECT_EQ(server.terminate(10000), 86) << k.point << " was not reached";
+        }
+        ServerProcess server(data);
+        auto c = server.client();
+        auto ready = c.Get("/readyz");
+        ASSERT_TRUE(ready);
+        EXPECT_TRUE(json::parse(ready->body)["store"]["quarantined"].empty()) << k.point;
+        for (const char* dir : {"/textons", "/exemplars", "/provenance"})
+            for (const auto& e : fs::directory_iterator(data + dir))
+                EXPECT_NE(e.path().filename().string()[0], '.') << k.point << ": " << e.path();
+        EXPECT_EQ(files_in(data + "/textons"), k.whole ? 1 : 0) << k.point;
+        int status = 0;
+        const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=5", &status);
+        EXPECT_EQ(status, k.whole ? 200 : 201) << k.point;
+        auto tile = c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str());
+        ASSERT_TRUE(tile);
+        EXPECT_EQ(tile->status, 200) << k.point;
+    }
 }
 
 // Bit rot the decoder cannot see: one coefficient changed in a file that is otherwise whole (a
