@@ -79,6 +79,12 @@ private:
 
 } // namespace
 
+Result<std::unique_ptr<GlContext>> make_osmesa_context() {
+    auto ctx = OsmesaContext::open();
+    if (!ctx) return ctx.error();
+    return std::unique_ptr<GlContext>(std::move(ctx.value()));
+}
+
 Result<std::shared_ptr<GlBackend>> make_osmesa_backend(const GlslSources& sources) {
     auto ctx = OsmesaContext::open();
     if (!ctx) return ctx.error();

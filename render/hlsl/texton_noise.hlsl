@@ -2,8 +2,9 @@
 // function (render/NOISE_SPEC.md), the same uniforms, for Direct3D engines. Differences that are
 // only syntax: 64-bit values are uint2(lo, hi); uniform arrays are packed four per 16-byte
 // register (u_thresholds4, u_kappa4) because cbuffer arrays pad every element to 16 bytes; u_A is
-// row_major. Compile-checked with glslangValidator's HLSL front end in textond's tests; the GLSL
-// is the one run against the server's tiles.
+// row_major. Run in textond's tests (tests/render/kit_shaders_test.cpp): glslang compiles it to
+// SPIR-V with Direct3D's cbuffer offsets, SPIRV-Cross turns that into GLSL, OSMesa draws it, and
+// every pixel is checked against the CPU backend.
 
 Texture2D<float4> u_table : register(t0); // G, (L + 2 pad)^2 texels, RGB32F, read with Load only
 
