@@ -4,7 +4,7 @@ BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 ARGS   ?= serve
 
-.PHONY: deps build run run-edge test bench load load-replicas image-check format tidy clean
+.PHONY: deps build run run-edge test bench load load-replicas image-check format tidy mutation clean
 
 deps:
 	bash docker/install-deps.sh
@@ -47,6 +47,11 @@ format:
 # clang-tidy over core/, render/, server/, api/ (what CI's tidy_check runs; about 5 minutes).
 tidy: build
 	tests/style/tidy_check.sh $(BUILD)
+
+# One-line defects in the critical code, one at a time: every one must fail a test (README
+# "Mutation check"); a few minutes, not part of `make test`.
+mutation: build
+	BUILD=$(BUILD) tests/mutation/run.sh
 
 clean:
 	rm -rf build
