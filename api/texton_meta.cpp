@@ -12,6 +12,11 @@ core::AnalysisParams TextonMeta::params() const {
     return p;
 }
 
+std::string TextonMeta::kind() const {
+    if (!phase_coherence) return "";
+    return *phase_coherence > core::kMacroCoherence ? "macro" : "micro";
+}
+
 nlohmann::json canonical_params(const core::AnalysisParams& p) {
     // threads is deliberately absent: it never changes the result.
     return {{"size", p.size},
@@ -22,7 +27,7 @@ nlohmann::json canonical_params(const core::AnalysisParams& p) {
 }
 
 nlohmann::json file_meta_json(const TextonMeta& m) {
-    return nlohmann::json{
+    nlohmann::json j{
         {"id", m.id},
         {"version", m.version},
         {"exemplar", {{"width", m.exemplar_width}, {"height", m.exemplar_height}}},
@@ -38,6 +43,12 @@ nlohmann::json file_meta_json(const TextonMeta& m) {
         {"rme_uncorrected", m.rme_uncorrected},
         {"coefficients_sha256", m.coefficients_sha256},
     };
+    if (m.phase_coherence && m.sharpness_index) {
+        j["phase_coherence"] = *m.phase_coherence;
+        j["sharpness_index"] = *m.sharpness_index;
+        j["kind"] = m.kind();
+    }
+    return j;
 }
 
 nlohmann::json provenance_json(const TextonMeta& m) {
@@ -94,6 +105,12 @@ void from_json(const nlohmann::json& j, TextonMeta& m) {
     j.at("rme").get_to(m.rme);
     j.at("rme_uncorrected").get_to(m.rme_uncorrected);
     j.at("coefficients_sha256").get_to(m.coefficients_sha256);
+    m.phase_coherence.reset();
+    m.sharpness_index.reset();
+    if (j.contains("phase_coherence") && j.contains("sharpness_index")) {
+        m.phase_coherence = j.at("phase_coherence").get<double>();
+        m.sharpness_index = j.at("sharpness_index").get<double>();
+    }
     m.timings.reset();
     m.created.clear();
     read_provenance(j, m);

@@ -30,12 +30,17 @@ struct TextonMeta {
     double rme = 0;
     double rme_uncorrected = 0;
     std::string coefficients_sha256; // of the float32 coefficients as stored, checked on load
+    // The exemplar's phase coherence (core/phase_coherence.h) and Leclaire-Moisan sharpness index;
+    // absent from texton files written before they were computed.
+    std::optional<double> phase_coherence, sharpness_index;
     // Provenance: how this copy came to be, not what it is. Never in the texton file, which is
     // content-addressed and must be the same bytes whoever analysed it and when.
     std::optional<core::AnalysisTimings> timings; // unknown for a texton read from a file alone
     std::string created; // RFC 3339 UTC, set when the service stores it; may be empty
 
     core::AnalysisParams params() const;
+    // "micro" or "macro" (phase_coherence against core::kMacroCoherence); "" when unknown.
+    std::string kind() const;
 };
 
 // The parameters that change the texton, in a canonical JSON form (keys sorted): part of the id.

@@ -4,6 +4,7 @@
 // correction, RME.
 #include "core/colour_matrix.h"
 #include "core/gaussian_model.h"
+#include "core/phase_coherence.h"
 #include "core/result.h"
 #include "core/texton.h"
 
@@ -36,6 +37,9 @@ struct AnalysisResult {
     double rme_uncorrected = 0; // before the colour correction (lower, wrong contrast)
     ColourMatrix correction;    // the matrix applied
     AnalysisTimings timings;
+    // Of the exemplar: will the texton keep its look (micro) or lose its shapes (macro)? None for
+    // a model given directly (texture mixing's barycentres).
+    std::optional<PhaseCoherence> coherence;
 };
 
 // (done, total) after each projection; may be called from the analysing thread only.

@@ -68,6 +68,10 @@ TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams
     m.rme_uncorrected = result.rme_uncorrected;
     m.timings = result.timings;
     m.coefficients_sha256 = coefficients_sha256(result.texton);
+    if (result.coherence) {
+        m.phase_coherence = result.coherence->index;
+        m.sharpness_index = result.coherence->full.index;
+    }
     return r;
 }
 

@@ -79,12 +79,22 @@ async function waitForAnalysis(accepted) {
   }
 }
 
+// The micro/macro verdict in plain words (README "Micro or macro").
+function verdict(meta) {
+  if (!meta.kind) return 'not measured (analysed by an older server)';
+  const pc = `phase coherence ${meta.phase_coherence.toFixed(3)}`;
+  return meta.kind === 'macro'
+    ? `macro-texture (${pc}): expect the noise to lose its edges and shapes`
+    : `micro-texture (${pc}): the noise keeps its look`;
+}
+
 async function show(meta) {
   state.meta = meta;
   $('result').hidden = false;
   $('exemplar-img').src = meta.links.exemplar_png;
   $('texton-img').src = meta.links.texton_png;
   $('rme').textContent = meta.rme.toFixed(3);
+  $('kind').textContent = verdict(meta);
   const m = meta.mean.length === 1 ? [meta.mean[0], meta.mean[0], meta.mean[0]] : meta.mean;
   const rgb = m.map((v) => Math.round(255 * Math.min(1, Math.max(0, v))));
   $('mean-swatch').style.background = `rgb(${rgb.join(',')})`;

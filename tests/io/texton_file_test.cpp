@@ -42,6 +42,24 @@ TEST(TextonFile, RoundTripsBitExactly) {
     EXPECT_EQ(back.value().meta.rme, a.record.meta.rme);
     EXPECT_EQ(back.value().texton.mean, a.record.texton.mean);
     EXPECT_EQ(back.value().texton.order, 1);
+    ASSERT_TRUE(a.record.meta.phase_coherence && back.value().meta.phase_coherence);
+    EXPECT_EQ(*back.value().meta.phase_coherence, *a.record.meta.phase_coherence);
+    EXPECT_EQ(*back.value().meta.sharpness_index, *a.record.meta.sharpness_index);
+    EXPECT_EQ(back.value().meta.kind(), "micro"); // pebbles
+}
+
+// Files written before the verdict existed carry no phase coherence: read, answered without it.
+TEST(TextonFile, ReadsMetadataWithoutThePhaseCoherence) {
+    const Analysed a = analyse(1);
+    nlohmann::json j = api::file_meta_json(a.record.meta);
+    EXPECT_EQ(j.at("kind"), "micro");
+    EXPECT_EQ(j.at("phase_coherence"), *a.record.meta.phase_coherence);
+    for (const char* k : {"phase_coherence", "sharpness_index", "kind"}) j.erase(k);
+    const auto old = j.get<api::TextonMeta>();
+    EXPECT_FALSE(old.phase_coherence.has_value());
+    EXPECT_EQ(old.kind(), "");
+    EXPECT_FALSE(nlohmann::json(old).contains("kind"));
+    EXPECT_EQ(old.id, a.record.meta.id);
 }
 
 TEST(TextonFile, IdIsContentAddressedAndThreadIndependent) {
