@@ -28,8 +28,11 @@ TEST(Cli, HelpForEveryCommand) {
     }
 }
 
-// The baseline load_test.sh divides by: three positive timings whose sum is the third, and the
-// PNG size of a stored 256x256 RGB tile (196,608 bytes of pixels plus the format's framing).
+// The baseline load_test.sh divides by: three positive timings (rows render, encode and their
+// sum), and the PNG size of a stored 256x256 RGB tile (196,608 bytes of pixels plus the format's
+// framing). How the timings compare is not asserted: on a shared 2-core machine the medians of
+// five runs moved by 3x under load (a fresh-clone run failed on it), and speed is the
+// benchmarks' business, not the tests'.
 TEST(Cli, BenchTilePrintsRenderEncodeAndTheirSum) {
     const test::RunResult r = test::run("bench tile --count 5 --size 32 --exemplar " +
                                         test::exemplar_path("etr_sand01.png"));
@@ -42,7 +45,6 @@ TEST(Cli, BenchTilePrintsRenderEncodeAndTheirSum) {
         v[i] = std::stod(r.out.substr(at + std::strlen(rows[i])));
         EXPECT_GT(v[i], 0) << rows[i];
     }
-    EXPECT_NEAR(v[2], v[0] + v[1], 0.5 * v[2]) << r.out; // medians: the sum's is close, not equal
     const auto bytes = r.out.find(" bytes)");
     ASSERT_NE(bytes, std::string::npos);
     const std::size_t start = r.out.rfind(' ', bytes - 1) + 1;
