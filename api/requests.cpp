@@ -79,6 +79,12 @@ std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
                            number_text(core::noise::kMaxMni) + "], not '" + s->substr(0, 40) + "'");
         out.mni = *v;
     }
+    if (const std::string* s = field(q, "marginals")) {
+        if (*s != "gaussian" && *s != "exemplar")
+            return bad("invalid_parameter",
+                       "marginals must be gaussian or exemplar, not '" + s->substr(0, 40) + "'");
+        out.exemplar_marginals = *s == "exemplar";
+    }
     return std::nullopt;
 }
 
@@ -120,7 +126,7 @@ std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int6
 
 // seed, mni and size: what every tile URL (and TileJSON) takes.
 std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
-    if (auto e = check_fields(q, {"seed", "mni", "size"})) return e;
+    if (auto e = check_fields(q, {"seed", "mni", "size", "marginals"})) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     if (const std::string* s = field(q, "size")) {
         auto v = parse_i64(*s);
@@ -243,7 +249,7 @@ std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, 
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "seed", "mni"})) return e;
+    if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals"})) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 1, 16384, w)) return e;
@@ -274,7 +280,7 @@ std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(q, {"w", "h", "seed", "mni"})) return e;
+    if (auto e = check_fields(q, {"w", "h", "seed", "mni", "marginals"})) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 8, limits.max_tileable_side, w)) return e;

@@ -41,6 +41,9 @@ struct Limits {
 struct NoiseParams {
     std::uint64_t seed = 0;
     double mni = 30.0;
+    // marginals=exemplar: each pixel mapped onto the exemplar's colour marginals (README
+    // "Marginals"); the default, gaussian, is the noise as it is.
+    bool exemplar_marginals = false;
 };
 
 struct TileRequest {

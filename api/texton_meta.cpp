@@ -43,6 +43,8 @@ nlohmann::json file_meta_json(const TextonMeta& m) {
         {"rme_uncorrected", m.rme_uncorrected},
         {"coefficients_sha256", m.coefficients_sha256},
     };
+    j["marginals"] = m.exemplar_marginals ? std::vector<std::string>{"gaussian", "exemplar"}
+                                          : std::vector<std::string>{"gaussian"};
     if (m.phase_coherence && m.sharpness_index) {
         j["phase_coherence"] = *m.phase_coherence;
         j["sharpness_index"] = *m.sharpness_index;
@@ -107,6 +109,9 @@ void from_json(const nlohmann::json& j, TextonMeta& m) {
     j.at("coefficients_sha256").get_to(m.coefficients_sha256);
     m.phase_coherence.reset();
     m.sharpness_index.reset();
+    m.exemplar_marginals = false;
+    if (const auto it = j.find("marginals"); it != j.end())
+        for (const auto& v : *it) m.exemplar_marginals = m.exemplar_marginals || v == "exemplar";
     if (j.contains("phase_coherence") && j.contains("sharpness_index")) {
         m.phase_coherence = j.at("phase_coherence").get<double>();
         m.sharpness_index = j.at("sharpness_index").get<double>();

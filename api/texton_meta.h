@@ -33,6 +33,9 @@ struct TextonMeta {
     // The exemplar's phase coherence (core/phase_coherence.h) and Leclaire-Moisan sharpness index;
     // absent from texton files written before they were computed.
     std::optional<double> phase_coherence, sharpness_index;
+    // Whether the texton keeps the exemplar's marginals (marginals=exemplar renders); false for
+    // mixes and files written before they were kept.
+    bool exemplar_marginals = false;
     // Provenance: how this copy came to be, not what it is. Never in the texton file, which is
     // content-addressed and must be the same bytes whoever analysed it and when.
     std::optional<core::AnalysisTimings> timings; // unknown for a texton read from a file alone

@@ -1,5 +1,6 @@
 #pragma once
 #include "core/image.h"
+#include "core/marginals.h"
 
 #include <array>
 
@@ -13,6 +14,9 @@ struct Texton {
     int order = 1;    // 0 nearest (discrete SOT), 1 bilinear, 3 cubic B-spline
     std::array<double, 3> mean{};
     Image alpha; // size x size x channels
+    // The exemplar's colour marginals, for restoring them on request (core/marginals.h); empty
+    // for textons without an exemplar (mixes) or analysed before they were kept.
+    MarginalModel marginals;
 };
 
 } // namespace textond::core

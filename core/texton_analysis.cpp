@@ -149,6 +149,7 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     r.timings.periodic_ms = out.timings.periodic_ms;
     r.timings.model_ms = out.timings.model_ms;
     r.coherence = phase_coherence(exemplar, threads);
+    r.texton.marginals = marginal_model(exemplar);
     r.timings.total_ms = ms_since(t_start);
     return r;
 }

@@ -543,6 +543,14 @@ std::string CpuBackend::renderer() const {
 Result<core::Image> CpuBackend::render(const PreparedTexton& tex, const NoiseRequest& q,
                                        RenderStats* stats) {
     assert(!tex.check(q)); // checked by the caller (backend.h)
+    auto out = render_gaussian(tex, q, stats);
+    if (out && q.marginals == Marginals::exemplar)
+        restore_marginals(*tex.marginals(q.level), out.value());
+    return out;
+}
+
+Result<core::Image> CpuBackend::render_gaussian(const PreparedTexton& tex, const NoiseRequest& q,
+                                                RenderStats* stats) {
     if (q.level >= tex.limit_level()) {
         core::Image out(q.width, q.height, tex.channels());
         if (!render_limit(tex, q, m_threads, out)) return abandoned(q.cancel, "the render");

@@ -23,6 +23,9 @@ public:
                                    RenderStats* stats = nullptr) override;
 
 private:
+    // The noise before any marginal restoration.
+    Result<core::Image> render_gaussian(const PreparedTexton& tex, const NoiseRequest& q,
+                                        RenderStats* stats);
     Result<core::Image> render_exact(const PreparedTexton& tex,
                                      const std::vector<const LevelTable*>& tables,
                                      const PreparedMix* mix, const NoiseRequest& q,

@@ -21,6 +21,10 @@ inline constexpr std::int64_t kPlaneHalfWidth = std::int64_t{1} << 62;
 // that encode to the same bytes. The CPU backend always returns full floats.
 enum class Precision { f32, u16, u8 };
 
+// gaussian: the noise as it is; exemplar: each pixel mapped onto the exemplar's marginals
+// (core/marginals.h), after the evaluation, on every backend.
+enum class Marginals { gaussian, exemplar };
+
 struct NoiseRequest {
     std::uint64_t seed = 0;
     double mni = kDefaultMni;
@@ -28,7 +32,8 @@ struct NoiseRequest {
     std::int64_t x0 = 0, y0 = 0;
     int width = 256, height = 256;
     std::array<std::int64_t, 2> period{0, 0}; // tileable mode, in cells; 0 = unbounded plane
-    Precision precision = Precision::f32;     // not part of the window: what the caller keeps
+    Marginals marginals = Marginals::gaussian;
+    Precision precision = Precision::f32; // not part of the window: what the caller keeps
     // Not part of the window: when to give up (render/cancel.h); none = run to the end.
     const Cancel* cancel = nullptr;
 };

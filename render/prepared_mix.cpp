@@ -31,6 +31,10 @@ std::optional<Error> PreparedMix::check(const NoiseRequest& q) const {
     if (q.period[0] != 0 || q.period[1] != 0)
         return make_error(ErrorCode::invalid_argument,
                           "mixes have no tileable mode: the field rho(x) is not periodic");
+    if (q.marginals == Marginals::exemplar)
+        return make_error(ErrorCode::invalid_argument,
+                          "mixes have no exemplar marginals (two exemplars, one field between "
+                          "them); use marginals=gaussian");
     return m_levels.front()->check(q);
 }
 

@@ -47,6 +47,9 @@ std::optional<Error> PreparedTexton::check(const NoiseRequest& q) const {
     if (!inside(q.x0, q.width) || !inside(q.y0, q.height))
         return bad("window outside the plane: |x|, |y| must stay within 2^62 texels (" +
                    std::to_string(bound) + " pixels at level " + std::to_string(q.level) + ")");
+    if (q.marginals == Marginals::exemplar && m_texton.marginals.empty())
+        return bad("marginals=exemplar needs the exemplar's marginals, which this texton does not "
+                   "keep (analysed before they were kept); use marginals=gaussian");
     const bool tileable = q.period[0] != 0 || q.period[1] != 0;
     if (tileable) {
         if (q.period[0] < 1 || q.period[1] < 1 || q.period[0] > (1 << 20) ||
@@ -88,6 +91,38 @@ const core::LagCovariance& PreparedTexton::covariance() const {
     std::lock_guard<std::mutex> lock(m_mutex);
     if (!m_cov) m_cov = std::make_unique<core::LagCovariance>(core::sampled_covariance(m_texton));
     return *m_cov;
+}
+
+std::shared_ptr<const core::MarginalTables> PreparedTexton::marginals(int level) const {
+    if (m_texton.marginals.empty()) return nullptr;
+    const int key = std::max(0, level);
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        if (auto it = m_marginals.find(key); it != m_marginals.end()) return it->second;
+    }
+    // The level's variance along each principal direction of the exemplar's colours: the box
+    // average of 2^key texels (NOISE_SPEC.md section 6), whose tables keep level 0's mean.
+    const core::ColourMatrix c =
+        core::box_average_covariance(covariance(), std::int64_t{1} << key, 0, 0);
+    const core::MarginalModel& m = m_texton.marginals;
+    std::array<double, 3> variance{};
+    for (int i = 0; i < m.channels; ++i)
+        for (int a = 0; a < m.channels; ++a)
+            for (int b = 0; b < m.channels; ++b)
+                variance[static_cast<std::size_t>(i)] += m.basis(a, i) * c(a, b) * m.basis(b, i);
+    auto tables = std::make_shared<const core::MarginalTables>(m, variance);
+    std::lock_guard<std::mutex> lock(m_mutex);
+    return m_marginals.emplace(key, std::move(tables)).first->second;
+}
+
+void restore_marginals(const core::MarginalTables& tables, core::Image& image) {
+    const int nc = tables.channels();
+    float v[3];
+    for (std::size_t k = 0; k < image.plane_size(); ++k) {
+        for (int c = 0; c < nc; ++c) v[c] = image.plane(c)[k];
+        tables.apply(v);
+        for (int c = 0; c < nc; ++c) image.plane(c)[k] = v[c];
+    }
 }
 
 const core::noise::LimitModel& PreparedTexton::limit(int level) const {

@@ -57,6 +57,9 @@ public:
     std::shared_ptr<const LevelTable> table(int level) const;
     const core::noise::LimitModel& limit(int level) const;
     const core::LagCovariance& covariance() const;
+    // The exemplar's marginal tables at `level` (magnification uses level 0's), made once; null
+    // when the texton keeps no marginals.
+    std::shared_ptr<const core::MarginalTables> marginals(int level) const;
 
 private:
     explicit PreparedTexton(core::Texton t);
@@ -67,6 +70,11 @@ private:
     mutable std::map<int, std::shared_ptr<const LevelTable>> m_tables;
     mutable std::map<int, core::noise::LimitModel> m_limits;
     mutable std::unique_ptr<core::LagCovariance> m_cov;
+    mutable std::map<int, std::shared_ptr<const core::MarginalTables>> m_marginals;
 };
+
+// Maps every pixel of `image` (a render of the texton `tables` belong to) onto the exemplar's
+// marginals: pointwise, so windows and tiles of one plane still agree bit for bit.
+void restore_marginals(const core::MarginalTables& tables, core::Image& image);
 
 } // namespace textond::render

@@ -251,7 +251,13 @@ Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const Prep
     if (mix && q.level >= mix->level(0).limit_level())
         return make_error(ErrorCode::unsupported, m_name + ": a mix's limit levels are CPU only");
     Work w;
-    w.window = std::make_unique<gl::NoiseWindow>(gl::make_noise_window(tex, mix, q));
+    NoiseRequest wq = q;
+    if (!mix && q.marginals == Marginals::exemplar) {
+        // Restored from floats, then rounded as any float render is (the same bytes as the CPU).
+        w.marginals = tex.marginals(q.level);
+        wq.precision = Precision::f32;
+    }
+    w.window = std::make_unique<gl::NoiseWindow>(gl::make_noise_window(tex, mix, wq));
     w.stats.limit_model = w.window->limit_model;
     w.stats.points = 0; // not counted on the GPU
     w.stats.evaluations =
@@ -593,9 +599,11 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
     if (failed || err != GL_NO_ERROR)
         fail_all(Error{ErrorCode::internal,
                        m_name + ": GL error " + std::to_string(static_cast<int>(err))});
-    for (Work* w : batch)
+    for (Work* w : batch) {
         if (w->image && stopped(w->window->cancel))
             w->image = abandoned(w->window->cancel, "the render");
+        if (w->image && w->marginals) restore_marginals(*w->marginals, w->image.value());
+    }
     return gpu_ms;
 }
 

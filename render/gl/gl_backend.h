@@ -68,6 +68,8 @@ public:
         std::unique_ptr<gl::NoiseWindow> window;
         Result<core::Image> image = make_error(ErrorCode::internal, "not rendered");
         RenderStats stats; // gpu_ms: the whole batch's passes that held this window
+        // marginals=exemplar: the level's tables, applied on the host to the floats read back.
+        std::shared_ptr<const core::MarginalTables> marginals;
         Work();
         Work(Work&&) noexcept;
         ~Work();

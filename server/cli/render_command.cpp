@@ -26,6 +26,8 @@ summary (backend, timing) on stdout.
   --seed N          noise seed (unsigned 64-bit)                                [0]
   --mni M           mean number of impacts per pixel, 1..200                    [30]
   --period P        tileable mode: the noise repeats every P cells (P x cell side texels)
+  --marginals M     gaussian | exemplar: map the noise onto the exemplar's colour
+                    marginals (README "Marginals")                              [gaussian]
   --backend B       auto | cpu | osmesa | egl                                   [auto]
   --render-threads N  CPU backend threads, 0 = all cores                        [0]
   --png16           16-bit PNG instead of 8-bit
@@ -36,7 +38,7 @@ summary (backend, timing) on stdout.
 int render_command(const Argv& argv) {
     auto parsed = parse_input_command(argv, "render", kHelp, "INPUT", true,
                                       {"--output", "--x", "--y", "--w", "--h", "--lod", "--mni",
-                                       "--period", "--backend", "--render-threads"},
+                                       "--period", "--backend", "--render-threads", "--marginals"},
                                       {"--png16"});
     if (auto* code = std::get_if<int>(&parsed)) return *code;
     const Args& a = std::get<Args>(parsed);

@@ -22,6 +22,13 @@ Result<render::NoiseRequest> window_from(const Args& a, int width, int height) {
     q.height = static_cast<int>(h.value());
     q.level = static_cast<int>(lod.value());
     q.mni = mni.value();
+    // Only commands that list --marginals accept it (render); the others keep the default.
+    const std::string marginals = a.get("--marginals", "gaussian");
+    if (marginals != "gaussian" && marginals != "exemplar")
+        return make_error(ErrorCode::invalid_argument,
+                          "--marginals must be gaussian or exemplar, not '" + marginals + "'");
+    q.marginals =
+        marginals == "exemplar" ? render::Marginals::exemplar : render::Marginals::gaussian;
     return q;
 }
 

@@ -208,15 +208,23 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
     set_route(mix ? "/v1/mixes/{id}/tilejson.json" : "/v1/textons/{id}/tilejson.json");
     api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
     if (auto e = api::parse_tilejson(id, req.params, probe)) return send_error(res, *e);
+    const api::ApiError no_marginals{
+        "invalid_parameter",
+        "marginals=exemplar needs the exemplar's marginals, which this texton does not keep "
+        "(a mix, or analysed before they were kept); use marginals=gaussian"};
     if (mix) {
         if (auto meta = m_mixes.meta(id); !meta) return send_error(res, to_api_error(meta.error()));
+        if (probe.noise.exemplar_marginals) return send_error(res, no_marginals);
     } else if (auto meta = m_textons.find(id); !meta) {
         return send_error(res, to_api_error(meta.error()));
+    } else if (probe.noise.exemplar_marginals && !meta.value().exemplar_marginals) {
+        return send_error(res, no_marginals);
     }
     const std::string prefix = mix ? "/v1/mixes/" : "/v1/textons/";
     const std::string query = "?seed=" + std::to_string(probe.noise.seed) +
                               "&mni=" + mni_text(probe.noise.mni) +
-                              (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "");
+                              (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
+                              (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "");
     const std::string base = base_url(req);
     const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
     nlohmann::json j = {
@@ -233,6 +241,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
         {"center", {0, 0, native_zoom}},
         {"textond",
          {{"tile_size", probe.size},
+          {"marginals", probe.noise.exemplar_marginals ? "exemplar" : "gaussian"},
           {"level_of_zoom", "level = " + std::to_string(api::kMapMaxLevel) +
                                 " - z: zoom z shows 2^(24 - z) texels per pixel; z = 24 is "
                                 "the texton's own resolution"},

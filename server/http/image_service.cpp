@@ -75,6 +75,8 @@ render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, 
     q.height = h;
     q.seed = noise.seed;
     q.mni = noise.mni;
+    q.marginals =
+        noise.exemplar_marginals ? render::Marginals::exemplar : render::Marginals::gaussian;
     return q;
 }
 
@@ -90,7 +92,8 @@ std::string ImageService::key(const Job& job) {
            std::to_string(q.height) + "/p" + std::to_string(q.period[0]) + "x" +
            std::to_string(q.period[1]) + "/o" + std::to_string(job.out_width) + "x" +
            std::to_string(job.out_height) + "/s" + std::to_string(q.seed) + "/m" + mni_text(q.mni) +
-           "." + api::extension(job.format);
+           (q.marginals == render::Marginals::exemplar ? "/exemplar" : "") + "." +
+           api::extension(job.format);
 }
 
 std::string ImageService::spectrum_key(const std::string& id, const api::NoiseParams& noise) {

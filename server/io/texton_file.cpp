@@ -28,6 +28,51 @@ void hash_floats(Sha256& h, const std::vector<float>& v) {
 Error bad_file(const std::string& path, const std::string& why) {
     return make_error(ErrorCode::unprocessable, "not a valid texton file " + path + ": " + why);
 }
+
+nlohmann::json marginals_json(const core::MarginalModel& m) {
+    nlohmann::json j;
+    std::vector<double> basis;
+    for (int c = 0; c < m.channels; ++c)
+        for (int i = 0; i < m.channels; ++i) basis.push_back(m.basis(c, i));
+    j["basis"] = basis; // row c, column i: channel c of component i
+    j["variance"] = std::vector<double>(m.variance.begin(), m.variance.begin() + m.channels);
+    j["quantiles"] =
+        std::vector<std::vector<float>>(m.quantiles.begin(), m.quantiles.begin() + m.channels);
+    return j;
+}
+
+// The marginals of a texton with `channels` channels, or why they are not valid.
+Result<core::MarginalModel> marginals_from_json(const nlohmann::json& j, int channels,
+                                                const std::array<double, 3>& mean) {
+    core::MarginalModel m;
+    m.channels = channels;
+    m.mean = mean;
+    m.basis.n = channels;
+    const auto basis = j.at("basis").get<std::vector<double>>();
+    const auto variance = j.at("variance").get<std::vector<double>>();
+    const auto quantiles = j.at("quantiles").get<std::vector<std::vector<float>>>();
+    const auto n = static_cast<std::size_t>(channels);
+    if (basis.size() != n * n || variance.size() != n || quantiles.size() != n)
+        return make_error(ErrorCode::unprocessable, "marginals have the wrong shape");
+    for (std::size_t c = 0; c < n; ++c)
+        for (std::size_t i = 0; i < n; ++i) {
+            m.basis(static_cast<int>(c), static_cast<int>(i)) = basis[c * n + i];
+            if (!std::isfinite(basis[c * n + i]))
+                return make_error(ErrorCode::unprocessable, "marginal basis is not finite");
+        }
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto& q = quantiles[i];
+        if (!(variance[i] >= 0.0) || q.size() != core::MarginalModel::kQuantiles)
+            return make_error(ErrorCode::unprocessable, "marginal quantiles have the wrong shape");
+        for (std::size_t k = 0; k < q.size(); ++k)
+            if (!std::isfinite(q[k]) || (k > 0 && q[k] < q[k - 1]))
+                return make_error(ErrorCode::unprocessable,
+                                  "marginal quantiles are not finite and ascending");
+        m.variance[i] = variance[i];
+        m.quantiles[i] = q;
+    }
+    return m;
+}
 } // namespace
 
 std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& params) {
@@ -68,6 +113,7 @@ TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams
     m.rme_uncorrected = result.rme_uncorrected;
     m.timings = result.timings;
     m.coefficients_sha256 = coefficients_sha256(result.texton);
+    m.exemplar_marginals = !result.texton.marginals.empty();
     if (result.coherence) {
         m.phase_coherence = result.coherence->index;
         m.sharpness_index = result.coherence->full.index;
@@ -77,8 +123,12 @@ TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams
 
 Result<std::string> texton_file_bytes(const TextonRecord& record) {
     // Without provenance: two analyses of one exemplar give one file, byte for byte.
-    return encode_image_memory(record.texton.alpha, Encoding::exr,
-                               {{kMetaAttribute, api::file_meta_json(record.meta).dump()}});
+    std::vector<std::pair<std::string, std::string>> attributes = {
+        {kMetaAttribute, api::file_meta_json(record.meta).dump()}};
+    if (!record.texton.marginals.empty())
+        attributes.emplace_back(kMarginalsAttribute,
+                                marginals_json(record.texton.marginals).dump());
+    return encode_image_memory(record.texton.alpha, Encoding::exr, attributes);
 }
 
 Result<bool> write_texton_file(const std::string& path, const TextonRecord& record) {
@@ -130,6 +180,18 @@ Result<TextonRecord> read_texton_file(const std::string& path) {
             return bad_file(path, "mean colour is not finite");
     for (float v : r.texton.alpha.data)
         if (!std::isfinite(v)) return bad_file(path, "coefficients are not finite");
+    const std::string marginals = spec.get_string_attribute(kMarginalsAttribute);
+    if (marginals.empty() == m.exemplar_marginals)
+        return bad_file(path, "the metadata and the marginals attribute disagree");
+    if (!marginals.empty()) {
+        try {
+            auto mm = marginals_from_json(nlohmann::json::parse(marginals), m.channels, m.mean);
+            if (!mm) return bad_file(path, mm.error().message);
+            r.texton.marginals = std::move(mm.value());
+        } catch (const std::exception& e) {
+            return bad_file(path, std::string("marginals: ") + e.what());
+        }
+    }
     return r;
 }
 

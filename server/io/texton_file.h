@@ -13,6 +13,8 @@
 namespace textond::io {
 
 inline constexpr const char* kMetaAttribute = "textond:meta";
+// The exemplar's marginals (core/marginals.h) as JSON, when the texton has them.
+inline constexpr const char* kMarginalsAttribute = "textond:marginals";
 
 struct TextonRecord {
     core::Texton texton;

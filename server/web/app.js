@@ -36,10 +36,17 @@ async function getJson(url) {
   return res.json();
 }
 
-function noiseQuery() {
+// Seed and MNI: what every noise image takes (the spectrum too).
+function seedQuery() {
   const seed = Math.max(0, Math.floor(Number($('seed').value) || 0));
   const mni = Math.min(200, Math.max(1, Number($('mni').value) || 30));
   return `seed=${seed}&mni=${mni}`;
+}
+
+// The tiles, regions and downloads: also the exemplar's colour marginals when asked for.
+function noiseQuery() {
+  const marginals = $('marginals').checked && !$('marginals').disabled;
+  return seedQuery() + (marginals ? '&marginals=exemplar' : '');
 }
 
 async function upload(file) {
@@ -95,6 +102,8 @@ async function show(meta) {
   $('texton-img').src = meta.links.texton_png;
   $('rme').textContent = meta.rme.toFixed(3);
   $('kind').textContent = verdict(meta);
+  // Textons analysed before the marginals were kept offer the Gaussian ones only.
+  $('marginals').disabled = !(meta.marginals || []).includes('exemplar');
   const m = meta.mean.length === 1 ? [meta.mean[0], meta.mean[0], meta.mean[0]] : meta.mean;
   const rgb = m.map((v) => Math.round(255 * Math.min(1, Math.max(0, v))));
   $('mean-swatch').style.background = `rgb(${rgb.join(',')})`;
@@ -131,7 +140,7 @@ async function refreshNoise() {
   const w = Math.min(meta.exemplar.width, 1024), h = Math.min(meta.exemplar.height, 1024);
   $('side-exemplar').src = meta.links.exemplar_png;
   $('side-synthesis').src = `/v1/textons/${meta.id}/region.png?w=${w}&h=${h}&${noiseQuery()}`;
-  $('spectrum-img').src = `${meta.links.spectrum_png}?${noiseQuery()}`;
+  $('spectrum-img').src = `${meta.links.spectrum_png}?${seedQuery()}`;
   drawHistograms();
 }
 
@@ -231,6 +240,7 @@ drop.addEventListener('drop', (e) => {
   if (e.dataTransfer.files[0]) upload(e.dataTransfer.files[0]);
 });
 $('apply').addEventListener('click', () => refreshNoise().catch((e) => showError(e.message)));
+$('marginals').addEventListener('change', () => refreshNoise().catch((e) => showError(e.message)));
 for (const id of ['dl-w', 'dl-h', 'dl-format', 'seed', 'mni'])
   $(id).addEventListener('input', updateDownloads);
 $('copy-url').addEventListener('click', async () => {

@@ -90,6 +90,46 @@ TEST_F(Tiles, SeedsAndSizesChangeTheImage) {
     EXPECT_EQ(max_abs_diff(test::crop(big, 256, 256), a), 0.0);
 }
 
+// marginals=exemplar over HTTP: offered by the texton, its tiles stitch into its region, differ
+// from the Gaussian ones (another ETag), TileJSON carries it into its tile URLs, and a bad value,
+// a mix or a tileable texture asking for it get plain answers.
+TEST_F(Tiles, ExemplarMarginalsTilesStitchAndTileJsonCarriesThem) {
+    auto c = server->client();
+    auto meta = c.Get(("/v1/textons/" + id).c_str());
+    ASSERT_TRUE(meta && meta->status == 200);
+    EXPECT_EQ(json::parse(meta->body).at("marginals"), json({"gaussian", "exemplar"}));
+    const std::string q = "?seed=3&marginals=exemplar";
+    std::vector<core::Image> tiles;
+    for (int t = 0; t < 4; ++t)
+        tiles.push_back(get_image("/v1/textons/" + id + "/tiles/1/" + std::to_string(t % 2 - 1) +
+                                  "/" + std::to_string(t / 2) + ".exr" + q));
+    const core::Image region =
+        get_image("/v1/textons/" + id + "/region.exr" + q + "&w=512&h=512&z=1&x=-256&y=0");
+    EXPECT_EQ(max_abs_diff(stitch(tiles), region), 0.0);
+    const core::Image gauss = get_image("/v1/textons/" + id + "/tiles/1/-1/0.exr?seed=3");
+    EXPECT_GT(max_abs_diff(gauss, tiles[0]), 0.005);
+    auto e1 = c.Get(("/v1/textons/" + id + "/tiles/1/-1/0.png?seed=3").c_str());
+    auto e2 = c.Get(("/v1/textons/" + id + "/tiles/1/-1/0.png" + q).c_str());
+    ASSERT_TRUE(e1 && e2);
+    EXPECT_NE(e1->get_header_value("ETag"), e2->get_header_value("ETag"));
+    auto tj = c.Get(("/v1/textons/" + id + "/tilejson.json" + q).c_str());
+    ASSERT_TRUE(tj && tj->status == 200);
+    const json j = json::parse(tj->body);
+    EXPECT_NE(j.at("tiles")[0].get<std::string>().find("&marginals=exemplar"), std::string::npos);
+    EXPECT_EQ(j.at("textond").at("marginals"), "exemplar");
+    for (const std::string& bad : {"/v1/textons/" + id + "/tiles/0/0/0.png?marginals=histogram",
+                                   "/v1/textons/" + id + "/region.png?marginals=1"}) {
+        auto r = c.Get(bad.c_str());
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 400) << bad;
+        EXPECT_NE(r->body.find("gaussian or exemplar"), std::string::npos) << r->body;
+    }
+    auto tileable =
+        c.Get(("/v1/textons/" + id + "/tileable.png?w=64&h=64&marginals=exemplar").c_str());
+    ASSERT_TRUE(tileable);
+    EXPECT_EQ(tileable->status, 200); // tileable textures restore too
+}
+
 TEST_F(Tiles, MapTilesAreLevelTilesAndTileJsonPointsAtThem) {
     auto c = server->client();
     auto res = c.Get(("/v1/textons/" + id + "/tilejson.json?seed=4&mni=20").c_str());

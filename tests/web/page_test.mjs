@@ -210,6 +210,21 @@ try {
   check(template.startsWith(url) && template.includes('/map/{z}/{x}/{y}.png?seed=7'),
         `the tile URL template is absolute, with the seed (${template})`);
 
+  // The photo's colours: the map reloads with marginals=exemplar, every tile 200, a new picture.
+  const gaussianMap = await page.locator('#map').screenshot();
+  const tilesBefore = tileStatus.length;
+  await page.check('#marginals');
+  await page.waitForFunction(() => [...document.querySelectorAll('#map .leaflet-tile-loaded')]
+    .some((t) => t.src.includes('marginals=exemplar')), null, { timeout: 30000 });
+  await page.waitForLoadState('networkidle');
+  await page.waitForTimeout(300);
+  const restoredMap = await page.locator('#map').screenshot({ path: join(artefacts, 'map-marginals.png') });
+  check((await page.inputValue('#tile-url')).includes('marginals=exemplar'),
+        'the photo\'s colours reach the tile URL template');
+  check(tileStatus.length > tilesBefore && tileStatus.every((s) => s === 200),
+        'tiles with the photo\'s colours load, all 200');
+  check(!gaussianMap.equals(restoredMap), 'the photo\'s colours change the map');
+
   const spectra = await loadedImageSize(page, '#spectrum-img');
   check(spectra[0] === 2 * spectra[1] + 4, `the spectra show, side by side (${spectra})`);
   check(await page.evaluate(() => !!window.textond.histograms), 'the histograms are drawn');
