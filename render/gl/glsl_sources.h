@@ -9,6 +9,7 @@ extern const char* const kTextonEval;
 extern const char* const kTextonNoiseComp;
 extern const char* const kSpecProbeComp;
 extern const char* const kTextonNoiseHlsl;
+extern const char* const kMarginalsGlsl;
 extern const char* const kNoiseSpec;
 extern const char* const kSurfaceNoiseComp;
 extern const char* const kSurfaceLib;

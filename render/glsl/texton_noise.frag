@@ -7,5 +7,8 @@ layout(location = 0) out vec4 o_color;
 void main() {
     ivec2 pix = ivec2(gl_FragCoord.xy) + u_offset;
     vec3 v = u_mode == 0 ? exact_pixel(pix) : limit_pixel(pix);
+#ifdef TEXTOND_MARGINALS
+    v = restore_marginals(v); // marginals.glsl: the exemplar's colour distribution
+#endif
     o_color = vec4(v, 1.0);
 }

@@ -31,6 +31,7 @@ show is what this shader computes: same seed, same position, same colour (to flo
 | `glsl/noise_lib.glsl`, `glsl/texton_eval.glsl` | the exact GLSL the server's OpenGL backends run (GLSL 4.50): the hash, the point process and the evaluation of one pixel |
 | `glsl/texton_noise.frag`, `glsl/fullscreen.vert` | a fragment entry point over them (a full-screen pass); `glsl/texton_noise.comp` is the server's batched compute one (for reference: it reads each window's uniforms from a storage buffer of records) |
 | `hlsl/texton_noise.hlsl` | its HLSL (SM 5) translation, same uniforms (arrays packed by four) |
+| `glsl/marginals.glsl`, `marginals.exr` | the exemplar's colour marginals (`marginals=exemplar` on the server), when the texton keeps them: the GLSL that maps the noise onto them and its tables, R32F, 256 x 75 (row 3 k + i: direction i at level k, 0..24) |
 | `NOISE_SPEC.md` | the function itself, step by step, with every rounding fixed |
 
 ## Use (GLSL)
@@ -70,6 +71,16 @@ the 64-bit base cell is large. Other zoom levels, magnification and tileable mod
 uniforms as NOISE_SPEC.md sections 6-7 say; another MNI needs its own threshold table (section 3,
 or ask the server: `kit.tar?mni=M`).
 
+## The exemplar's colours (marginals=exemplar)
+
+When `textond_kit.json` has `marginals`: compile `#version 450 core` + `#define
+TEXTOND_MARGINALS` + `noise_lib.glsl` + `texton_eval.glsl` + `marginals.glsl` +
+`texton_noise.frag`. For level k (0 for magnified levels), upload rows 3k..3k+2 of
+`marginals.exr` as an `R32F` texture of 256 x 3 (`GL_NEAREST`, read with `texelFetch`) and set
+`u_marg_tables` to its unit, `u_marg_basis` (columns: `marginals.basis`), `u_marg_mean`,
+`u_marg_sigma` (`marginals.sigma[k]`) and `u_marg_channels`. The output is the server's
+`?marginals=exemplar` tiles (to float rounding).
+
 ## Checking it
 
 The server's tile `%BASE%/v1/textons/%ID%/tiles/0/X/Y.exr?seed=S&mni=%MNI%` (256 x 256, float32)
@@ -79,6 +90,41 @@ is the window X0 = 256 X, Y0 = 256 Y of the same function: compare it with your 
 void replace_all(std::string& s, const std::string& from, const std::string& to) {
     for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size()))
         s.replace(p, from.size(), to);
+}
+
+// The marginal tables of levels 0..24 as one R32F image (row 3 k + i: direction i at level k)
+// and their parameters in `params["marginals"]`.
+Result<std::string> marginal_tables(const core::Texton& t, nlohmann::json& params) {
+    auto prepared = render::PreparedTexton::make(t);
+    if (!prepared) return prepared.error();
+    constexpr int kLevels = 25, kEntries = core::MarginalTables::kEntries;
+    core::Image rows(kEntries, 3 * kLevels, 1);
+    nlohmann::json sigma = nlohmann::json::array(), basis = nlohmann::json::array();
+    for (int k = 0; k < kLevels; ++k) {
+        const auto tables = prepared.value()->marginals(k);
+        std::vector<double> s(3, 1.0);
+        for (int i = 0; i < tables->channels(); ++i) {
+            std::copy_n(tables->table(i), kEntries, &rows.at(0, 0, 3 * k + i));
+            s[static_cast<std::size_t>(i)] = tables->sigma(i);
+        }
+        sigma.push_back(s);
+    }
+    const core::MarginalModel& m = t.marginals;
+    for (int i = 0; i < m.channels; ++i) {
+        std::vector<double> column;
+        column.reserve(static_cast<std::size_t>(m.channels));
+        for (int c = 0; c < m.channels; ++c) column.push_back(m.basis(c, i));
+        basis.push_back(column);
+    }
+    params["marginals"] = {
+        {"file", "marginals.exr"},
+        {"entries", kEntries},
+        {"range_sigmas", core::MarginalTables::kRange},
+        {"rows", "3 level + direction, levels 0..24 (magnified levels use level 0)"},
+        {"basis", basis},
+        {"mean", std::vector<double>(m.mean.begin(), m.mean.begin() + m.channels)},
+        {"sigma", sigma}};
+    return io::encode_image_memory(rows, io::Encoding::exr);
 }
 
 // 16-bit PNG: one offset and scale for every channel, so relative values are kept. Returns the
@@ -104,19 +150,17 @@ std::string engine_kit_directory(const std::string& id) {
     return "textond-kit-" + id.substr(0, 12);
 }
 
-Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::string& texton_exr,
-                                   double mni, const std::string& base_url) {
+namespace {
+
+// textond_kit.json: every parameter of the texton's noise at this MNI.
+nlohmann::json kit_params(const io::TextonRecord& record, double mni, const std::string& base_url,
+                          std::pair<double, double> png16_decode) {
     const core::Texton& t = record.texton;
     const std::string& id = record.meta.id;
     const core::noise::GridPoisson grid(t.size, mni);
-
-    auto png16 = texton_png16(t.alpha);
-    if (!png16) return png16.error();
-    const auto [lo, range] = png16.value().second;
-
     nlohmann::json mean = nlohmann::json::array();
     for (int c = 0; c < t.channels; ++c) mean.push_back(t.mean[static_cast<std::size_t>(c)]);
-    const nlohmann::json params = {
+    return {
         {"id", id},
         {"noise_version", render::kNoiseVersion},
         {"channels", t.channels},
@@ -130,14 +174,25 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
         {"scale", static_cast<float>(1.0 / std::sqrt(grid.lambda))},
         {"table_pad", render::table_pad(t.order)},
         {"poisson_thresholds", grid.thresholds},
-        {"png16_decode", {{"offset", lo}, {"scale", range}}},
+        {"png16_decode", {{"offset", png16_decode.first}, {"scale", png16_decode.second}}},
         {"rme", record.meta.rme},
         {"seed_rule",
-         "any unsigned 64-bit seed; cell (cx, cy) draws from cell_key(seed, cx, cy) (NOISE_SPEC.md "
-         "section 2): the kit with seed S equals the server's tiles with ?seed=S"},
+         "any unsigned 64-bit seed; cell (cx, cy) draws from cell_key(seed, cx, cy) "
+         "(NOISE_SPEC.md section 2): the kit with seed S equals the server's tiles with ?seed=S"},
         {"tile_template",
          base_url + "/v1/textons/" + id +
              "/tiles/{z}/{x}/{y}.exr?seed={seed}&mni=" + nlohmann::json(mni).dump()}};
+}
+
+} // namespace
+
+Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::string& texton_exr,
+                                   double mni, const std::string& base_url) {
+    const core::Texton& t = record.texton;
+    const std::string& id = record.meta.id;
+    auto png16 = texton_png16(t.alpha);
+    if (!png16) return png16.error();
+    nlohmann::json params = kit_params(record, mni, base_url, png16.value().second);
 
     std::string readme = kReadme;
     replace_all(readme, "%ID%", id);
@@ -145,17 +200,27 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
     replace_all(readme, "%MNI%", nlohmann::json(mni).dump());
 
     const std::string dir = engine_kit_directory(id) + "/";
-    return io::tar_archive({{dir + "README.md", readme},
-                            {dir + "textond_kit.json", params.dump(2) + "\n"},
-                            {dir + "texton.exr", texton_exr},
-                            {dir + "texton16.png", png16.value().first},
-                            {dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
-                            {dir + "glsl/texton_eval.glsl", render::glsl::kTextonEval},
-                            {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},
-                            {dir + "glsl/texton_noise.comp", render::glsl::kTextonNoiseComp},
-                            {dir + "glsl/fullscreen.vert", render::glsl::kFullscreenVert},
-                            {dir + "hlsl/texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
-                            {dir + "NOISE_SPEC.md", render::glsl::kNoiseSpec}});
+    std::vector<io::TarEntry> marginals;
+    if (!t.marginals.empty()) {
+        auto tables = marginal_tables(t, params);
+        if (!tables) return tables.error();
+        marginals = {{dir + "glsl/marginals.glsl", render::glsl::kMarginalsGlsl},
+                     {dir + "marginals.exr", std::move(tables.value())}};
+    }
+    std::vector<io::TarEntry> all = {
+        {dir + "README.md", readme},
+        {dir + "textond_kit.json", params.dump(2) + "\n"},
+        {dir + "texton.exr", texton_exr},
+        {dir + "texton16.png", png16.value().first},
+        {dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
+        {dir + "glsl/texton_eval.glsl", render::glsl::kTextonEval},
+        {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},
+        {dir + "glsl/texton_noise.comp", render::glsl::kTextonNoiseComp},
+        {dir + "glsl/fullscreen.vert", render::glsl::kFullscreenVert},
+        {dir + "hlsl/texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
+        {dir + "NOISE_SPEC.md", render::glsl::kNoiseSpec}};
+    all.insert(all.end(), marginals.begin(), marginals.end());
+    return io::tar_archive(all);
 }
 
 } // namespace textond::http

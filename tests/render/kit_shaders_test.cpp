@@ -213,10 +213,39 @@ GLuint set_cbuffer(Gl& gl, GLuint p, const std::vector<Uniform>& us) {
 
 enum class Entry { glsl, hlsl };
 
+// The kit's marginals.glsl uniforms and this level's tables (R32F 256 x 3 on unit 4).
+GLuint set_marginals(Gl& gl, GLuint p, const core::MarginalTables& t) {
+    std::vector<float> rows(3 * core::MarginalTables::kEntries, 0.0f);
+    float basis[9] = {0}, sigma[3] = {1, 1, 1}, mean[3] = {0, 0, 0};
+    for (int i = 0; i < t.channels(); ++i) {
+        std::copy_n(t.table(i), core::MarginalTables::kEntries,
+                    rows.begin() + i * core::MarginalTables::kEntries);
+        sigma[i] = static_cast<float>(t.sigma(i));
+        mean[i] = static_cast<float>(t.mean()[std::size_t(i)]);
+        for (int c = 0; c < t.channels(); ++c) basis[3 * i + c] = float(t.basis()(c, i)); // columns
+    }
+    GLuint tex = 0;
+    gl.f.GenTextures(1, &tex);
+    gl.f.ActiveTexture(GL_TEXTURE4);
+    gl.f.BindTexture(GL_TEXTURE_2D, tex);
+    gl.f.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, core::MarginalTables::kEntries, 3, 0, GL_RED,
+                    GL_FLOAT, rows.data());
+    gl.f.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl.f.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl.f.ActiveTexture(GL_TEXTURE0);
+    gl.f.Uniform1i(gl.f.GetUniformLocation(p, "u_marg_tables"), 4);
+    gl.f.UniformMatrix3fv(gl.f.GetUniformLocation(p, "u_marg_basis"), 1, GL_FALSE, basis);
+    gl.Uniform3fv(gl.f.GetUniformLocation(p, "u_marg_sigma"), 1, sigma);
+    gl.Uniform3fv(gl.f.GetUniformLocation(p, "u_marg_mean"), 1, mean);
+    gl.f.Uniform1i(gl.f.GetUniformLocation(p, "u_marg_channels"), t.channels());
+    return tex;
+}
+
 // Draws window `q` of `tex` with `frag` (RGBA float, row y = pixel y); fails the test on a GL
 // error.
 std::vector<float> draw(Gl& gl, const std::string& frag, Entry entry,
-                        const render::PreparedTexton& tex, const render::NoiseRequest& q) {
+                        const render::PreparedTexton& tex, const render::NoiseRequest& q,
+                        const core::MarginalTables* marginals = nullptr) {
     const NoiseWindow w = render::gl::make_noise_window(tex, nullptr, q);
     auto& f = gl.f;
     EXPECT_TRUE(gl.ctx->make_current());
@@ -226,11 +255,12 @@ std::vector<float> draw(Gl& gl, const std::string& frag, Entry entry,
     if (p == 0) return {};
     f.UseProgram(p);
     const auto us = uniforms_of(w);
-    GLuint ubo = 0;
+    GLuint ubo = 0, marg = 0;
     if (entry == Entry::glsl)
         set_plain(gl, p, us);
     else
         ubo = set_cbuffer(gl, p, us);
+    if (marginals) marg = set_marginals(gl, p, *marginals);
 
     GLuint tex_ids[2] = {0, 0}, fbo = 0, vao = 0;
     f.GenTextures(2, tex_ids);
@@ -261,6 +291,7 @@ std::vector<float> draw(Gl& gl, const std::string& frag, Entry entry,
     f.DeleteFramebuffers(1, &fbo);
     f.DeleteTextures(2, tex_ids);
     if (ubo) f.DeleteBuffers(1, &ubo);
+    if (marg) f.DeleteTextures(1, &marg);
     f.DeleteProgram(p);
     gl.ctx->release();
     return out;
@@ -348,6 +379,48 @@ TEST(KitShaders, GlslFragmentEntryAgreesWithCpu) {
     auto gl = Gl::open();
     if (!gl) GTEST_SKIP() << "no OSMesa";
     for (int order : {1, 3}) check_entry(*gl, glsl_entry(), Entry::glsl, order);
+}
+
+// The kit's marginals.glsl, compiled into the fragment entry with TEXTOND_MARGINALS, against the
+// CPU's marginals=exemplar: the same tables, float against double arithmetic around them (bound
+// 1e-4 of the field's std, 1e-3 for the limit model as above).
+TEST(KitShaders, MarginalsGlslAgreesWithCpu) {
+    auto gl = Gl::open();
+    if (!gl) GTEST_SKIP() << "no OSMesa";
+    const std::string frag = std::string("#version 450 core\n#define TEXTOND_MARGINALS\n") +
+                             render::glsl::kNoiseLib + render::glsl::kTextonEval +
+                             render::glsl::kMarginalsGlsl + render::glsl::kTextonNoiseFrag;
+    render::CpuBackend cpu;
+    for (const char* name : {"etr_pebbles04.png", "skimage_brick.png"}) {
+        const auto tex = analysed_texton(name, 64);
+        for (int level : {0, 2, -1, tex->limit_level() + 1}) {
+            render::NoiseRequest q;
+            q.seed = (std::uint64_t{1} << 32) + 9;
+            q.level = level;
+            q.x0 = -40;
+            q.width = 37;
+            q.height = 29;
+            q.marginals = render::Marginals::exemplar;
+            auto want = cpu.render(*tex, q);
+            ASSERT_TRUE(want.ok());
+            const auto got = draw(*gl, frag, Entry::glsl, *tex, q, tex->marginals(level).get());
+            ASSERT_EQ(got.size(), std::size_t(q.width) * q.height * 4);
+            q.marginals = render::Marginals::gaussian;
+            auto gauss = cpu.render(*tex, q);
+            const double bound = (level >= tex->limit_level() ? 1e-3 : 1e-4) * field_std(*tex, 0);
+            double worst = 0, moved = 0;
+            for (int ch = 0; ch < tex->channels(); ++ch)
+                for (int y = 0; y < q.height; ++y)
+                    for (int x = 0; x < q.width; ++x) {
+                        const float g = got[(std::size_t(y) * q.width + x) * 4 + ch];
+                        worst = std::max(worst, std::fabs(double(want.value().at(ch, x, y)) - g));
+                        moved = std::max(moved, std::fabs(double(gauss.value().at(ch, x, y)) - g));
+                    }
+            EXPECT_LE(worst, bound) << name << " level " << level;
+            // The map moves pixels well past the bound: a shader without it would fail above.
+            EXPECT_GT(moved, 2 * bound) << name << " level " << level;
+        }
+    }
 }
 
 TEST(KitShaders, HlslAgreesWithCpu) {

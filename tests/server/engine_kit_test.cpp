@@ -54,7 +54,8 @@ TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
     for (const char* f :
          {"README.md", "textond_kit.json", "texton.exr", "texton16.png", "glsl/noise_lib.glsl",
           "glsl/texton_eval.glsl", "glsl/texton_noise.frag", "glsl/texton_noise.comp",
-          "glsl/fullscreen.vert", "hlsl/texton_noise.hlsl", "NOISE_SPEC.md"}) {
+          "glsl/fullscreen.vert", "hlsl/texton_noise.hlsl", "NOISE_SPEC.md", "glsl/marginals.glsl",
+          "marginals.exr"}) {
         EXPECT_TRUE(fs::exists(kit.dir / f)) << f;
         EXPECT_FALSE(read_file((kit.dir / f).string()).empty()) << f;
     }
@@ -68,6 +69,7 @@ TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
              {"glsl/texton_noise.comp", "render/glsl/texton_noise.comp"},
              {"glsl/fullscreen.vert", "render/glsl/fullscreen.vert"},
              {"hlsl/texton_noise.hlsl", "render/hlsl/texton_noise.hlsl"},
+             {"glsl/marginals.glsl", "render/glsl/marginals.glsl"},
              {"NOISE_SPEC.md", "render/NOISE_SPEC.md"}})
         EXPECT_EQ(read_file((kit.dir / in_kit).string()), read_file((src / in_repo).string()))
             << in_kit;
@@ -86,6 +88,16 @@ TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
     const core::noise::GridPoisson grid(32, 30.0);
     EXPECT_EQ(kit.params["cell_size"], grid.a);
     EXPECT_EQ(kit.params["poisson_thresholds"].get<std::vector<std::uint32_t>>(), grid.thresholds);
+    // The marginal tables: 25 levels of 3 directions, each monotone (what the GLSL interpolates;
+    // kit_shaders_test runs marginals.glsl against the CPU), with a sigma per level.
+    const core::Image tables = io::decode_image_file((kit.dir / "marginals.exr").string()).value();
+    ASSERT_EQ(tables.width, 256);
+    ASSERT_EQ(tables.height, 75);
+    for (int row = 0; row < 75; ++row)
+        for (int x = 1; x < 256; ++x)
+            ASSERT_GE(tables.at(0, x, row), tables.at(0, x - 1, row)) << "row " << row;
+    EXPECT_EQ(kit.params["marginals"]["sigma"].size(), 25u);
+    EXPECT_EQ(kit.params["marginals"]["basis"].size(), 3u);
     // Another MNI, another table; a bad one is a clear 400; an unknown id a 404.
     const Kit five = unpack(c, id, "?mni=5", "kit_mni5");
     EXPECT_EQ(five.params["poisson_thresholds"].get<std::vector<std::uint32_t>>(),
