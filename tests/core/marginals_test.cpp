@@ -79,8 +79,8 @@ TEST(Marginals, LevelZeroTableMapsAGaussianOntoTheExemplar) {
 }
 
 // E[T_k(Y_k)] = E[T_0(Y_0)] at every zoomed-out variance (quadrature, so this is the table's own
-// error: measured 3e-5 at most, bounded by 1e-4), while the level-0 table at a smaller variance moves the mean by more than
-// 1e-3 on this skewed exemplar: what the per-level tables are for.
+// error: measured 3e-5 at most, bounded by 1e-4), while the level-0 table at a smaller variance
+// moves the mean by more than 1e-3 on this skewed exemplar: what the per-level tables are for.
 TEST(Marginals, ZoomedOutTablesKeepTheLevelZeroMean) {
     const core::MarginalModel m = core::marginal_model(load_exemplar("skimage_brick.png"));
     const core::MarginalTables t0(m, m.variance);
