@@ -179,6 +179,34 @@ void ImageRoutes::spectrum(const httplib::Request& req, httplib::Response& res) 
         512 * 512, noise.mni);
 }
 
+// The quality report (quality_report.h): the PNG cached like a spectrum, the JSON computed in a
+// render slot (two windows of at most 256 x 256).
+void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, bool png) {
+    set_route(png ? "/v1/textons/{id}/quality.png" : "/v1/textons/{id}/quality.json");
+    const std::string id = req.matches[1].str();
+    api::NoiseParams noise;
+    if (auto e = api::parse_spectrum(id, req.params, noise)) return send_error(res, *e);
+    auto produce = [&](const render::Cancel& cancel) -> Result<core::Image> {
+        auto r = m_images.quality(id, noise, cancel);
+        if (!r) return r.error();
+        return std::move(r.value().png);
+    };
+    if (png)
+        return serve_cached(req, res, id, ImageService::quality_key(id, noise),
+                            api::ImageFormat::png, produce, false, 2 * 256 * 256, noise.mni);
+    auto order = m_images.order(id, false);
+    if (!order) return send_error(res, to_api_error(order.error()));
+    auto slot = m_gate.admit(res, noise_work_s(2 * 256 * 256, noise.mni, order.value()));
+    if (!slot) return;
+    const render::Cancel cancel = m_gate.work_cancel();
+    auto report = m_images.quality(id, noise, cancel);
+    if (!report) return m_gate.send_work_error(res, report.error(), cancel);
+    report.value().json["links"] = {{"png", "/v1/textons/" + id +
+                                                "/quality.png?seed=" + std::to_string(noise.seed) +
+                                                "&mni=" + mni_text(noise.mni)}};
+    send_json(res, 200, report.value().json, "no-cache");
+}
+
 void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) {
     set_route("/v1/textons/{id}/exemplar.png");
     const std::string id = req.matches[1].str();

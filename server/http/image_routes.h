@@ -31,6 +31,8 @@ public:
     Handler region(const char* route, bool mix);
     void tileable(const httplib::Request& req, httplib::Response& res);
     void spectrum(const httplib::Request& req, httplib::Response& res);
+    // The texton's quality report: JSON (png = false) or its PNG.
+    void quality(const httplib::Request& req, httplib::Response& res, bool png);
     void exemplar(const httplib::Request& req, httplib::Response& res);
     void tilejson(const httplib::Request& req, httplib::Response& res, bool mix);
 

@@ -198,6 +198,35 @@ Result<core::Image> ImageService::spectrum(const std::string& id, const api::Noi
         core::centred_power_spectrum(window.value()));
 }
 
+std::string ImageService::quality_key(const std::string& id, const api::NoiseParams& noise) {
+    return "quality/" + id + "/s" + std::to_string(noise.seed) + "/m" + mni_text(noise.mni) +
+           ".png";
+}
+
+Result<QualityReport> ImageService::quality(const std::string& id, const api::NoiseParams& noise,
+                                            const render::Cancel& cancel) {
+    auto meta = m_textons.find(id);
+    if (!meta) return meta.error();
+    auto png = m_textons.exemplar_png(id);
+    if (!png) return png.error();
+    auto exemplar = io::decode_image_memory(png.value());
+    if (!exemplar) return exemplar.error();
+    const core::Image& u = exemplar.value();
+    const int w = std::min(256, u.width), h = std::min(256, u.height);
+    render::NoiseRequest q = noise_request(0, 0, 0, w, h, noise);
+    q.cancel = &cancel;
+    auto gaussian = evaluate(id, q, false, true, "quality");
+    if (!gaussian) return gaussian.error();
+    core::Image restored;
+    if (meta.value().exemplar_marginals) {
+        q.marginals = render::Marginals::exemplar;
+        auto r = evaluate(id, q, false, true, "quality");
+        if (!r) return r.error();
+        restored = std::move(r.value());
+    }
+    return quality_report(meta.value(), centre_crop(u, w, h), gaussian.value(), restored);
+}
+
 Result<std::string> ImageService::encode(const core::Image& image, api::ImageFormat format,
                                          const std::string& id) const {
     return io::encode_image_memory(

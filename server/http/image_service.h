@@ -11,6 +11,7 @@
 #include "render/renderer.h"
 #include "server/http/metrics.h"
 #include "server/http/mix_store.h"
+#include "server/http/quality_report.h"
 #include "server/http/texton_store.h"
 
 #include <cstdint>
@@ -56,6 +57,11 @@ public:
     // The exemplar's power spectrum beside that of a window of its noise, on one log scale.
     Result<core::Image> spectrum(const std::string& id, const api::NoiseParams& noise,
                                  const render::Cancel& cancel);
+    // The texton's quality report (quality_report.h): its exemplar's centre crop (at most
+    // 256 x 256) beside level-0 windows of its noise, Gaussian and restored.
+    Result<QualityReport> quality(const std::string& id, const api::NoiseParams& noise,
+                                  const render::Cancel& cancel);
+    static std::string quality_key(const std::string& id, const api::NoiseParams& noise);
     // The image's bytes in `format`, tagged with the noise version and the id.
     Result<std::string> encode(const core::Image& image, api::ImageFormat format,
                                const std::string& id) const;

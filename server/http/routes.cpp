@@ -65,6 +65,10 @@ void Service::install_get_routes() {
                i->region("/v1/textons/{id}/region.{format}", false));
     m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", call(i, &ImageRoutes::tileable));
     m_http.Get(R"(/v1/textons/([^/]+)/spectrum\.png)", call(i, &ImageRoutes::spectrum));
+    m_http.Get(R"(/v1/textons/([^/]+)/quality\.json)",
+               [i](Req req, Res res) { i->quality(req, res, false); });
+    m_http.Get(R"(/v1/textons/([^/]+)/quality\.png)",
+               [i](Req req, Res res) { i->quality(req, res, true); });
     m_http.Get(R"(/v1/textons/([^/]+)/exemplar\.png)", call(i, &ImageRoutes::exemplar));
     m_http.Get(R"(/v1/textons/([^/]+)/tilejson\.json)",
                [i](Req req, Res res) { i->tilejson(req, res, false); });

@@ -142,6 +142,19 @@ async function refreshNoise() {
   $('side-synthesis').src = `/v1/textons/${meta.id}/region.png?w=${w}&h=${h}&${noiseQuery()}`;
   $('spectrum-img').src = `${meta.links.spectrum_png}?${seedQuery()}`;
   drawHistograms();
+  await showQuality(meta);
+}
+
+// The server's quality report (GET .../quality.json and its PNG): the verdict and how far each
+// noise's colours are from the photo's.
+async function showQuality(meta) {
+  const q = await getJson(`/v1/textons/${meta.id}/quality.json?${seedQuery()}`);
+  const w = q.wasserstein;
+  $('quality-numbers').textContent =
+    `RME ${q.rme.toFixed(3)} · ${q.verdict} · distance of the colours to the photo's ` +
+    `(1-D Wasserstein): Gaussian ${w.gaussian.toFixed(4)}` +
+    (w.restored !== undefined ? `, with the photo's colours ${w.restored.toFixed(4)}` : '');
+  $('quality-img').src = q.links.png;
 }
 
 function updateDownloads() {

@@ -145,6 +145,9 @@ def main():
             validate("AnalysisStatus", b6, f"{name} status")
             s7, _, b7 = request(base, "GET", f"/v1/textons/{tid}/tilejson.json?seed=3")
             validate("TileJson", b7, f"{name} tilejson")
+            s8, _, b8 = request(base, "GET", f"/v1/textons/{tid}/quality.json?seed=3")
+            check(s8 == 200, f"{name}: quality report ({s8})")
+            validate_route("GET", "/v1/textons/{id}/quality.json", 200, b8, f"{name} quality")
             tids.append(tid)
 
         s, _, b = request(base, "GET", "/v1/textons?limit=5")

@@ -130,6 +130,37 @@ TEST_F(Tiles, ExemplarMarginalsTilesStitchAndTileJsonCarriesThem) {
     EXPECT_EQ(tileable->status, 200); // tileable textures restore too
 }
 
+// The quality report: the texton's numbers, histograms that are distributions, restoration
+// bringing the noise's marginals closer to the exemplar's, and the picture its link names.
+TEST_F(Tiles, QualityReportHasTheNumbersHistogramsAndItsPicture) {
+    auto c = server->client();
+    auto meta = c.Get(("/v1/textons/" + id).c_str());
+    auto res = c.Get(("/v1/textons/" + id + "/quality.json?seed=5").c_str());
+    ASSERT_TRUE(meta && res);
+    ASSERT_EQ(res->status, 200) << res->body;
+    const json m = json::parse(meta->body), q = json::parse(res->body);
+    EXPECT_EQ(q.at("rme"), m.at("rme"));
+    EXPECT_EQ(q.at("kind"), m.at("kind"));
+    EXPECT_EQ(q.at("verdict"), "micro-texture: the noise keeps its look"); // pebbles
+    for (const char* which : {"exemplar", "gaussian", "restored"}) {
+        const auto& h = q.at("histograms").at(which);
+        ASSERT_EQ(h.size(), 3u) << which;
+        for (const auto& channel : h) {
+            double sum = 0;
+            for (double v : channel) sum += v;
+            EXPECT_NEAR(sum, 1.0, 1e-9) << which;
+        }
+    }
+    const double wg = q.at("wasserstein").at("gaussian"), wr = q.at("wasserstein").at("restored");
+    EXPECT_LT(wr, wg);
+    const core::Image png = get_image(q.at("links").at("png").get<std::string>());
+    const int w = q.at("window").at("width"), h = q.at("window").at("height");
+    EXPECT_EQ(png.width, 3 * w + 8);
+    EXPECT_EQ(png.height, 2 * h + 96 + 8);
+    EXPECT_EQ(c.Get(("/v1/textons/" + id + "/quality.json?mni=0").c_str())->status, 400);
+    EXPECT_EQ(c.Get(("/v1/textons/" + std::string(64, 'b') + "/quality.png").c_str())->status, 404);
+}
+
 TEST_F(Tiles, MapTilesAreLevelTilesAndTileJsonPointsAtThem) {
     auto c = server->client();
     auto res = c.Get(("/v1/textons/" + id + "/tilejson.json?seed=4&mni=20").c_str());

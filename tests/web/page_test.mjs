@@ -225,6 +225,12 @@ try {
         'tiles with the photo\'s colours load, all 200');
   check(!gaussianMap.equals(restoredMap), 'the photo\'s colours change the map');
 
+  const quality = await loadedImageSize(page, '#quality-img');
+  check(quality[0] > 0 && quality[1] > quality[0] / 2, `the quality report's picture shows (${quality})`);
+  const numbers = await page.textContent('#quality-numbers');
+  check(/Gaussian 0\.\d{4}, with the photo's colours 0\.\d{4}/.test(numbers),
+        `the quality report's numbers show (${numbers})`);
+
   const spectra = await loadedImageSize(page, '#spectrum-img');
   check(spectra[0] === 2 * spectra[1] + 4, `the spectra show, side by side (${spectra})`);
   check(await page.evaluate(() => !!window.textond.histograms), 'the histograms are drawn');
