@@ -357,13 +357,18 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
                                       SurfaceParams& out) {
     if (auto e = check_texton_id(id)) return e;
     if (mesh) {
-        if (auto e = check_fields(
-                q, {"seed", "mni", "scale", "width", "height", "fov", "eye", "target"}))
+        if (auto e = check_fields(q, {"seed", "mni", "scale", "width", "height", "fov", "eye",
+                                      "target", "marginals"}))
             return e;
         out.scale = 0; // automatic: the bounding box's diagonal spans 512 texels
-    } else if (auto e = check_fields(q, {"seed", "mni", "scale"})) {
+    } else if (auto e = check_fields(q, {"seed", "mni", "scale", "marginals"})) {
         return e;
     }
+    NoiseParams marginals; // the same values and message as the image endpoints
+    if (auto e =
+            noise_fields(Query{q.lower_bound("marginals"), q.upper_bound("marginals")}, marginals))
+        return e;
+    out.exemplar_marginals = marginals.exemplar_marginals;
     if (const std::string* s = field(q, "seed")) {
         auto v = parse_u64(*s);
         if (!v) return bad("invalid_parameter", "seed must be an unsigned 64-bit integer");

@@ -117,6 +117,7 @@ struct SurfaceParams {
     double fov = 35;
     bool camera = false; // eye and target given
     double eye[3] = {0, 0, 0}, target[3] = {0, 0, 0};
+    bool exemplar_marginals = false; // marginals=exemplar (NoiseParams)
 };
 std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool mesh,
                                       SurfaceParams& out);

@@ -8,6 +8,23 @@ namespace textond::http {
 
 SurfaceService::SurfaceService(render::Renderer& renderer) : m_renderer(renderer) {}
 
+namespace {
+
+// marginals=exemplar on surface noise: level 0's tables (surface noise has the plane noise's
+// covariance, texton-noise paper Proposition 3), pointwise; null for the Gaussian default.
+Result<std::shared_ptr<const core::MarginalTables>>
+surface_tables(const render::PreparedTexton& texton, const api::SurfaceParams& p) {
+    if (!p.exemplar_marginals) return std::shared_ptr<const core::MarginalTables>();
+    auto tables = texton.marginals(0);
+    if (!tables)
+        return make_error(ErrorCode::invalid_argument,
+                          "marginals=exemplar needs the exemplar's marginals, which this texton "
+                          "does not keep (analysed before they were kept); use marginals=gaussian");
+    return tables;
+}
+
+} // namespace
+
 double SurfaceService::points_work_s(const render::PreparedTexton& texton,
                                      const api::SurfaceParams& p, std::size_t points) {
     return surface_work_s(points, p.mni, texton.order());
@@ -17,8 +34,16 @@ Result<std::vector<float>>
 SurfaceService::colours(const render::PreparedTexton& texton, const api::SurfaceParams& p,
                         const std::vector<float>& points, const std::vector<float>& normals,
                         const render::Cancel& cancel, std::string* used) {
+    auto tables = surface_tables(texton, p);
+    if (!tables) return tables.error();
     const render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
-    return m_renderer.surface(texton, sr, points, normals, used);
+    auto colours = m_renderer.surface(texton, sr, points, normals, used);
+    if (colours && tables.value()) {
+        const auto nc = static_cast<std::size_t>(texton.channels());
+        for (std::size_t k = 0; k + nc <= colours.value().size(); k += nc)
+            tables.value()->apply(colours.value().data() + k);
+    }
+    return colours;
 }
 
 Result<SurfaceService::Preview> SurfaceService::preview(std::string_view obj,
@@ -43,13 +68,28 @@ Result<SurfaceService::Preview> SurfaceService::preview(std::string_view obj,
     return out;
 }
 
+// The mesh's pixels (alpha > 0) of an RGBA preview; grey textons repeat their channel.
+void SurfaceService::restore_covered(const core::MarginalTables& tables, core::Image& rgba) {
+    const int nc = tables.channels();
+    for (int y = 0; y < rgba.height; ++y)
+        for (int x = 0; x < rgba.width; ++x) {
+            if (!(rgba.at(3, x, y) > 0.0f)) continue;
+            float v[3] = {rgba.at(0, x, y), rgba.at(1, x, y), rgba.at(2, x, y)};
+            tables.apply(v);
+            for (int c = 0; c < 3; ++c) rgba.at(c, x, y) = v[std::min(c, nc - 1)];
+        }
+}
+
 Result<std::string> SurfaceService::preview_png(const render::PreparedTexton& texton,
                                                 const Preview& preview, const api::SurfaceParams& p,
                                                 const render::Cancel& cancel, std::string* used) {
+    auto tables = surface_tables(texton, p);
+    if (!tables) return tables.error();
     const render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
     auto image =
         m_renderer.mesh_preview(texton, sr, preview.mesh, preview.camera, p.width, p.height, used);
     if (!image) return image.error();
+    if (tables.value()) restore_covered(*tables.value(), image.value());
     return io::encode_image_memory(image.value(), io::Encoding::png8);
 }
 

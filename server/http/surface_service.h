@@ -44,6 +44,9 @@ public:
                                     const api::SurfaceParams& p, const render::Cancel& cancel,
                                     std::string* used);
 
+    // marginals=exemplar on a mesh preview's covered pixels (RGBA, alpha > 0 on the mesh).
+    static void restore_covered(const core::MarginalTables& tables, core::Image& rgba);
+
 private:
     render::Renderer& m_renderer;
 };

@@ -85,6 +85,24 @@ TEST(Surface, JsonAndBinaryGiveTheLibrarysColours) {
     auto other = c.Post(("/v1/textons/" + id + "/surface?seed=6&scale=2").c_str(), accept, bin,
                         "application/octet-stream");
     EXPECT_NE(other->body, b->body);
+    // marginals=exemplar: the same colours through level 0's tables of the stored texton.
+    auto restored =
+        c.Post(("/v1/textons/" + id + "/surface?seed=5&scale=2&marginals=exemplar").c_str(), accept,
+               bin, "application/octet-stream");
+    ASSERT_TRUE(restored && restored->status == 200) << (restored ? restored->body : "");
+    std::vector<float> mapped = want.value();
+    auto prepared = render::PreparedTexton::make(record.value().texton);
+    ASSERT_TRUE(prepared.ok());
+    for (std::size_t k = 0; k < mapped.size(); k += 3)
+        prepared.value()->marginals(0)->apply(&mapped[k]);
+    std::vector<float> got_restored(9);
+    std::memcpy(got_restored.data(), restored->body.data(), restored->body.size());
+    EXPECT_EQ(got_restored, mapped);
+    EXPECT_NE(got_restored, got);
+    EXPECT_EQ(c.Post(("/v1/textons/" + id + "/surface?marginals=x").c_str(), accept, bin,
+                     "application/octet-stream")
+                  ->status,
+              400);
 
     const float nan = std::numeric_limits<float>::quiet_NaN();
     std::string nan_bin = bin;
@@ -158,6 +176,14 @@ TEST(Surface, MeshPreviewDrawsTheObjTexturedWithoutUvs) {
     ASSERT_EQ(img.width, 96);
     ASSERT_EQ(img.height, 64);
     EXPECT_EQ(static_cast<int>(r->body[25]), 6); // PNG colour type 6: RGBA, the background clear
+    // The exemplar's marginals reach the mesh too: the mesh's pixels change, the background not.
+    auto m = c.Post(
+        ("/v1/textons/" + id + "/mesh.png?width=96&height=64&seed=2&marginals=exemplar").c_str(),
+        obj, "model/obj");
+    ASSERT_TRUE(m && m->status == 200) << (m ? m->body : "");
+    const core::Image restored = decode(m->body);
+    EXPECT_GT(max_abs_diff(restored, img), 0.002);
+    for (int ch = 0; ch < img.channels; ++ch) EXPECT_EQ(restored.at(ch, 0, 0), img.at(ch, 0, 0));
     EXPECT_EQ(img.at(0, 0, 0) + img.at(1, 0, 0) + img.at(2, 0, 0), 0.0f); // background
     EXPECT_GT(img.at(0, 48, 32) + img.at(1, 48, 32), 0.2f);               // the sphere
     // Textured: the sphere's pixels are not one flat colour.
