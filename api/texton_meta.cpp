@@ -62,6 +62,8 @@ nlohmann::json provenance_json(const TextonMeta& m) {
                            {"projections", t.projections_ms},
                            {"correction", t.correction_ms},
                            {"rme", t.rme_ms},
+                           {"coherence", t.coherence_ms},
+                           {"marginals", t.marginals_ms},
                            {"total", t.total_ms}};
     }
     if (!m.created.empty()) j["created"] = m.created;
@@ -77,6 +79,9 @@ void read_provenance(const nlohmann::json& j, TextonMeta& m) {
         it->at("correction").get_to(t.correction_ms);
         it->at("rme").get_to(t.rme_ms);
         it->at("total").get_to(t.total_ms);
+        // Absent from provenance written before the verdict and the marginals were computed.
+        t.coherence_ms = it->value("coherence", 0.0);
+        t.marginals_ms = it->value("marginals", 0.0);
         m.timings = t;
     }
     if (const auto it = j.find("created"); it != j.end()) it->get_to(m.created);

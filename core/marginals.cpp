@@ -84,13 +84,14 @@ MarginalModel marginal_model(const Image& u) {
             for (int c = 0; c < nc; ++c) m.basis(c, i) = -m.basis(c, i);
         m.variance[static_cast<std::size_t>(i)] = std::max(w[static_cast<std::size_t>(i)], 0.0);
     }
-    std::vector<double> y(n);
+    // Floats, as the pixels are.
+    std::vector<float> y(n);
     for (int i = 0; i < nc; ++i) {
         for (std::size_t k = 0; k < n; ++k) {
             double s = 0;
             for (int c = 0; c < nc; ++c)
                 s += m.basis(c, i) * (u.plane(c)[k] - m.mean[static_cast<std::size_t>(c)]);
-            y[k] = s;
+            y[k] = static_cast<float>(s);
         }
         std::sort(y.begin(), y.end());
         auto& q = m.quantiles[static_cast<std::size_t>(i)];

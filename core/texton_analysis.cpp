@@ -148,8 +148,12 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     AnalysisResult r = texton_from_model(model, params, progress);
     r.timings.periodic_ms = out.timings.periodic_ms;
     r.timings.model_ms = out.timings.model_ms;
+    t0 = std::chrono::steady_clock::now();
     r.coherence = phase_coherence(exemplar, threads);
+    r.timings.coherence_ms = ms_since(t0);
+    t0 = std::chrono::steady_clock::now();
     r.texton.marginals = marginal_model(exemplar);
+    r.timings.marginals_ms = ms_since(t0);
     r.timings.total_ms = ms_since(t_start);
     return r;
 }

@@ -29,6 +29,7 @@ struct AnalysisParams {
 struct AnalysisTimings {
     double periodic_ms = 0, model_ms = 0, projections_ms = 0, correction_ms = 0, rme_ms = 0,
            total_ms = 0;
+    double coherence_ms = 0, marginals_ms = 0; // the micro/macro verdict, the kept marginals
 };
 
 struct AnalysisResult {
