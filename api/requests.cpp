@@ -85,6 +85,27 @@ std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
                        "marginals must be gaussian or exemplar, not '" + s->substr(0, 40) + "'");
         out.exemplar_marginals = *s == "exemplar";
     }
+    if (const std::string* s = field(q, "map")) {
+        bool known = *s == core::kNormalMap;
+        for (const char* n : core::kMapNames) known = known || *s == n;
+        if (!known)
+            return bad("invalid_parameter",
+                       "map must be albedo, height, roughness, ao, metallic or "
+                       "normal, not '" +
+                           s->substr(0, 40) + "'");
+        out.map = *s;
+    }
+    if (const std::string* s = field(q, "strength")) {
+        auto v = parse_finite(*s);
+        if (!v || !(*v > 0.0) || *v > core::kMaxNormalStrength)
+            return bad("invalid_parameter",
+                       "strength (texels a height step of 1 spans) must be a number in (0, " +
+                           number_text(core::kMaxNormalStrength) + "], not '" + s->substr(0, 40) +
+                           "'");
+        if (out.map != core::kNormalMap)
+            return bad("invalid_parameter", "strength applies to map=normal only");
+        out.strength = *v;
+    }
     return std::nullopt;
 }
 
@@ -126,7 +147,7 @@ std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int6
 
 // seed, mni and size: what every tile URL (and TileJSON) takes.
 std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
-    if (auto e = check_fields(q, {"seed", "mni", "size", "marginals"})) return e;
+    if (auto e = check_fields(q, {"seed", "mni", "size", "marginals", "map", "strength"})) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     if (const std::string* s = field(q, "size")) {
         auto v = parse_i64(*s);
@@ -249,7 +270,9 @@ std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, 
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals"})) return e;
+    if (auto e = check_fields(
+            q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals", "map", "strength"}))
+        return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 1, 16384, w)) return e;
@@ -280,7 +303,8 @@ std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(q, {"w", "h", "seed", "mni", "marginals"})) return e;
+    if (auto e = check_fields(q, {"w", "h", "seed", "mni", "marginals", "map", "strength"}))
+        return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 8, limits.max_tileable_side, w)) return e;

@@ -2,6 +2,7 @@
 // The v1 requests as plain structs, parsed and validated from path segments and query fields
 // (style.md: OSRM's *_parameters). No HTTP here: server/ hands in strings and maps ApiError to a
 // response. Every rule below is also written in api/openapi.yaml.
+#include "core/material_set.h"
 #include "core/texton_analysis.h"
 #include "core/texture_mix.h"
 
@@ -44,6 +45,10 @@ struct NoiseParams {
     // marginals=exemplar: each pixel mapped onto the exemplar's colour marginals (README
     // "Marginals"); the default, gaussian, is the noise as it is.
     bool exemplar_marginals = false;
+    // A material set's map (core/material_set.h; "" = albedo, or the set's only map) or
+    // "normal", made from the height map with `strength` (render/normal_map.h).
+    std::string map;
+    double strength = core::kDefaultNormalStrength;
 };
 
 struct TileRequest {

@@ -45,6 +45,17 @@ nlohmann::json file_meta_json(const TextonMeta& m) {
     };
     j["marginals"] = m.exemplar_marginals ? std::vector<std::string>{"gaussian", "exemplar"}
                                           : std::vector<std::string>{"gaussian"};
+    if (!m.maps.empty()) {
+        nlohmann::json maps = nlohmann::json::array();
+        for (const MapMeta& mm : m.maps)
+            maps.push_back({{"name", mm.name},
+                            {"first", mm.first},
+                            {"channels", mm.channels},
+                            {"bits", mm.bits},
+                            {"range", mm.range},
+                            {"rme", mm.rme}});
+        j["maps"] = maps;
+    }
     if (m.phase_coherence && m.sharpness_index) {
         j["phase_coherence"] = *m.phase_coherence;
         j["sharpness_index"] = *m.sharpness_index;
@@ -98,6 +109,8 @@ void from_json(const nlohmann::json& j, TextonMeta& m) {
     j.at("exemplar").at("width").get_to(m.exemplar_width);
     j.at("exemplar").at("height").get_to(m.exemplar_height);
     j.at("channels").get_to(m.channels);
+    if (m.channels < 1 || m.channels > core::kMaxChannels)
+        throw nlohmann::json::other_error::create(501, "channels out of range", &j);
     const auto mean = j.at("mean").get<std::vector<double>>();
     if (static_cast<int>(mean.size()) != m.channels)
         throw nlohmann::json::other_error::create(501, "mean has the wrong length", &j);
@@ -121,6 +134,18 @@ void from_json(const nlohmann::json& j, TextonMeta& m) {
         m.phase_coherence = j.at("phase_coherence").get<double>();
         m.sharpness_index = j.at("sharpness_index").get<double>();
     }
+    m.maps.clear();
+    if (const auto it = j.find("maps"); it != j.end())
+        for (const auto& v : *it) {
+            MapMeta mm;
+            v.at("name").get_to(mm.name);
+            v.at("first").get_to(mm.first);
+            v.at("channels").get_to(mm.channels);
+            v.at("bits").get_to(mm.bits);
+            v.at("range").get_to(mm.range);
+            v.at("rme").get_to(mm.rme);
+            m.maps.push_back(std::move(mm));
+        }
     m.timings.reset();
     m.created.clear();
     read_provenance(j, m);

@@ -9,10 +9,21 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace textond::api {
 
 inline constexpr double kDefaultMni = 30.0;
+
+// One map of a material set (core/material_set.h), as the metadata lists it.
+struct MapMeta {
+    std::string name;
+    int first = 0;                            // its first channel in the texton
+    int channels = 1;                         // 3 for albedo, else 1
+    int bits = 8;                             // the uploaded file's bits per channel (8, 16 or 32)
+    std::vector<std::array<double, 2>> range; // per channel: the exemplar's min and max
+    double rme = 0;                           // of its channels alone
+};
 
 struct TextonMeta {
     std::string id;      // sha256 of pixels + parameters + version (texton_id)
@@ -20,7 +31,7 @@ struct TextonMeta {
     int exemplar_width = 0;
     int exemplar_height = 0;
     int channels = 0;
-    std::array<double, 3> mean{};
+    core::ChannelValues mean{};
     int size = 0;
     int order = 1;
     int iterations = 0;
@@ -36,6 +47,8 @@ struct TextonMeta {
     // Whether the texton keeps the exemplar's marginals (marginals=exemplar renders); false for
     // mixes and files written before they were kept.
     bool exemplar_marginals = false;
+    // A material set's maps, side by side in the channels; empty for one exemplar.
+    std::vector<MapMeta> maps;
     // Provenance: how this copy came to be, not what it is. Never in the texton file, which is
     // content-addressed and must be the same bytes whoever analysed it and when.
     std::optional<core::AnalysisTimings> timings; // unknown for a texton read from a file alone

@@ -39,7 +39,7 @@ double max_abs(const ColourMatrix& a) {
     return d;
 }
 
-void symmetric_eigen(const ColourMatrix& in, std::array<double, 3>& w, ColourMatrix& v) {
+void symmetric_eigen(const ColourMatrix& in, ChannelValues& w, ColourMatrix& v) {
     const int n = in.n;
     ColourMatrix a = in;
     v = ColourMatrix{};
@@ -76,13 +76,13 @@ void symmetric_eigen(const ColourMatrix& in, std::array<double, 3>& w, ColourMat
                 }
             }
     }
-    w = {0.0, 0.0, 0.0};
+    w = {};
     for (int i = 0; i < n; ++i) w[static_cast<std::size_t>(i)] = a(i, i);
 }
 
 namespace {
 template <class F> ColourMatrix spectral_map(const ColourMatrix& a, F f) {
-    std::array<double, 3> w{};
+    ChannelValues w{};
     ColourMatrix v;
     symmetric_eigen(a, w, v);
     double wmax = 0.0;

@@ -1,13 +1,15 @@
 #pragma once
-// Small symmetric matrices (one per colour channel pair, up to 3x3) and the square roots the
+// Small symmetric matrices (one entry per channel pair, up to 8x8) and the square roots the
 // colour correction needs. Double precision: these are sums over a whole image.
+#include "core/channels.h"
+
 #include <array>
 
 namespace textond::core {
 
 struct ColourMatrix {
-    int n = 0; // 1 (grey) or 3 (RGB)
-    std::array<std::array<double, 3>, 3> m{};
+    int n = 0; // 1 (grey), 3 (RGB) or a material set's channels, at most kMaxChannels
+    std::array<std::array<double, kMaxChannels>, kMaxChannels> m{};
 
     double& operator()(int i, int j) {
         return m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
@@ -23,7 +25,7 @@ double max_abs_difference(const ColourMatrix& a, const ColourMatrix& b);
 double max_abs(const ColourMatrix& a);
 
 // Symmetric eigen-decomposition (cyclic Jacobi): a = v diag(w) v^T.
-void symmetric_eigen(const ColourMatrix& a, std::array<double, 3>& w, ColourMatrix& v);
+void symmetric_eigen(const ColourMatrix& a, ChannelValues& w, ColourMatrix& v);
 
 // Symmetric square root of a positive semi-definite matrix (negative round-off clipped to 0).
 ColourMatrix sqrt_psd(const ColourMatrix& a);

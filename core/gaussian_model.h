@@ -14,7 +14,7 @@ struct GaussianModel {
     int width = 0;
     int height = 0;
     int channels = 0;
-    std::array<double, 3> mean{};
+    ChannelValues mean{};
     Image t_u;                   // planar, same size as the exemplar
     std::vector<Spectrum> t_hat; // one half spectrum per channel
     ColourMatrix covariance;     // = sum_x t_u(x) t_u(x)^T, the exemplar's colour covariance

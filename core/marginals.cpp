@@ -72,7 +72,7 @@ MarginalModel marginal_model(const Image& u) {
                      (u.plane(b)[k] - m.mean[static_cast<std::size_t>(b)]);
             cov(a, b) = cov(b, a) = s / static_cast<double>(n);
         }
-    std::array<double, 3> w{};
+    ChannelValues w{};
     symmetric_eigen(cov, w, m.basis);
     m.basis.n = nc;
     for (int i = 0; i < nc; ++i) {

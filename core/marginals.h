@@ -20,7 +20,7 @@ namespace textond::core {
 struct MarginalModel {
     static constexpr int kQuantiles = 256; // at probabilities (i + 0.5) / kQuantiles
     int channels = 0;
-    std::array<double, 3> mean{};
+    ChannelValues mean{};
     ColourMatrix basis;                          // columns: unit eigenvectors of C_u
     std::array<double, 3> variance{};            // each component's variance (eigenvalues)
     std::array<std::vector<float>, 3> quantiles; // of each centred component, ascending
@@ -51,14 +51,15 @@ public:
     const float* table(int i) const { return m_tables[static_cast<std::size_t>(i)].data(); }
     double sigma(int i) const { return m_sigma[static_cast<std::size_t>(i)]; }
     const ColourMatrix& basis() const { return m_basis; }
-    const std::array<double, 3>& mean() const { return m_mean; }
+    const ChannelValues& mean() const { return m_mean; }
     // E[T(Y)] for Y ~ N(0, sigma^2): the level's expected value of component i (quadrature).
     double expected(int i) const;
 
 private:
     int m_channels = 0;
     ColourMatrix m_basis;
-    std::array<double, 3> m_mean{}, m_sigma{};
+    ChannelValues m_mean{};
+    std::array<double, 3> m_sigma{};
     std::array<std::vector<float>, 3> m_tables;
     double lookup(int i, double y) const;
 };

@@ -23,7 +23,11 @@ int limit_level(int r);
 Image box_filtered_coefficients(const Image& alpha, int st);
 
 struct LimitModel {
-    ColourMatrix a;                 // symmetric square root of C_k(0)
+    ColourMatrix a; // symmetric square root of C_k(0)
+    // Output channel c is row first + c of `a` applied to a.n normals: a material set's map
+    // (channels [first, ...) of the set) draws the set's normals, so maps keep their
+    // cross-covariance at limit levels too. 0 for a texton of its own.
+    int first = 0;
     std::array<double, 25> kappa{}; // kappa(D) for D in [-2, 2]^2, row-major, sum kappa^2 = 1
 };
 

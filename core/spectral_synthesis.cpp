@@ -50,7 +50,7 @@ std::vector<Spectrum> spectra_of(const Image& t, int threads) {
 }
 } // namespace
 
-Image spot_extension(const Image& p, const std::array<double, 3>& mean, int width, int height,
+Image spot_extension(const Image& p, const ChannelValues& mean, int width, int height,
                      double transition) {
     if (width < p.width || height < p.height)
         throw std::invalid_argument("spot_extension: domain smaller than the spot");
@@ -78,7 +78,7 @@ Image spot_extension(const Image& p, const std::array<double, 3>& mean, int widt
     return t;
 }
 
-Image spectral_synthesis(std::vector<Spectrum> k_hat, const std::array<double, 3>& mean,
+Image spectral_synthesis(std::vector<Spectrum> k_hat, const ChannelValues& mean,
                          SpectralMethod method, std::uint64_t seed, int threads) {
     if (k_hat.empty()) throw std::invalid_argument("spectral_synthesis: no channels");
     const int w = k_hat[0].width(), h = k_hat[0].height(), cw = w / 2 + 1;
@@ -117,7 +117,7 @@ Image synthesize_from_exemplar(const Image& exemplar, SpectralMethod method, int
                                std::uint64_t seed, int threads) {
     if (width <= 0 || height <= 0) throw std::invalid_argument("synthesis: empty output size");
     const Image p = periodic_component(exemplar, threads);
-    std::array<double, 3> mean{};
+    ChannelValues mean{};
     for (int c = 0; c < p.channels; ++c) {
         double s = 0.0;
         for (std::size_t k = 0; k < p.plane_size(); ++k) s += p.plane(c)[k];

@@ -76,8 +76,8 @@ Image alternating_projections(const GaussianModel& model, int size, int order, i
         //    gives the same bits.
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (int i = 0; i < h; ++i) {
-            const cfloat* tr[3] = {};
-            cfloat* cr[3] = {};
+            const cfloat* tr[kMaxChannels] = {};
+            cfloat* cr[kMaxChannels] = {};
             for (int c = 0; c < nc; ++c) {
                 tr[c] = target[static_cast<std::size_t>(c)].row(i);
                 cr[c] = coeff[static_cast<std::size_t>(c)].row(i);

@@ -42,8 +42,8 @@ LagCovariance sampled_covariance(const Texton& texton);
 ColourMatrix box_average_covariance(const LagCovariance& cov, std::int64_t st, int dx, int dy);
 
 struct CampbellMoments {
-    std::array<double, 3> h2{}; // integral of h_c^2: the variance of channel c
-    std::array<double, 3> h4{}; // integral of h_c^4
+    ChannelValues h2{}; // integral of h_c^2: the variance of channel c
+    ChannelValues h4{}; // integral of h_c^4
     // Excess kurtosis of channel c at intensity lambda: h4 / (lambda h2^2).
     double excess_kurtosis(int c, double lambda) const {
         const auto i = static_cast<std::size_t>(c);

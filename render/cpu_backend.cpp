@@ -36,7 +36,8 @@ struct LevelGeometry {
     std::int64_t sub = 1; // pixels per texel (k < 0)
     int length = 0;       // L
     int order = 1;
-    int reach = 0; // order 3 reaches one texel further on each side: t in [-1, L + 1]
+    int reach = 0;  // order 3 reaches one texel further on each side: t in [-1, L + 1]
+    int deriv = -1; // 0 or 1: the derivative along x or y (texels) instead of the value
 };
 
 inline void weights(int order, std::uint32_t f, float& w0, float& w1) {
@@ -60,8 +61,38 @@ inline void cubic_weights(std::uint32_t f, float w[4]) {
     w[3] = u3 / 6.0f;
 }
 
+// The derivatives of those weights with respect to the pixel's position in texels, for the
+// gradient of a material set's height (render/normal_map.h). The table coordinate is t + 1 - u
+// (orders 0, 1) or t + 3 - u (order 3), so d/dX = -d/du; order 0 has none (a.e. zero).
+inline void derivative_weights(std::uint32_t f, float& w0, float& w1) {
+    (void)f;
+    w0 = 1.0f;  // G[t + 1]
+    w1 = -1.0f; // G[t]
+}
+inline void cubic_derivative_weights(std::uint32_t f, float w[4]) {
+    const float u = static_cast<float>(f) * (1.0f / 16777216.0f);
+    const float s = 1.0f - u;
+    w[0] = s * s / 2.0f;
+    w[1] = (4.0f * u - 3.0f * u * u) / 2.0f;
+    w[2] = (3.0f * s * s - 4.0f * s) / 2.0f;
+    w[3] = -u * u / 2.0f;
+}
+// The weights along `axis` (0 = x, 1 = y): the value's, or the derivative's on the axis asked.
+inline void axis_weights(const LevelGeometry& g, int axis, std::uint32_t f, float& w0, float& w1) {
+    if (g.deriv == axis)
+        derivative_weights(f, w0, w1);
+    else
+        weights(g.order, f, w0, w1);
+}
+inline void axis_cubic_weights(const LevelGeometry& g, int axis, std::uint32_t f, float w[4]) {
+    if (g.deriv == axis)
+        cubic_derivative_weights(f, w);
+    else
+        cubic_weights(f, w);
+}
+
 // Output coordinates [p0, p1) of the block, base b and fraction f of the point on this axis.
-void axis_taps(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::int64_t b,
+void axis_taps(const LevelGeometry& g, int axis, std::int64_t p0, std::int64_t p1, std::int64_t b,
                std::uint32_t f, AxisTaps& out) {
     out.count = 0;
     out.t.clear();
@@ -109,14 +140,14 @@ void axis_taps(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::in
         out.t.push_back(static_cast<int>(t));
         if (g.order == 3) {
             float w[4];
-            cubic_weights(fp, w);
+            axis_cubic_weights(g, axis, fp, w);
             out.w0.push_back(w[0]);
             out.w1.push_back(w[1]);
             out.w2.push_back(w[2]);
             out.w3.push_back(w[3]);
         } else {
             float w0, w1;
-            weights(g.order, fp, w0, w1);
+            axis_weights(g, axis, fp, w0, w1);
             out.w0.push_back(w0);
             out.w1.push_back(w1);
         }
@@ -315,8 +346,8 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
                                    yb = std::min(blk.y0 + blk.h - 1, p.by + geo.length + 1);
                 if (xa > xb || ya > yb) continue;
                 float wx[4], wy[4];
-                cubic_weights(p.fx, wx);
-                cubic_weights(p.fy, wy);
+                axis_cubic_weights(geo, 0, p.fx, wx);
+                axis_cubic_weights(geo, 1, p.fy, wy);
                 ContiguousCubic sp;
                 for (int my = 0; my < 4; ++my) {
                     const float cyw = p.eps * wy[my];
@@ -342,8 +373,8 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
                                    yb = std::min(blk.y0 + blk.h - 1, p.by + geo.length);
                 if (xa > xb || ya > yb) continue;
                 float wx0, wx1, wy0, wy1;
-                weights(geo.order, p.fx, wx0, wx1);
-                weights(geo.order, p.fy, wy0, wy1);
+                axis_weights(geo, 0, p.fx, wx0, wx1);
+                axis_weights(geo, 1, p.fy, wy0, wy1);
                 const float cy0w = p.eps * wy0, cy1w = p.eps * wy1;
                 ContiguousSplat sp;
                 sp.acc_stride = stride;
@@ -362,9 +393,9 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
                 if (c == 0) evaluations += static_cast<std::uint64_t>(sp.rows) * sp.cols;
                 continue;
             }
-            axis_taps(geo, blk.x0, blk.x0 + blk.w, p.bx, p.fx, tx);
+            axis_taps(geo, 0, blk.x0, blk.x0 + blk.w, p.bx, p.fx, tx);
             if (tx.count == 0) continue;
-            axis_taps(geo, blk.y0, blk.y0 + blk.h, p.by, p.fy, ty);
+            axis_taps(geo, 1, blk.y0, blk.y0 + blk.h, p.by, p.fy, ty);
             if (ty.count == 0) continue;
             if (c == 0) evaluations += static_cast<std::uint64_t>(tx.count) * ty.count;
             const int col = static_cast<int>(tx.first - blk.x0);
@@ -406,7 +437,10 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
         }
     }
     for (int c = 0; c < nc; ++c) {
-        const float m = static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
+        // A derivative has no mean.
+        const float m = geo.deriv >= 0
+                            ? 0.0f
+                            : static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
         for (int y = 0; y < blk.h; ++y) {
             const float* a = acc.data() + plane * c + static_cast<std::size_t>(y) * stride;
             float* o = &out.at(c, static_cast<int>(ox), static_cast<int>(oy) + y);
@@ -476,24 +510,25 @@ bool render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads
 bool render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads, core::Image& out) {
     const int nc = tex.channels();
     const core::noise::LimitModel& lm = tex.limit(q.level);
+    const int nz = lm.a.n; // normals per pixel: the texton's channels, or its set's
     const int zw = q.width + 4, zh = q.height + 4;
     const std::size_t zplane = static_cast<std::size_t>(zw) * zh;
-    std::vector<float> z(zplane * nc); // planar, so the 5x5 filter below vectorises
+    std::vector<float> z(zplane * nz); // planar, so the 5x5 filter below vectorises
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < zh; ++y)
         for (int x = 0; x < zw; ++x) {
-            float n[3];
-            core::noise::pixel_normals(q.seed, q.level, q.x0 - 2 + x, q.y0 - 2 + y, nc, n);
-            for (int c = 0; c < nc; ++c)
+            float n[core::kMaxChannels];
+            core::noise::pixel_normals(q.seed, q.level, q.x0 - 2 + x, q.y0 - 2 + y, nz, n);
+            for (int c = 0; c < nz; ++c)
                 z[zplane * c + static_cast<std::size_t>(y) * zw + x] = n[c];
         }
     float kappa[25];
     for (int i = 0; i < 25; ++i)
         kappa[i] = static_cast<float>(lm.kappa[static_cast<std::size_t>(i)]);
-    float a[3][3], mean[3];
+    float a[core::kMaxChannels][core::kMaxChannels], mean[core::kMaxChannels];
     for (int c = 0; c < nc; ++c) {
         mean[c] = static_cast<float>(tex.texton().mean[static_cast<std::size_t>(c)]);
-        for (int d = 0; d < nc; ++d) a[c][d] = static_cast<float>(lm.a(c, d));
+        for (int d = 0; d < nz; ++d) a[c][d] = static_cast<float>(lm.a(lm.first + c, d));
     }
     const int w = q.width;
     std::atomic<bool> skipped{false};
@@ -503,8 +538,8 @@ bool render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads,
             skipped = true;
             continue;
         }
-        std::vector<float> s(static_cast<std::size_t>(w) * nc, 0.0f);
-        for (int c = 0; c < nc; ++c) {
+        std::vector<float> s(static_cast<std::size_t>(w) * nz, 0.0f);
+        for (int c = 0; c < nz; ++c) {
             float* sc = s.data() + static_cast<std::size_t>(w) * c;
             // Pixel P reads z(P - D), D in [-2, 2]^2, in row-major order from D = (-2, -2).
             for (int dy = -2; dy <= 2; ++dy)
@@ -519,7 +554,7 @@ bool render_limit(const PreparedTexton& tex, const NoiseRequest& q, int threads,
             float* o = &out.at(c, 0, y);
             for (int x = 0; x < w; ++x) {
                 float v = 0.0f;
-                for (int d = 0; d < nc; ++d)
+                for (int d = 0; d < nz; ++d)
                     v = v + a[c][d] * s[static_cast<std::size_t>(w) * d + x];
                 o[x] = mean[c] + v;
             }
@@ -566,6 +601,16 @@ Result<core::Image> CpuBackend::render_gaussian(const PreparedTexton& tex, const
     return render_exact(tex, {table.get()}, nullptr, q, stats);
 }
 
+Result<core::Image> CpuBackend::render_gradient(const PreparedTexton& tex, const NoiseRequest& q,
+                                                int axis) {
+    assert(!tex.check(q));
+    if (q.level >= tex.limit_level() || tex.order() == 0 || (axis != 0 && axis != 1))
+        return make_error(ErrorCode::unsupported,
+                          "the exact gradient needs an exact level and order 1 or 3");
+    const auto table = tex.table(q.level);
+    return render_exact(tex, {table.get()}, nullptr, q, nullptr, axis);
+}
+
 Result<core::Image> CpuBackend::render_mix(const PreparedMix& mix, const NoiseRequest& q,
                                            RenderStats* stats) {
     assert(!mix.check(q));
@@ -592,7 +637,7 @@ Result<core::Image> CpuBackend::render_mix(const PreparedMix& mix, const NoiseRe
 Result<core::Image> CpuBackend::render_exact(const PreparedTexton& tex,
                                              const std::vector<const LevelTable*>& tables,
                                              const PreparedMix* mix, const NoiseRequest& q,
-                                             RenderStats* stats) {
+                                             RenderStats* stats, int deriv) {
     core::Image out = take_image(q.width, q.height, tex.channels()); // every pixel is written
     const LevelTable* table = tables.front();
     const GridPoisson grid(tex.size(), q.mni, q.period);
@@ -603,6 +648,7 @@ Result<core::Image> CpuBackend::render_exact(const PreparedTexton& tex,
     geo.length = table->length;
     geo.order = tex.order();
     geo.reach = tex.order() == 3 ? 1 : 0;
+    geo.deriv = deriv;
 
     const int bs = m_block;
     const int nbx = (q.width + bs - 1) / bs, nby = (q.height + bs - 1) / bs;

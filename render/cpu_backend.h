@@ -22,6 +22,12 @@ public:
     Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,
                                    RenderStats* stats = nullptr) override;
 
+    // d/dx (axis 0) or d/dy (axis 1) of the noise, per texel, with the value's sampling and box
+    // filtering: the kernel's derivative applied to the level's table (at level k > 0 the box
+    // average of level 0's derivative). Exact levels and orders 1 and 3 only; no marginals.
+    Result<core::Image> render_gradient(const PreparedTexton& texton, const NoiseRequest& request,
+                                        int axis);
+
 private:
     // The noise before any marginal restoration.
     Result<core::Image> render_gaussian(const PreparedTexton& tex, const NoiseRequest& q,
@@ -29,7 +35,7 @@ private:
     Result<core::Image> render_exact(const PreparedTexton& tex,
                                      const std::vector<const LevelTable*>& tables,
                                      const PreparedMix* mix, const NoiseRequest& q,
-                                     RenderStats* stats);
+                                     RenderStats* stats, int deriv = -1);
     int m_threads;
     int m_block;
 };

@@ -1,6 +1,7 @@
 #include "render/prepared_texton.h"
 
 #include "core/grid_poisson.h"
+#include "core/material_set.h"
 
 #include <cmath>
 #include <string>
@@ -14,8 +15,14 @@ Result<std::shared_ptr<const PreparedTexton>> PreparedTexton::make(core::Texton 
     if (t.size < 8 || t.size > 256)
         return make_error(ErrorCode::invalid_argument,
                           "texton size " + std::to_string(t.size) + " outside [8, 256]");
-    if (t.channels != 1 && t.channels != 3)
+    if (t.channels < 1 || t.channels > core::kMaxChannels)
+        return make_error(ErrorCode::invalid_argument, "texton must have 1 to " +
+                                                           std::to_string(core::kMaxChannels) +
+                                                           " channels");
+    if (t.maps.empty() && t.channels != 1 && t.channels != 3)
         return make_error(ErrorCode::invalid_argument, "texton must have 1 or 3 channels");
+    if (!t.maps.empty())
+        if (auto err = core::validate_maps(t.maps, t.channels)) return *err;
     if (t.order != 0 && t.order != 1 && t.order != 3)
         return make_error(ErrorCode::invalid_argument,
                           "interpolation order " + std::to_string(t.order) + " is not 0, 1 or 3");
@@ -25,6 +32,37 @@ Result<std::shared_ptr<const PreparedTexton>> PreparedTexton::make(core::Texton 
         if (!std::isfinite(v))
             return make_error(ErrorCode::unprocessable, "texton coefficients are not finite");
     return std::shared_ptr<const PreparedTexton>(new PreparedTexton(std::move(t)));
+}
+
+Result<std::shared_ptr<const PreparedTexton>>
+PreparedTexton::make_map(const std::shared_ptr<const PreparedTexton>& set,
+                         const std::string& name) {
+    const core::Texton& s = set->texton();
+    const core::TextonMap* m = core::find_map(s.maps, name);
+    if (!m) return make_error(ErrorCode::not_found, "this texton has no map '" + name + "'");
+    core::Texton t;
+    t.size = s.size;
+    t.order = s.order;
+    t.channels = m->channels;
+    for (int c = 0; c < m->channels; ++c)
+        t.mean[static_cast<std::size_t>(c)] = s.mean[static_cast<std::size_t>(m->first + c)];
+    t.alpha = core::channel_planes(s.alpha, m->first, m->channels);
+    if (auto checked = make(t); !checked) return checked.error();
+    std::shared_ptr<PreparedTexton> view(new PreparedTexton(std::move(t)));
+    view->m_set = set;
+    view->m_first = m->first;
+    return std::shared_ptr<const PreparedTexton>(std::move(view));
+}
+
+Result<std::shared_ptr<const PreparedTexton>> PreparedTexton::map(const std::string& name) const {
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        if (auto it = m_maps.find(name); it != m_maps.end()) return it->second;
+    }
+    auto view = make_map(shared_from_this(), name);
+    if (!view) return view.error();
+    std::lock_guard<std::mutex> lock(m_mutex);
+    return m_maps.emplace(name, view.value()).first->second;
 }
 
 PreparedTexton::PreparedTexton(core::Texton t)
@@ -126,6 +164,12 @@ void restore_marginals(const core::MarginalTables& tables, core::Image& image) {
 }
 
 const core::noise::LimitModel& PreparedTexton::limit(int level) const {
+    if (m_set) {
+        core::noise::LimitModel joint = m_set->limit(level);
+        joint.first = m_first;
+        std::lock_guard<std::mutex> lock(m_mutex);
+        return m_limits.emplace(level, joint).first->second;
+    }
     const core::LagCovariance& cov = covariance();
     std::lock_guard<std::mutex> lock(m_mutex);
     auto it = m_limits.find(level);

@@ -12,6 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 
 namespace textond::render {
 
@@ -40,9 +41,16 @@ inline int table_pad(int order) {
     return order == 3 ? 3 : 1;
 }
 
-class PreparedTexton {
+class PreparedTexton : public std::enable_shared_from_this<PreparedTexton> {
 public:
     static Result<std::shared_ptr<const PreparedTexton>> make(core::Texton texton);
+    // Map `name` of a material set (core/material_set.h) as a texton of its own channels, driven
+    // by the set's Poisson process (the same seed gives aligned maps) and, at limit levels, by
+    // the set's joint model (limit_coupled()). not_found for a name the set does not have.
+    static Result<std::shared_ptr<const PreparedTexton>>
+    make_map(const std::shared_ptr<const PreparedTexton>& set, const std::string& name);
+    // The same, made once per name and kept with the set (so its level tables are too).
+    Result<std::shared_ptr<const PreparedTexton>> map(const std::string& name) const;
 
     const core::Texton& texton() const { return m_texton; }
     int size() const { return m_texton.size; }
@@ -50,6 +58,9 @@ public:
     int order() const { return m_texton.order; }
     int cell_size() const { return m_cell_size; }
     int limit_level() const { return m_limit_level; }
+    // A map of a set: its limit model reads the set's normals (GL backends leave those levels
+    // to the CPU).
+    bool limit_coupled() const { return m_set != nullptr; }
 
     // Why `req` cannot be evaluated (a clear message), or nothing when it can.
     std::optional<Error> check(const NoiseRequest& req) const;
@@ -64,6 +75,8 @@ public:
 private:
     explicit PreparedTexton(core::Texton t);
     core::Texton m_texton;
+    std::shared_ptr<const PreparedTexton> m_set; // the set a map belongs to
+    int m_first = 0;                             // the map's first channel in the set
     int m_cell_size = 0;
     int m_limit_level = 0;
     mutable std::mutex m_mutex;
@@ -71,6 +84,7 @@ private:
     mutable std::map<int, core::noise::LimitModel> m_limits;
     mutable std::unique_ptr<core::LagCovariance> m_cov;
     mutable std::map<int, std::shared_ptr<const core::MarginalTables>> m_marginals;
+    mutable std::map<std::string, std::shared_ptr<const PreparedTexton>> m_maps;
 };
 
 // Maps every pixel of `image` (a render of the texton `tables` belong to) onto the exemplar's

@@ -2,6 +2,7 @@
 
 #include "render/cpu_backend.h"
 #include "render/gl/gl_backend.h"
+#include "render/normal_map.h"
 #include "render/tile_batcher.h"
 
 #include <cmath>
@@ -61,7 +62,18 @@ Result<core::Image> Renderer::noise(const PreparedTexton& texton, const NoiseReq
                                     Work work, std::string* used) {
     Backend& b = work == Work::tile ? *m_tiles : *m_frames;
     if (used) *used = work == Work::tile ? m_tiles_name : m_frames_name;
-    return on(b, texton, nullptr, request);
+    auto r = on(b, texton, nullptr, request);
+    if (r || r.error().code != ErrorCode::unsupported) return r;
+    // A path the backend does not have (GL: a material map's limit levels).
+    CpuBackend& cpu = work == Work::tile ? *m_cpu_one : *m_cpu_all;
+    if (used) *used = "cpu";
+    return cpu.render(texton, request);
+}
+
+Result<core::Image> Renderer::normals(const PreparedTexton& height, const NoiseRequest& request,
+                                      double strength, Work work) {
+    return render_normal_map(work == Work::tile ? *m_cpu_one : *m_cpu_all, height, request,
+                             strength);
 }
 
 Result<core::Image> Renderer::mix(const PreparedMix& mix, const NoiseRequest& request, Work work,

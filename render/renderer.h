@@ -30,6 +30,9 @@ public:
     // Each evaluation says in `used` (when given) which backend ran it.
     Result<core::Image> noise(const PreparedTexton& texton, const NoiseRequest& request, Work work,
                               std::string* used = nullptr);
+    // A material set's normal map from its height map (render/normal_map.h), on the CPU.
+    Result<core::Image> normals(const PreparedTexton& height, const NoiseRequest& request,
+                                double strength, Work work);
     Result<core::Image> mix(const PreparedMix& mix, const NoiseRequest& request, Work work,
                             std::string* used = nullptr);
     // Surface noise at points (texels per unit in req.scale); colours per point, the texton's

@@ -250,6 +250,9 @@ Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const Prep
     assert(mix ? !mix->check(q) : !tex.check(q)); // checked by the caller (backend.h)
     if (mix && q.level >= mix->level(0).limit_level())
         return make_error(ErrorCode::unsupported, m_name + ": a mix's limit levels are CPU only");
+    if (!mix && tex.limit_coupled() && q.level >= tex.limit_level())
+        return make_error(ErrorCode::unsupported,
+                          m_name + ": a material map's limit levels are CPU only");
     Work w;
     NoiseRequest wq = q;
     if (!mix && q.marginals == Marginals::exemplar) {

@@ -16,6 +16,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"region_too_large", 400},
         {"empty_body", 400},
         {"missing_exemplar", 400},
+        {"map_size_mismatch", 400},
         {"bad_request", 400},
         {"bad_framing", 400},
         {"unsupported_transfer_encoding", 400},

@@ -134,10 +134,14 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool
         if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
                            req.matches[4].str(), req.matches[5].str(), req.params, t))
             return send_error(res, *e);
-        serve(req, res,
-              {t.id, "tile", t.format,
-               noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise), t.size, t.size,
-               false, mix});
+        ImageService::Job job{
+            t.id,     "tile",
+            t.format, noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
+            t.size,   t.size,
+            false,    mix};
+        job.map = t.noise.map;
+        job.strength = t.noise.strength;
+        serve(req, res, job);
     };
 }
 
@@ -148,10 +152,14 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
         if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), req.params,
                                        m_config.limits, r))
             return send_error(res, *e);
-        serve(req, res,
-              {r.id, "region", r.format,
-               noise_request(r.level, r.x, r.y, r.width, r.height, r.noise), r.width, r.height,
-               true, mix});
+        ImageService::Job job{
+            r.id,     "region",
+            r.format, noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
+            r.width,  r.height,
+            true,     mix};
+        job.map = r.noise.map;
+        job.strength = r.noise.strength;
+        serve(req, res, job);
     };
 }
 
@@ -249,10 +257,12 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
         return send_error(res, no_marginals);
     }
     const std::string prefix = mix ? "/v1/mixes/" : "/v1/textons/";
-    const std::string query = "?seed=" + std::to_string(probe.noise.seed) +
-                              "&mni=" + mni_text(probe.noise.mni) +
-                              (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
-                              (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "");
+    const std::string query =
+        "?seed=" + std::to_string(probe.noise.seed) + "&mni=" + mni_text(probe.noise.mni) +
+        (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
+        (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") +
+        (probe.noise.map.empty() ? "" : "&map=" + probe.noise.map) +
+        (probe.noise.map == core::kNormalMap ? "&strength=" + mni_text(probe.noise.strength) : "");
     const std::string base = base_url(req);
     const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
     nlohmann::json j = {
@@ -270,6 +280,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
         {"textond",
          {{"tile_size", probe.size},
           {"marginals", probe.noise.exemplar_marginals ? "exemplar" : "gaussian"},
+          {"map", probe.noise.map.empty() ? nullptr : nlohmann::json(probe.noise.map)},
           {"level_of_zoom", "level = " + std::to_string(api::kMapMaxLevel) +
                                 " - z: zoom z shows 2^(24 - z) texels per pixel; z = 24 is "
                                 "the texton's own resolution"},

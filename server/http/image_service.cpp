@@ -57,6 +57,28 @@ core::Image side_by_side(const core::Image& a, const core::Image& b) {
     return out;
 }
 
+// The texton to evaluate for `map`: a set's map (its albedo, or its only map, by default; the
+// height for normals), or a plain texton as it is.
+Result<std::shared_ptr<const render::PreparedTexton>>
+map_of(Result<std::shared_ptr<const render::PreparedTexton>> prepared, const std::string& map) {
+    if (!prepared) return prepared;
+    const auto& maps = prepared.value()->texton().maps;
+    if (maps.empty()) {
+        if (map.empty()) return prepared;
+        return make_error(ErrorCode::invalid_argument,
+                          "map=" + map + " needs a material set; this texton has one exemplar");
+    }
+    std::string name = map == core::kNormalMap ? core::kHeightMap : map;
+    if (name.empty()) name = core::find_map(maps, "albedo") ? "albedo" : maps.front().name;
+    auto view = prepared.value()->map(name);
+    if (!view && view.error().code == ErrorCode::not_found)
+        return make_error(ErrorCode::invalid_argument,
+                          map == core::kNormalMap
+                              ? "map=normal needs the set's height map, which it does not have"
+                              : "this material set has no map '" + name + "'");
+    return view;
+}
+
 } // namespace
 
 std::string mni_text(double mni) {
@@ -92,7 +114,9 @@ std::string ImageService::key(const Job& job) {
            std::to_string(q.height) + "/p" + std::to_string(q.period[0]) + "x" +
            std::to_string(q.period[1]) + "/o" + std::to_string(job.out_width) + "x" +
            std::to_string(job.out_height) + "/s" + std::to_string(q.seed) + "/m" + mni_text(q.mni) +
-           (q.marginals == render::Marginals::exemplar ? "/exemplar" : "") + "." +
+           (q.marginals == render::Marginals::exemplar ? "/exemplar" : "") +
+           (job.map.empty() ? "" : "/map=" + job.map) +
+           (job.map == core::kNormalMap ? "/strength=" + mni_text(job.strength) : "") + "." +
            api::extension(job.format);
 }
 
@@ -128,12 +152,18 @@ Result<ImageService::Job> ImageService::tileable(const api::TileableRequest& t) 
     render::NoiseRequest q =
         noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
     q.period = {cells(t.width), cells(t.height)};
-    return Job{t.id, "tileable", t.format, q, t.width, t.height, true, false};
+    Job job{t.id, "tileable", t.format, q, t.width, t.height, true, false};
+    job.map = t.noise.map;
+    job.strength = t.noise.strength;
+    return job;
 }
 
 Result<core::Image> ImageService::evaluate(const std::string& id, const render::NoiseRequest& q,
-                                           bool mix, bool whole_machine, const char* kind) {
+                                           bool mix, bool whole_machine, const char* kind,
+                                           const std::string& map, double strength) {
     const Work work = whole_machine ? Work::frame : Work::tile;
+    if (mix && !map.empty())
+        return make_error(ErrorCode::invalid_argument, "a texture mix has no maps: drop map=");
     if (mix) {
         auto prepared = m_mixes.prepared(id);
         if (!prepared) return prepared.error();
@@ -142,9 +172,14 @@ Result<core::Image> ImageService::evaluate(const std::string& id, const render::
             return m_renderer.mix(*prepared.value(), q, work, used);
         });
     }
-    auto prepared = m_textons.prepared(id);
+    auto prepared = map_of(m_textons.prepared(id), map);
     if (!prepared) return prepared.error();
     if (auto err = prepared.value()->check(q)) return *err;
+    if (map == core::kNormalMap)
+        return timed(kind, [&](std::string* used) {
+            if (used) *used = "cpu";
+            return m_renderer.normals(*prepared.value(), q, strength, work);
+        });
     return timed(kind, [&](std::string* used) {
         return m_renderer.noise(*prepared.value(), q, work, used);
     });
@@ -173,7 +208,7 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
         q.precision = job.format == api::ImageFormat::png     ? render::Precision::u8
                       : job.format == api::ImageFormat::png16 ? render::Precision::u16
                                                               : render::Precision::f32;
-    auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind);
+    auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.map, job.strength);
     if (image && resampled)
         return core::resample_periodic(image.value(), job.out_width, job.out_height);
     return image;

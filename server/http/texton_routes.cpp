@@ -73,11 +73,44 @@ std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, st
     return api::ApiError{"bad_request", "could not read the request body"};
 }
 
+bool is_map_field(const std::string& name) {
+    for (const char* n : core::kMapNames)
+        if (name == n) return true;
+    return name == core::kNormalMap;
+}
+
+// A material set's map parts (albedo, height, ...), or an error; none for a single exemplar.
+std::optional<api::ApiError> map_parts(const std::vector<httplib::MultipartFormData>& parts,
+                                       std::vector<TextonService::MapUpload>& maps) {
+    for (const auto& part : parts) {
+        if (!is_map_field(part.name)) continue;
+        if (part.name == core::kNormalMap)
+            return api::ApiError{"invalid_parameter",
+                                 "a set's normal map is made from its height map exactly "
+                                 "(map=normal on the image endpoints): upload 'height', not "
+                                 "'normal'"};
+        for (const auto& m : maps)
+            if (m.name == part.name)
+                return api::ApiError{"invalid_parameter",
+                                     "more than one '" + part.name + "' field in the form"};
+        if (part.content.empty())
+            return api::ApiError{"empty_body", "the '" + part.name + "' field is empty"};
+        maps.push_back({part.name, part.content});
+    }
+    for (const auto& part : parts)
+        if (!maps.empty() && part.name == "exemplar")
+            return api::ApiError{"invalid_parameter",
+                                 "a form has either an 'exemplar' or a material set's maps "
+                                 "(albedo, height, roughness, ao, metallic), not both"};
+    return std::nullopt;
+}
+
 // The one `exemplar` part of a form; the other parts are analysis fields.
 std::optional<api::ApiError> exemplar_part(const std::vector<httplib::MultipartFormData>& parts,
                                            api::Query& fields, std::string_view& bytes) {
     bytes = {};
     for (const auto& part : parts) {
+        if (is_map_field(part.name)) continue;
         if (part.name != "exemplar") {
             fields.emplace(part.name, part.content);
             continue;
@@ -134,10 +167,24 @@ void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader
     // Parameters come from the query and, for multipart uploads, from the other form fields.
     api::Query fields = req.params;
     std::string_view bytes = counted.bytes;
-    if (multipart)
-        if (auto e = exemplar_part(parts, fields, bytes)) return send_error(res, *e);
+    std::vector<TextonService::MapUpload> maps;
+    if (multipart) {
+        if (auto e = map_parts(parts, maps)) return send_error(res, *e);
+        if (!maps.empty()) {
+            for (const auto& part : parts)
+                if (!is_map_field(part.name)) fields.emplace(part.name, part.content);
+        } else if (auto e = exemplar_part(parts, fields, bytes)) {
+            return send_error(res, *e);
+        }
+    }
     core::AnalysisParams params;
     if (auto e = api::parse_analysis(fields, params)) return send_error(res, *e);
+    if (!maps.empty()) {
+        auto ingest = m_textons.ingest_set(std::move(maps), params);
+        if (const auto* refused = std::get_if<TextonService::Refused>(&ingest))
+            return send_refused(res, *refused);
+        return send_ingested(req, res, std::get<TextonService::Ingested>(ingest));
+    }
     if (bytes.empty())
         return send_error(res, {"empty_body",
                                 "no exemplar: send the image as the body (Content-Type: image/*) "
@@ -158,6 +205,8 @@ void TextonRoutes::send_refused(Res res, const TextonService::Refused& r) {
         return send_error(res, content_error(err, "invalid_image"));
     case Stage::check:
         return send_error(res, {"exemplar_too_small", err.message});
+    case Stage::size:
+        return send_error(res, {"map_size_mismatch", err.message});
     case Stage::lookup:
         break;
     }

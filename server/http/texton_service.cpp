@@ -47,23 +47,115 @@ TextonService::ingest(std::string_view bytes, const core::AnalysisParams& params
     } else if (meta.error().code != ErrorCode::not_found) {
         return Refused{Stage::lookup, meta.error()};
     }
-    out.submitted = submit(out.id, std::move(image.value()), params);
+    auto shared = std::make_shared<const core::Image>(std::move(image.value()));
+    out.submitted = submit(out.id, shared, [shared, params](const core::ProgressFn& progress) {
+        return analyse(*shared, params, progress);
+    });
     return out;
 }
 
-AnalysisPool::Submitted TextonService::submit(const std::string& id, core::Image exemplar,
-                                              const core::AnalysisParams& params) {
-    auto u = std::make_shared<const core::Image>(std::move(exemplar));
+Result<io::TextonRecord> TextonService::analyse_set(const core::Image& stacked,
+                                                    const std::vector<api::MapMeta>& maps,
+                                                    const core::AnalysisParams& params,
+                                                    const core::ProgressFn& progress) {
+    std::vector<core::TextonMap> layout;
+    for (const api::MapMeta& m : maps) layout.push_back({m.name, m.first, m.channels});
+    auto result = core::analyze_material_set(stacked, layout, params, progress);
+    if (!result) return result.error();
+    return io::make_set_record(stacked, maps, params, result.value());
+}
+
+std::optional<TextonService::Refused>
+TextonService::decode_maps(const std::vector<MapUpload>& maps, core::Image& stacked,
+                           std::vector<api::MapMeta>& meta, const std::function<bool()>& gone) {
+    using Stage = Refused::Stage;
+    const auto admit = m_decode_slots.acquire(m_decode_wait, gone);
+    if (admit != RenderSlots::Admit::granted)
+        return Refused{Stage::busy, make_error(ErrorCode::unavailable, "no decoder"), admit};
+    SlotGuard slot(&m_decode_slots);
+    std::vector<core::Image> images;
+    int channels = 0;
+    for (const MapUpload& m : maps) {
+        int bits = 8;
+        auto image = io::decode_image_memory(m.bytes, m_limits, &bits);
+        if (!image)
+            return Refused{Stage::decode, Error{image.error().code,
+                                                "map '" + m.name + "': " + image.error().message}};
+        core::Image u = std::move(image.value());
+        if (m.name != "albedo" && u.channels == 3) { // a grey map saved as RGB: its mean
+            core::Image g(u.width, u.height, 1);
+            for (std::size_t k = 0; k < g.plane_size(); ++k)
+                g.data[k] = (u.plane(0)[k] + u.plane(1)[k] + u.plane(2)[k]) / 3.0f;
+            u = std::move(g);
+        }
+        if (!images.empty() && (u.width != images[0].width || u.height != images[0].height))
+            return Refused{Stage::size,
+                           make_error(ErrorCode::invalid_argument,
+                                      "map '" + m.name + "' is " + std::to_string(u.width) + "x" +
+                                          std::to_string(u.height) + ", map '" + maps[0].name +
+                                          "' " + std::to_string(images[0].width) + "x" +
+                                          std::to_string(images[0].height) +
+                                          ": every map of a set must have one size")};
+        meta.push_back({m.name, channels, u.channels, bits, {}, 0.0});
+        channels += u.channels;
+        images.push_back(std::move(u));
+    }
+    if (channels > core::kMaxChannels)
+        return Refused{Stage::size,
+                       make_error(ErrorCode::invalid_argument,
+                                  "a set has at most " + std::to_string(core::kMaxChannels) +
+                                      " channels, these maps have " + std::to_string(channels))};
+    stacked = core::Image(images[0].width, images[0].height, channels);
+    for (std::size_t i = 0; i < images.size(); ++i)
+        std::copy(images[i].data.begin(), images[i].data.end(), stacked.plane(meta[i].first));
+    return std::nullopt;
+}
+
+std::variant<TextonService::Ingested, TextonService::Refused>
+TextonService::ingest_set(std::vector<MapUpload> maps, const core::AnalysisParams& params,
+                          const std::function<bool()>& gone) {
+    using Stage = Refused::Stage;
+    // Channel order is the canonical map order, whatever the form's order.
+    std::vector<MapUpload> ordered;
+    for (const char* name : core::kMapNames)
+        for (const MapUpload& m : maps)
+            if (m.name == name) ordered.push_back(m);
+    core::Image stacked;
+    std::vector<api::MapMeta> meta;
+    if (auto refused = decode_maps(ordered, stacked, meta, gone)) return *refused;
+    if (auto err = core::validate_analysis(params, stacked.width, stacked.height, 1))
+        return Refused{Stage::check, *err};
+    Ingested out;
+    out.id = io::texton_id(stacked, params, meta);
+    if (auto known = m_store.find(out.id)) {
+        out.known = std::move(known.value());
+        return out;
+    } else if (known.error().code != ErrorCode::not_found) {
+        return Refused{Stage::lookup, known.error()};
+    }
+    auto shown = std::make_shared<const core::Image>(
+        core::channel_planes(stacked, meta[0].first, meta[0].channels));
+    auto u = std::make_shared<const core::Image>(std::move(stacked));
+    out.submitted = submit(out.id, shown, [u, meta, params](const core::ProgressFn& progress) {
+        return analyse_set(*u, meta, params, progress);
+    });
+    return out;
+}
+
+AnalysisPool::Submitted TextonService::submit(const std::string& id,
+                                              std::shared_ptr<const core::Image> shown,
+                                              Analyse analyse) {
+    const std::shared_ptr<const core::Image>& u = shown;
     TextonStore* store = &m_store;
     Metrics* metrics = &m_metrics;
     return m_pool.submit(
         id,
-        [u, params, store, metrics,
+        [u, analyse, store, metrics,
          id](const core::ProgressFn& progress) -> Result<AnalysisOutcome> {
             // An identical upload may have finished while this one queued.
             if (auto meta = store->find(id)) return AnalysisOutcome{meta.value(), false};
             const auto t0 = std::chrono::steady_clock::now();
-            auto record = analyse(*u, params, progress);
+            auto record = analyse(progress);
             const double ms =
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                     .count();
@@ -74,7 +166,7 @@ AnalysisPool::Submitted TextonService::submit(const std::string& id, core::Image
             auto meta = store->find(id);
             if (!meta) return meta.error();
             spdlog::info("analysed {}: {}x{}x{}, r = {}, RME {:.4f}, {:.0f} ms{}", id, u->width,
-                         u->height, u->channels, params.size, meta.value().rme, ms,
+                         u->height, meta.value().channels, meta.value().size, meta.value().rme, ms,
                          put.value() ? "" : " (another replica stored it first)");
             return AnalysisOutcome{meta.value(), put.value()};
         });

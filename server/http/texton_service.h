@@ -48,6 +48,7 @@ public:
                     // or any other for a corrupt file)
             check,  // the parameters do not fit the exemplar (too small for the support)
             lookup, // the store could not say whether the texton exists (shared store down)
+            size,   // a material set's maps disagree in size, or have too many channels
         } stage;
         Error error;
         RenderSlots::Admit admit = RenderSlots::Admit::granted;
@@ -57,9 +58,29 @@ public:
                                            const core::AnalysisParams& params,
                                            const std::function<bool()>& gone = {});
 
+    // A material set (core/material_set.h): one image per map, all of one size; albedo keeps RGB
+    // (or grey), the other maps are grey (an RGB file's channels averaged). Stored as one texton.
+    struct MapUpload {
+        std::string name;
+        std::string_view bytes;
+    };
+    std::variant<Ingested, Refused> ingest_set(std::vector<MapUpload> maps,
+                                               const core::AnalysisParams& params,
+                                               const std::function<bool()>& gone = {});
+    static Result<io::TextonRecord> analyse_set(const core::Image& stacked,
+                                                const std::vector<api::MapMeta>& maps,
+                                                const core::AnalysisParams& params,
+                                                const core::ProgressFn& progress);
+
 private:
-    AnalysisPool::Submitted submit(const std::string& id, core::Image exemplar,
-                                   const core::AnalysisParams& params);
+    using Analyse = std::function<Result<io::TextonRecord>(const core::ProgressFn&)>;
+    // Runs `analyse` on the pool and stores its record with `shown` (the exemplar, or a set's
+    // first map) as the stored exemplar.
+    AnalysisPool::Submitted submit(const std::string& id, std::shared_ptr<const core::Image> shown,
+                                   Analyse analyse);
+    std::optional<Refused> decode_maps(const std::vector<MapUpload>& maps, core::Image& stacked,
+                                       std::vector<api::MapMeta>& meta,
+                                       const std::function<bool()>& gone);
 
     TextonStore& m_store;
     AnalysisPool& m_pool;

@@ -31,7 +31,9 @@ std::string sniff_format(std::string_view bytes);
 Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits = {});
 // Uploads, decoded in memory: the format is sniffed from the bytes and must be in
 // `limits.formats` (else ErrorCode::unsupported), and only that format's reader sees the bytes.
-Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits = {});
+// `bits`, when given, receives the file's bits per channel (8, 16, 32).
+Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits = {},
+                                        int* bits = nullptr);
 
 enum class Encoding { png8, png16, exr };
 
@@ -43,8 +45,11 @@ using Attributes = std::vector<std::pair<std::string, std::string>>;
 
 // Encodes into memory (tiles): same conventions as encode_image_file. `png_compression` is zlib's
 // level 0..9; noise barely compresses, so a low level saves time for a few percent of size.
+// PNG takes 1 to 4 channels, EXR up to 8 (a material set's texton), named `channel_names` when
+// given.
 Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
-                                        const Attributes& attributes = {}, int png_compression = 6);
+                                        const Attributes& attributes = {}, int png_compression = 6,
+                                        const std::vector<std::string>& channel_names = {});
 
 // The bytes of encoded images are reused: encode_image_memory writes into a string taken from a
 // pool, and whoever drops an encoded image (the image cache, on eviction) may give its string

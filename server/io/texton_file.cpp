@@ -5,6 +5,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -43,7 +44,7 @@ nlohmann::json marginals_json(const core::MarginalModel& m) {
 
 // The marginals of a texton with `channels` channels, or why they are not valid.
 Result<core::MarginalModel> marginals_from_json(const nlohmann::json& j, int channels,
-                                                const std::array<double, 3>& mean) {
+                                                const core::ChannelValues& mean) {
     core::MarginalModel m;
     m.channels = channels;
     m.mean = mean;
@@ -75,7 +76,8 @@ Result<core::MarginalModel> marginals_from_json(const nlohmann::json& j, int cha
 }
 } // namespace
 
-std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& params) {
+std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& params,
+                      const std::vector<api::MapMeta>& maps) {
     Sha256 h;
     h.update(std::string_view(core::kAnalysisVersion));
     h.update("\n", 1);
@@ -84,6 +86,9 @@ std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& p
     hash_u32(h, static_cast<std::uint32_t>(exemplar.channels));
     hash_floats(h, exemplar.data);
     h.update(api::canonical_params(params).dump());
+    for (const api::MapMeta& m : maps)
+        h.update("\nmap " + m.name + " " + std::to_string(m.channels) + " " +
+                 std::to_string(m.bits));
     return h.hex();
 }
 
@@ -121,6 +126,24 @@ TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams
     return r;
 }
 
+TextonRecord make_set_record(const core::Image& stacked, std::vector<api::MapMeta> maps,
+                             const core::AnalysisParams& params, const core::SetAnalysis& set) {
+    TextonRecord r = make_record(stacked, params, set.result);
+    for (std::size_t i = 0; i < maps.size(); ++i) {
+        api::MapMeta& m = maps[i];
+        m.rme = set.map_rme[i];
+        m.range.clear();
+        for (int c = m.first; c < m.first + m.channels; ++c) {
+            const float* p = stacked.plane(c);
+            const auto [lo, hi] = std::minmax_element(p, p + stacked.plane_size());
+            m.range.push_back({*lo, *hi});
+        }
+    }
+    r.meta.maps = std::move(maps);
+    r.meta.id = texton_id(stacked, params, r.meta.maps);
+    return r;
+}
+
 Result<std::string> texton_file_bytes(const TextonRecord& record) {
     // Without provenance: two analyses of one exemplar give one file, byte for byte.
     std::vector<std::pair<std::string, std::string>> attributes = {
@@ -128,7 +151,12 @@ Result<std::string> texton_file_bytes(const TextonRecord& record) {
     if (!record.texton.marginals.empty())
         attributes.emplace_back(kMarginalsAttribute,
                                 marginals_json(record.texton.marginals).dump());
-    return encode_image_memory(record.texton.alpha, Encoding::exr, attributes);
+    // A set's channels are named after its maps: albedo.R, albedo.G, albedo.B, height.Y, ...
+    std::vector<std::string> names;
+    for (const core::TextonMap& m : record.texton.maps)
+        for (int c = 0; c < m.channels; ++c)
+            names.push_back(m.name + "." + (m.channels == 1 ? "Y" : std::string(1, "RGB"[c])));
+    return encode_image_memory(record.texton.alpha, Encoding::exr, attributes, 6, names);
 }
 
 Result<bool> write_texton_file(const std::string& path, const TextonRecord& record) {
@@ -156,7 +184,7 @@ Result<TextonRecord> read_texton_file(const std::string& path) {
     }
     const api::TextonMeta& m = r.meta;
     if (spec.width != m.size || spec.height != m.size || spec.nchannels != m.channels ||
-        (m.channels != 1 && m.channels != 3) || m.size <= 0)
+        (m.maps.empty() && m.channels != 1 && m.channels != 3) || m.size <= 0)
         return bad_file(path, "pixel size or channels disagree with the metadata");
     std::vector<float> buf(static_cast<std::size_t>(m.size) * m.size * m.channels);
     if (!in->read_image(0, 0, 0, m.channels, OIIO::TypeDesc::FLOAT, buf.data()))
@@ -169,6 +197,10 @@ Result<TextonRecord> read_texton_file(const std::string& path) {
     const std::size_t n = r.texton.alpha.plane_size();
     for (std::size_t k = 0; k < n; ++k)
         for (int c = 0; c < m.channels; ++c) r.texton.alpha.plane(c)[k] = buf[k * m.channels + c];
+    for (const api::MapMeta& mm : m.maps) r.texton.maps.push_back({mm.name, mm.first, mm.channels});
+    if (!r.texton.maps.empty())
+        if (auto err = core::validate_maps(r.texton.maps, m.channels))
+            return bad_file(path, err->message);
     if (coefficients_sha256(r.texton) != m.coefficients_sha256)
         return bad_file(path, "coefficient checksum mismatch (damaged file)");
     // Today's rules for what may be rendered, whatever build wrote the file: the store

@@ -4,6 +4,7 @@
 // metadata JSON. Any EXR viewer shows the coefficients; reading it back is bit-exact.
 #include "api/texton_meta.h"
 #include "core/image.h"
+#include "core/material_set.h"
 #include "core/result.h"
 #include "core/texton.h"
 #include "core/texton_analysis.h"
@@ -23,13 +24,20 @@ struct TextonRecord {
 
 // Content address: sha256 over the algorithm version, the decoded exemplar (size, channels,
 // float32 pixels) and the canonical parameters.
-std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& params);
+// A material set's id also covers its maps' names, channels and bits.
+std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& params,
+                      const std::vector<api::MapMeta>& maps = {});
 
 // sha256 of the coefficients' float32 bytes (planar), stored in the metadata and checked on load.
 std::string coefficients_sha256(const core::Texton& t);
 
 TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams& params,
                          const core::AnalysisResult& result);
+
+// A material set's record: `stacked` holds the maps side by side, `maps` their names, channels
+// and bits (ranges and RMEs are filled in here).
+TextonRecord make_set_record(const core::Image& stacked, std::vector<api::MapMeta> maps,
+                             const core::AnalysisParams& params, const core::SetAnalysis& set);
 
 // The file's bytes, as write_texton_file writes them (the shared store keeps these).
 Result<std::string> texton_file_bytes(const TextonRecord& record);

@@ -147,7 +147,7 @@ TEST(SpectralSynthesis, RpnKeepsTheDomainMeanExactly) {
         k_hat.emplace_back(w, h);
         RealFft2d::get(w, h)->forward(k.plane(c), k_hat.back(), 1);
     }
-    const std::array<double, 3> mean = {0.2, 0.5, 0.7};
+    const ChannelValues mean = {0.2, 0.5, 0.7};
     const Image out = spectral_synthesis(k_hat, mean, SpectralMethod::rpn, 3, 1);
     for (int c = 0; c < 3; ++c) {
         const test::Moments m = test::moments(out.plane(c), out.plane_size());

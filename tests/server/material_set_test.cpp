@@ -1,0 +1,147 @@
+// Material sets over HTTP: a multipart upload of albedo and height (etr_pebbles04's RGB and its
+// luminance as a 16-bit PNG), the metadata's maps, map tiles, normal tiles stitched into their
+// region, and the refusals.
+#include "server/io/image_io.h"
+#include "tests/server/server_fixture.h"
+#include "tests/support/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace textond::test {
+namespace {
+
+using nlohmann::json;
+
+std::string height_png16(const core::Image& u, int width) {
+    core::Image h(width, u.height, 1);
+    for (int y = 0; y < u.height; ++y)
+        for (int x = 0; x < width; ++x)
+            h.at(0, x, y) = (u.at(0, x, y) + u.at(1, x, y) + u.at(2, x, y)) / 3.0f;
+    return io::encode_image_memory(h, io::Encoding::png16).value();
+}
+
+core::Image decoded(const httplib::Result& r) {
+    EXPECT_TRUE(r);
+    EXPECT_EQ(r->status, 200) << r->body;
+    return io::decode_image_memory(r->body).value();
+}
+
+TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
+    TestServer server;
+    auto c = server.client();
+    const std::string albedo = read_file(exemplar_path("etr_pebbles04.png"));
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    httplib::MultipartFormDataItems form = {
+        {"height", height_png16(u, u.width), "h.png", "image/png"},
+        {"albedo", albedo, "a.png", "image/png"},
+        {"size", "16", "", ""},
+        {"iterations", "20", "", ""}};
+    auto up = c.Post("/v1/textons", form);
+    ASSERT_TRUE(up);
+    ASSERT_EQ(up->status, 201) << up->body;
+    const json meta = json::parse(up->body);
+    const std::string id = meta.at("id");
+    EXPECT_EQ(meta.at("channels"), 4);
+    ASSERT_EQ(meta.at("maps").size(), 2u);
+    EXPECT_EQ(meta.at("maps")[0].at("name"), "albedo"); // canonical order, whatever the form's
+    EXPECT_EQ(meta.at("maps")[0].at("bits"), 8);
+    EXPECT_EQ(meta.at("maps")[1].at("name"), "height");
+    EXPECT_EQ(meta.at("maps")[1].at("first"), 3);
+    EXPECT_EQ(meta.at("maps")[1].at("bits"), 16);
+    EXPECT_EQ(meta.at("maps")[1].at("range").size(), 1u);
+    for (const auto& m : meta.at("maps")) {
+        EXPECT_GT(m.at("rme").get<double>(), 0.0);
+        EXPECT_LT(m.at("rme").get<double>(), 1.0);
+    }
+    // Known: the same id, 200.
+    auto again = c.Post("/v1/textons", form);
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->status, 200);
+    EXPECT_EQ(json::parse(again->body).at("id"), id);
+
+    const std::string base = "/v1/textons/" + id;
+    const core::Image plain = decoded(c.Get(base + "/tiles/0/1/2.exr?seed=7"));
+    const core::Image alb = decoded(c.Get(base + "/tiles/0/1/2.exr?seed=7&map=albedo"));
+    EXPECT_EQ(plain.channels, 3);
+    EXPECT_EQ(plain.data, alb.data); // albedo is the default map
+    EXPECT_EQ(decoded(c.Get(base + "/tiles/0/1/2.exr?seed=7&map=height")).channels, 1);
+
+    // Normal tiles: two neighbours equal their region, bit for bit.
+    const std::string n = "?seed=7&map=normal&strength=6";
+    const core::Image left = decoded(c.Get(base + "/tiles/1/-1/3.exr" + n));
+    const core::Image right = decoded(c.Get(base + "/tiles/1/0/3.exr" + n));
+    const core::Image region = decoded(c.Get(base + "/region.exr?x=-256&y=768&w=512&h=256&z=1" +
+                                             n.substr(0, 0) + "&seed=7&map=normal&strength=6"));
+    ASSERT_EQ(region.channels, 3);
+    int differ = 0;
+    for (int ch = 0; ch < 3; ++ch)
+        for (int y = 0; y < 256; ++y)
+            for (int x = 0; x < 256; ++x) {
+                differ += left.at(ch, x, y) != region.at(ch, x, y);
+                differ += right.at(ch, x, y) != region.at(ch, 256 + x, y);
+            }
+    EXPECT_EQ(differ, 0);
+    // Unit normals pointing up.
+    for (std::size_t k = 0; k < left.plane_size(); k += 97) {
+        const double x = 2.0 * left.plane(0)[k] - 1, y = 2.0 * left.plane(1)[k] - 1,
+                     z = 2.0 * left.plane(2)[k] - 1;
+        EXPECT_NEAR(x * x + y * y + z * z, 1.0, 1e-5);
+        EXPECT_GT(z, 0.0);
+    }
+    // TileJSON carries the map.
+    const json tj = json::parse(c.Get(base + "/tilejson.json?map=height")->body);
+    EXPECT_NE(tj.at("tiles")[0].get<std::string>().find("&map=height"), std::string::npos);
+
+    // Refusals, each with its reason.
+    auto status = [&](const std::string& path) {
+        auto r = c.Get(path);
+        return r ? json::parse(r->body).at("error").at("code").get<std::string>() + " " +
+                       std::to_string(r->status)
+                 : std::string("no answer");
+    };
+    EXPECT_EQ(status(base + "/tiles/0/0/0.png?map=roughness"), "invalid_parameter 400");
+    EXPECT_EQ(status(base + "/tiles/0/0/0.png?map=bump"), "invalid_parameter 400");
+    EXPECT_EQ(status(base + "/tiles/0/0/0.png?strength=3"), "invalid_parameter 400");
+    EXPECT_EQ(status(base + "/tiles/0/0/0.png?map=height&marginals=exemplar"),
+              "invalid_parameter 400");
+}
+
+TEST(MaterialSet, MismatchedSizesAndNormalUploadsAreRefusedClearly) {
+    TestServer server;
+    auto c = server.client();
+    const std::string albedo = read_file(exemplar_path("etr_pebbles04.png"));
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    httplib::MultipartFormDataItems form = {
+        {"albedo", albedo, "a.png", "image/png"},
+        {"height", height_png16(u, u.width - 8), "h.png", "image/png"},
+        {"size", "16", "", ""}};
+    auto r = c.Post("/v1/textons", form);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 400);
+    EXPECT_EQ(json::parse(r->body).at("error").at("code"), "map_size_mismatch");
+    EXPECT_NE(r->body.find("one size"), std::string::npos) << r->body;
+
+    form = {{"albedo", albedo, "a.png", "image/png"}, {"normal", albedo, "n.png", "image/png"}};
+    r = c.Post("/v1/textons", form);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 400);
+    EXPECT_NE(r->body.find("upload 'height'"), std::string::npos) << r->body;
+
+    form = {{"albedo", albedo, "a.png", "image/png"}, {"exemplar", albedo, "e.png", "image/png"}};
+    r = c.Post("/v1/textons", form);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 400);
+
+    // A plain texton has no maps.
+    auto plain = c.Post("/v1/textons?size=16&iterations=5", albedo, "image/png");
+    ASSERT_TRUE(plain);
+    const std::string id = json::parse(plain->body).at("id");
+    auto t = c.Get("/v1/textons/" + id + "/tiles/0/0/0.png?map=height");
+    ASSERT_TRUE(t);
+    EXPECT_EQ(t->status, 400);
+    EXPECT_NE(t->body.find("material set"), std::string::npos) << t->body;
+}
+
+} // namespace
+} // namespace textond::test
