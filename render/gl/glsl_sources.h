@@ -15,4 +15,7 @@ extern const char* const kSurfaceNoiseComp;
 extern const char* const kSurfaceLib;
 extern const char* const kMeshPreviewVert;
 extern const char* const kMeshPreviewFrag;
+extern const char* const kMaterialEval;      // a material set's maps and height gradient (kit)
+extern const char* const kMaterialNoiseFrag; // its fragment entry (three attachments)
+extern const char* const kMaterialNoiseHlsl; // its HLSL, which includes kTextonNoiseHlsl
 } // namespace textond::render::glsl

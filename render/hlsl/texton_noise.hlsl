@@ -33,6 +33,15 @@ cbuffer TextonNoise : register(b0) {
     int u_nthresholds;
     uint4 u_thresholds4[64]; // threshold j is u_thresholds4[j / 4][j % 4]
     float4 u_kappa4[7];      // kappa j is u_kappa4[j / 4][j % 4], j < 25
+#ifdef TEXTOND_SET
+    // A material set (material_noise.hlsl, which includes this file): after the texton's members,
+    // so their offsets do not move.
+    float4 u_set_mean0; // the mean of channels 0..3
+    float4 u_set_mean1; // of channels 4..7
+    int u_set_channels; // C, 1..8
+    int u_height;       // the height's channel, or -1: no gradient
+    float u_strength;   // normals: the texels a height step of 1 spans
+#endif
 };
 
 uint mix32(uint x) {
@@ -251,8 +260,10 @@ float3 limit_pixel(int2 pix) {
     return u_mean + mul(u_A, s);
 }
 
+#ifndef TEXTOND_SET
 float4 main(float4 position : SV_Position) : SV_Target {
     int2 pix = int2(position.xy) + u_offset;
     float3 v = u_mode == 0 ? exact_pixel(pix) : limit_pixel(pix);
     return float4(v, 1.0);
 }
+#endif

@@ -1,6 +1,7 @@
 #include "server/http/engine_kit.h"
 
 #include "core/grid_poisson.h"
+#include "core/material_set.h"
 #include "render/gl/glsl_sources.h"
 #include "render/noise_request.h"
 #include "render/prepared_texton.h"
@@ -27,7 +28,7 @@ show is what this shader computes: same seed, same position, same colour (to flo
 |---|---|
 | `textond_kit.json` | every parameter: r, order, mean, MNI, cell size a, lambda, scale, the Poisson threshold table, the seed rule |
 | `texton.exr` | the coefficients alpha, float32, r x r (Y or R,G,B): what the shader samples |
-| `texton16.png` | the same as 16-bit PNG for engines without EXR: alpha = offset + scale * v / 65535 (`png16_decode` in the JSON; quantised to 2^-16 of the range, so not bit-exact) |
+| `texton16.png` | (one texton; a material set has `maps/NAME16.png`) the same as 16-bit PNG for engines without EXR: alpha = offset + scale * v / 65535 (`png16_decode` in the JSON; quantised to 2^-16 of the range, so not bit-exact) |
 | `glsl/noise_lib.glsl`, `glsl/texton_eval.glsl` | the exact GLSL the server's OpenGL backends run (GLSL 4.50): the hash, the point process and the evaluation of one pixel |
 | `glsl/texton_noise.frag`, `glsl/fullscreen.vert` | a fragment entry point over them (a full-screen pass); `glsl/texton_noise.comp` is the server's batched compute one (for reference: it reads each window's uniforms from a storage buffer of records) |
 | `hlsl/texton_noise.hlsl` | its HLSL (SM 5) translation, same uniforms (arrays packed by four) |
@@ -127,21 +128,44 @@ Result<std::string> marginal_tables(const core::Texton& t, nlohmann::json& param
     return io::encode_image_memory(rows, io::Encoding::exr);
 }
 
-// 16-bit PNG: one offset and scale for every channel, so relative values are kept. Returns the
-// bytes and (offset, scale) to decode them.
-Result<std::pair<std::string, std::pair<double, double>>> texton_png16(const core::Image& alpha) {
+const char* kSetReadme = R"(
+## A material set (%MAPS%)
+
+This texton is a material set: its channels are the maps side by side (`maps` in
+`textond_kit.json`: each map's name, first channel and channel count), driven by one Poisson
+process, so the server's tiles with `map=NAME` are channels of one field. `glsl/material_eval.glsl`
+evaluates every map and the height's gradient in one point loop; `glsl/material_noise.frag` writes
+them to three colour attachments: channels 0..3, channels 4..7 and the normal map (`n / 2 + 1/2`,
+tangent space, +Y up, what `map=normal&strength=S` serves). Compile `#version 450 core` +
+`noise_lib.glsl` + `texton_eval.glsl` + `material_eval.glsl` + `material_noise.frag`; for HLSL,
+`hlsl/material_noise.hlsl` with `hlsl/texton_noise.hlsl` beside it (it includes it). Set the
+texton's uniforms as above (u_mode 0), then:
+
+- `u_set_table0`, `u_set_table1`: two `RGBA32F` textures laid out as `u_table` (side `r + 2 pad`),
+  channels 0..3 and 4..7 of `texton.exr` (zeros past the set's channels; `GL_NEAREST`);
+- `u_set_channels` (%CHANNELS%), `u_height` (`height_channel`, -1 without a height),
+  `u_set_mean0`, `u_set_mean1` (`mean` split by four), `u_strength` (the server's default is 8).
+
+The maps' coefficients are also in `maps/NAME16.png`, 16-bit, with the kit's one `png16_decode`.
+The set's shader evaluates the exact levels (level below `limit_level`, where the texton spans
+two pixels or more); the server's tiles cover the levels past it.
+)";
+
+// 16-bit PNG: one offset and scale for every channel (of every map), so relative values are
+// kept: (offset, scale) to decode them.
+std::pair<double, double> png16_decode(const core::Image& alpha) {
     float lo = 0.0f, hi = 0.0f;
     if (!alpha.data.empty()) {
         const auto [mn, mx] = std::minmax_element(alpha.data.begin(), alpha.data.end());
         lo = *mn;
         hi = *mx;
     }
-    const double range = hi > lo ? double(hi) - lo : 1.0;
-    core::Image png = alpha;
-    for (float& v : png.data) v = static_cast<float>((double(v) - lo) / range);
-    auto bytes = io::encode_image_memory(png, io::Encoding::png16);
-    if (!bytes) return bytes.error();
-    return std::make_pair(std::move(bytes.value()), std::make_pair(double(lo), range));
+    return {double(lo), hi > lo ? double(hi) - lo : 1.0};
+}
+
+Result<std::string> png16_bytes(core::Image planes, std::pair<double, double> decode) {
+    for (float& v : planes.data) v = static_cast<float>((double(v) - decode.first) / decode.second);
+    return io::encode_image_memory(planes, io::Encoding::png16);
 }
 
 } // namespace
@@ -154,7 +178,7 @@ namespace {
 
 // textond_kit.json: every parameter of the texton's noise at this MNI.
 nlohmann::json kit_params(const io::TextonRecord& record, double mni, const std::string& base_url,
-                          std::pair<double, double> png16_decode) {
+                          std::pair<double, double> decode) {
     const core::Texton& t = record.texton;
     const std::string& id = record.meta.id;
     const core::noise::GridPoisson grid(t.size, mni);
@@ -174,7 +198,7 @@ nlohmann::json kit_params(const io::TextonRecord& record, double mni, const std:
         {"scale", static_cast<float>(1.0 / std::sqrt(grid.lambda))},
         {"table_pad", render::table_pad(t.order)},
         {"poisson_thresholds", grid.thresholds},
-        {"png16_decode", {{"offset", png16_decode.first}, {"scale", png16_decode.second}}},
+        {"png16_decode", {{"offset", decode.first}, {"scale", decode.second}}},
         {"rme", record.meta.rme},
         {"seed_rule",
          "any unsigned 64-bit seed; cell (cx, cy) draws from cell_key(seed, cx, cy) "
@@ -184,15 +208,48 @@ nlohmann::json kit_params(const io::TextonRecord& record, double mni, const std:
              "/tiles/{z}/{x}/{y}.exr?seed={seed}&mni=" + nlohmann::json(mni).dump()}};
 }
 
+// A set's maps: their layout in the parameters and each map's coefficients as a 16-bit PNG with
+// the kit's one offset and scale.
+Result<std::vector<io::TarEntry>> set_entries(const core::Texton& t, const std::string& dir,
+                                              nlohmann::json& params, std::string& readme) {
+    auto prepared = render::PreparedTexton::make(t);
+    if (!prepared) return prepared.error();
+    const std::pair<double, double> decode = png16_decode(t.alpha);
+    std::vector<io::TarEntry> out = {
+        {dir + "glsl/material_eval.glsl", render::glsl::kMaterialEval},
+        {dir + "glsl/material_noise.frag", render::glsl::kMaterialNoiseFrag},
+        {dir + "hlsl/material_noise.hlsl", render::glsl::kMaterialNoiseHlsl}};
+    nlohmann::json maps = nlohmann::json::array();
+    std::string names;
+    for (const core::TextonMap& m : t.maps) {
+        maps.push_back({{"name", m.name},
+                        {"first", m.first},
+                        {"channels", m.channels},
+                        {"file", "maps/" + m.name + "16.png"}});
+        names += (names.empty() ? "" : ", ") + m.name;
+        auto bytes = png16_bytes(core::channel_planes(t.alpha, m.first, m.channels), decode);
+        if (!bytes) return bytes.error();
+        out.push_back({dir + "maps/" + m.name + "16.png", std::move(bytes.value())});
+    }
+    const core::TextonMap* height = core::find_map(t.maps, core::kHeightMap);
+    params["maps"] = maps;
+    params["height_channel"] = height ? height->first : -1;
+    params["limit_level"] = prepared.value()->limit_level();
+    std::string section = kSetReadme;
+    replace_all(section, "%MAPS%", names);
+    replace_all(section, "%CHANNELS%", std::to_string(t.channels));
+    readme += section;
+    return out;
+}
+
 } // namespace
 
 Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::string& texton_exr,
                                    double mni, const std::string& base_url) {
     const core::Texton& t = record.texton;
     const std::string& id = record.meta.id;
-    auto png16 = texton_png16(t.alpha);
-    if (!png16) return png16.error();
-    nlohmann::json params = kit_params(record, mni, base_url, png16.value().second);
+    const std::pair<double, double> decode = png16_decode(t.alpha);
+    nlohmann::json params = kit_params(record, mni, base_url, decode);
 
     std::string readme = kReadme;
     replace_all(readme, "%ID%", id);
@@ -207,18 +264,26 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
         marginals = {{dir + "glsl/marginals.glsl", render::glsl::kMarginalsGlsl},
                      {dir + "marginals.exr", std::move(tables.value())}};
     }
-    std::vector<io::TarEntry> all = {
-        {dir + "README.md", readme},
-        {dir + "textond_kit.json", params.dump(2) + "\n"},
-        {dir + "texton.exr", texton_exr},
-        {dir + "texton16.png", png16.value().first},
-        {dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
-        {dir + "glsl/texton_eval.glsl", render::glsl::kTextonEval},
-        {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},
-        {dir + "glsl/texton_noise.comp", render::glsl::kTextonNoiseComp},
-        {dir + "glsl/fullscreen.vert", render::glsl::kFullscreenVert},
-        {dir + "hlsl/texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
-        {dir + "NOISE_SPEC.md", render::glsl::kNoiseSpec}};
+    if (!t.maps.empty()) { // a set: its maps and its shaders; a PNG holds at most 4 channels
+        auto set = set_entries(t, dir, params, readme);
+        if (!set) return set.error();
+        marginals.insert(marginals.end(), set.value().begin(), set.value().end());
+    }
+    std::vector<io::TarEntry> all = {{dir + "README.md", readme},
+                                     {dir + "textond_kit.json", params.dump(2) + "\n"},
+                                     {dir + "texton.exr", texton_exr}};
+    if (t.maps.empty()) {
+        auto png16 = png16_bytes(t.alpha, decode);
+        if (!png16) return png16.error();
+        all.push_back({dir + "texton16.png", std::move(png16.value())});
+    }
+    all.insert(all.end(), {{dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
+                           {dir + "glsl/texton_eval.glsl", render::glsl::kTextonEval},
+                           {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},
+                           {dir + "glsl/texton_noise.comp", render::glsl::kTextonNoiseComp},
+                           {dir + "glsl/fullscreen.vert", render::glsl::kFullscreenVert},
+                           {dir + "hlsl/texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
+                           {dir + "NOISE_SPEC.md", render::glsl::kNoiseSpec}});
     all.insert(all.end(), marginals.begin(), marginals.end());
     return io::tar_archive(all);
 }

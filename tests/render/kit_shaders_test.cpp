@@ -9,6 +9,7 @@
 #include "render/gl/gl_api.h"
 #include "render/gl/glsl_sources.h"
 #include "render/gl/noise_window.h"
+#include "render/normal_map.h"
 #include "render/osmesa_backend.h"
 #include "tests/render/render_fixtures.h"
 
@@ -89,6 +90,9 @@ struct Gl {
     PFNGLUNIFORM1IVPROC Uniform1iv = nullptr;
     PFNGLUNIFORM2IVPROC Uniform2iv = nullptr;
     PFNGLUNIFORM3FVPROC Uniform3fv = nullptr;
+    PFNGLUNIFORM4FVPROC Uniform4fv = nullptr;
+    PFNGLDRAWBUFFERSPROC DrawBuffers = nullptr;
+    PFNGLREADBUFFERPROC ReadBuffer = nullptr;
 
     static std::unique_ptr<Gl> open() {
         auto c = render::make_osmesa_context();
@@ -110,7 +114,9 @@ struct Gl {
             !get(gl->GetUniformBlockIndex, "glGetUniformBlockIndex") ||
             !get(gl->UniformBlockBinding, "glUniformBlockBinding") ||
             !get(gl->Uniform2uiv, "glUniform2uiv") || !get(gl->Uniform1iv, "glUniform1iv") ||
-            !get(gl->Uniform2iv, "glUniform2iv") || !get(gl->Uniform3fv, "glUniform3fv"))
+            !get(gl->Uniform2iv, "glUniform2iv") || !get(gl->Uniform3fv, "glUniform3fv") ||
+            !get(gl->Uniform4fv, "glUniform4fv") || !get(gl->DrawBuffers, "glDrawBuffers") ||
+            !get(gl->ReadBuffer, "glReadBuffer"))
             return nullptr;
         return gl;
     }
@@ -151,11 +157,13 @@ GLuint program(Gl& gl, const std::string& frag, std::string& error) {
     return p;
 }
 
-// The GLSL entry: plain uniforms, as the kit's README sets them.
-void set_plain(Gl& gl, GLuint p, const std::vector<Uniform>& us) {
+// The GLSL entry: plain uniforms, as the kit's README sets them. `all_used`: every uniform must
+// be active (the set entry leaves the limit model's out).
+void set_plain(Gl& gl, GLuint p, const std::vector<Uniform>& us, bool all_used = true) {
     for (const auto& u : us) {
         const bool array = u.name == "u_thresholds" || u.name == "u_kappa";
         const GLint loc = gl.f.GetUniformLocation(p, (u.name + (array ? "[0]" : "")).c_str());
+        if (loc < 0 && !all_used) continue;
         ASSERT_GE(loc, 0) << u.name;
         const auto n = static_cast<GLsizei>(u.words.size());
         const void* d = u.words.data();
@@ -169,6 +177,8 @@ void set_plain(Gl& gl, GLuint p, const std::vector<Uniform>& us) {
             (n == 1 ? gl.Uniform1iv : gl.Uniform2iv)(loc, 1, static_cast<const GLint*>(d));
         else if (array || n == 1)
             gl.f.Uniform1fv(loc, n, static_cast<const float*>(d));
+        else if (n == 4)
+            gl.Uniform4fv(loc, 1, static_cast<const float*>(d));
         else
             gl.Uniform3fv(loc, 1, static_cast<const float*>(d));
     }
@@ -297,15 +307,17 @@ std::vector<float> draw(Gl& gl, const std::string& frag, Entry entry,
     return out;
 }
 
-// The kit's HLSL as GLSL 4.50 through SPIR-V; "" and `error` set when a tool fails.
-std::string hlsl_as_glsl(std::string& error) {
+// An HLSL entry of the kit as GLSL 4.50 through SPIR-V: `files` are written side by side (for
+// #include) and `main_file` compiled; "" and `error` set when a tool fails.
+std::string hlsl_as_glsl(const std::vector<std::pair<std::string, const char*>>& files,
+                         const std::string& main_file, std::string& error) {
     const fs::path dir = fs::temp_directory_path() / ("textond_hlsl_" + std::to_string(getpid()));
     fs::create_directories(dir);
-    std::ofstream(dir / "texton_noise.hlsl") << render::glsl::kTextonNoiseHlsl;
+    for (const auto& [name, text] : files) std::ofstream(dir / name) << text;
     const std::string d = "'" + dir.string() + "/";
     // --hlsl-offsets: the cbuffer's members where Direct3D puts them, not std140's.
     const std::string cmd = "glslangValidator -D -S frag -e main -V --hlsl-offsets " + d +
-                            "texton_noise.hlsl' -o " + d + "t.spv' >" + d + "log' 2>&1 && " +
+                            main_file + "' -o " + d + "t.spv' >" + d + "log' 2>&1 && " +
                             "spirv-cross " + d + "t.spv' --version 450 --no-es --output " + d +
                             "t.frag' >>" + d + "log' 2>&1";
     std::string out;
@@ -320,6 +332,11 @@ std::string hlsl_as_glsl(std::string& error) {
     }
     fs::remove_all(dir);
     return out;
+}
+
+std::string hlsl_as_glsl(std::string& error) {
+    return hlsl_as_glsl({{"texton_noise.hlsl", render::glsl::kTextonNoiseHlsl}},
+                        "texton_noise.hlsl", error);
 }
 
 struct Case {
@@ -433,6 +450,204 @@ TEST(KitShaders, HlslAgreesWithCpu) {
     const std::string frag = hlsl_as_glsl(error);
     ASSERT_FALSE(frag.empty()) << error;
     for (int order : {1, 3}) check_entry(*gl, frag, Entry::hlsl, order);
+}
+
+// ---- A material set: material_eval.glsl + material_noise.frag, and material_noise.hlsl ----
+
+// What the set entry writes: three RGBA float images (row y = pixel y).
+struct SetDraw {
+    std::vector<float> maps0, maps1, normal;
+};
+
+// The set entry's own uniforms (after texton_eval's, which the window gives as for one texton).
+std::vector<Uniform> set_uniforms(const render::PreparedTexton& set, int height, float strength) {
+    float mean[8] = {0};
+    for (int c = 0; c < set.channels(); ++c)
+        mean[c] = static_cast<float>(set.texton().mean[static_cast<std::size_t>(c)]);
+    auto words = [](const float* f, int n) {
+        std::vector<std::uint32_t> w(static_cast<std::size_t>(n));
+        std::memcpy(w.data(), f, w.size() * 4);
+        return w;
+    };
+    return {{Uniform::ints, "u_set_channels", {static_cast<std::uint32_t>(set.channels())}},
+            {Uniform::ints, "u_height", {static_cast<std::uint32_t>(height)}},
+            {Uniform::floats, "u_set_mean0", words(mean, 4)},
+            {Uniform::floats, "u_set_mean1", words(mean + 4, 4)},
+            {Uniform::floats, "u_strength", words(&strength, 1)}};
+}
+
+GLuint float_texture(Gl& gl, GLenum unit, int w, int h, const float* rgba) {
+    GLuint t = 0;
+    gl.f.GenTextures(1, &t);
+    gl.f.ActiveTexture(unit);
+    gl.f.BindTexture(GL_TEXTURE_2D, t);
+    gl.f.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, rgba);
+    gl.f.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl.f.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    return t;
+}
+
+// Draws window `q` of the set as the kit's README says: the level table's channels 0..3 and
+// 4..7 as two RGBA32F textures on units 1 and 2, the normal's height channel and strength.
+SetDraw draw_set(Gl& gl, const std::string& frag, Entry entry, const render::PreparedTexton& set,
+                 const render::NoiseRequest& q, int height, float strength) {
+    const NoiseWindow w = render::gl::make_noise_window(set, nullptr, q);
+    auto& f = gl.f;
+    EXPECT_TRUE(gl.ctx->make_current());
+    std::string error;
+    const GLuint p = program(gl, frag, error);
+    EXPECT_NE(p, 0u) << error;
+    if (p == 0) return {};
+    f.UseProgram(p);
+    auto us = uniforms_of(w);
+    const auto extra = set_uniforms(set, height, strength);
+    us.insert(us.end(), extra.begin(), extra.end());
+    GLuint ubo = 0;
+    // The HLSL's textures come out of SPIRV-Cross as combined samplers with these names.
+    std::string t0 = "u_set_table0", t1 = "u_set_table1";
+    if (entry == Entry::glsl) {
+        set_plain(gl, p, us, false);
+    } else {
+        ubo = set_cbuffer(gl, p, us);
+        t0 = "SPIRV_Cross_Combined" + t0 + "SPIRV_Cross_DummySampler";
+        t1 = "SPIRV_Cross_Combined" + t1 + "SPIRV_Cross_DummySampler";
+    }
+    const int side = w.table->side();
+    std::vector<float> all(std::size_t(side) * side * 8, 0.0f), part[2];
+    render::gl::interleave_table(*w.table, 8, all.data());
+    for (int k = 0; k < 2; ++k) {
+        part[k].resize(std::size_t(side) * side * 4);
+        for (std::size_t i = 0; i < std::size_t(side) * side; ++i)
+            std::copy_n(all.begin() + 8 * i + 4 * k, 4, part[k].begin() + 4 * i);
+    }
+    GLuint tables[2] = {float_texture(gl, GL_TEXTURE1, side, side, part[0].data()),
+                        float_texture(gl, GL_TEXTURE2, side, side, part[1].data())};
+    f.Uniform1i(f.GetUniformLocation(p, t0.c_str()), 1);
+    f.Uniform1i(f.GetUniformLocation(p, t1.c_str()), 2);
+    GLuint outs[3], fbo = 0, vao = 0;
+    f.GenFramebuffers(1, &fbo);
+    f.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+    const GLenum attachments[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1,
+                                   GL_COLOR_ATTACHMENT2};
+    for (int k = 0; k < 3; ++k) {
+        outs[k] = float_texture(gl, GL_TEXTURE5, q.width, q.height, nullptr);
+        f.FramebufferTexture2D(GL_FRAMEBUFFER, attachments[k], GL_TEXTURE_2D, outs[k], 0);
+    }
+    gl.DrawBuffers(3, attachments);
+    EXPECT_EQ(f.CheckFramebufferStatus(GL_FRAMEBUFFER), GLenum{GL_FRAMEBUFFER_COMPLETE});
+    f.GenVertexArrays(1, &vao);
+    f.BindVertexArray(vao);
+    f.Viewport(0, 0, q.width, q.height);
+    f.DrawArrays(GL_TRIANGLES, 0, 3);
+    SetDraw out;
+    std::vector<float>* dest[3] = {&out.maps0, &out.maps1, &out.normal};
+    f.PixelStorei(GL_PACK_ALIGNMENT, 1);
+    for (int k = 0; k < 3; ++k) {
+        dest[k]->resize(std::size_t(q.width) * q.height * 4);
+        gl.ReadBuffer(attachments[k]);
+        f.ReadPixels(0, 0, q.width, q.height, GL_RGBA, GL_FLOAT, dest[k]->data());
+    }
+    EXPECT_EQ(f.GetError(), GLenum{GL_NO_ERROR});
+    f.DeleteVertexArrays(1, &vao);
+    f.DeleteFramebuffers(1, &fbo);
+    f.DeleteTextures(3, outs);
+    f.DeleteTextures(2, tables);
+    if (ubo) f.DeleteBuffers(1, &ubo);
+    f.DeleteProgram(p);
+    gl.ctx->release();
+    return out;
+}
+
+// Every map of the set (its view's CPU tiles, what the server serves for map=NAME) and the normal
+// map (render_normal_map) against one draw of the set entry. Maps: 1e-5 of the channel's std, as
+// for one texton; normals: 1e-4, the bound for the normal map against the analytic
+// gradient (float rounding of the gradient, amplified by the strength).
+void check_set_entry(Gl& gl, const std::string& frag, Entry entry, int order) {
+    const auto set = pebble_set(16, order, true);
+    ASSERT_EQ(set->channels(), 5);
+    const int height = 4;
+    const float strength = 8.0f;
+    render::CpuBackend cpu;
+    const std::int64_t far = std::int64_t{1} << 40;
+    const std::uint64_t high = (std::uint64_t{1} << 32) + 77, top = ~std::uint64_t{0} - 5;
+    const std::vector<Case> cases = {
+        {0, 0, 0, 30, 77}, {0, far, -far, 30, high}, {2, -50, 17, 30, 77}, {-1, 9, -4, 5, top}};
+    const char* label = entry == Entry::glsl ? "GLSL" : "HLSL";
+    for (const Case& c : cases) {
+        render::NoiseRequest q;
+        q.seed = c.seed;
+        q.level = c.level;
+        q.x0 = c.x0;
+        q.y0 = c.y0;
+        q.mni = c.mni;
+        q.width = 37;
+        q.height = 29;
+        ASSERT_LT(c.level, set->limit_level());
+        const SetDraw got = draw_set(gl, frag, entry, *set, q, height, strength);
+        ASSERT_EQ(got.normal.size(), std::size_t(q.width) * q.height * 4);
+        for (const auto& m : set->texton().maps) {
+            auto view = set->map(m.name);
+            ASSERT_TRUE(view.ok());
+            auto want = cpu.render(*view.value(), q);
+            ASSERT_TRUE(want.ok());
+            for (int ch = 0; ch < m.channels; ++ch) {
+                const int sc = m.first + ch; // the set's channel
+                const auto& plane = sc < 4 ? got.maps0 : got.maps1;
+                double worst = 0;
+                for (int y = 0; y < q.height; ++y)
+                    for (int x = 0; x < q.width; ++x)
+                        worst = std::max(
+                            worst, std::fabs(double(want.value().at(ch, x, y)) -
+                                             plane[(std::size_t(y) * q.width + x) * 4 + sc % 4]));
+                EXPECT_LE(worst, 1e-5 * field_std(*view.value(), ch))
+                    << label << " order " << order << " level " << c.level << " map " << m.name
+                    << " channel " << ch;
+            }
+        }
+        auto h = set->map("height");
+        ASSERT_TRUE(h.ok());
+        auto normals = render::render_normal_map(cpu, *h.value(), q, strength);
+        ASSERT_TRUE(normals.ok()) << normals.error().message;
+        double worst = 0, tilt = 0;
+        for (int ch = 0; ch < 3; ++ch)
+            for (int y = 0; y < q.height; ++y)
+                for (int x = 0; x < q.width; ++x) {
+                    const double want = normals.value().at(ch, x, y);
+                    worst = std::max(
+                        worst,
+                        std::fabs(want - got.normal[(std::size_t(y) * q.width + x) * 4 + ch]));
+                    if (ch < 2) tilt = std::max(tilt, std::fabs(want - 0.5));
+                }
+        EXPECT_LE(worst, 1e-4) << label << " normals, order " << order << " level " << c.level;
+        EXPECT_GT(tilt, 0.1) << "the window's normals must lean: a flat field checks nothing";
+    }
+}
+
+std::string set_glsl_entry() {
+    return std::string("#version 450 core\n") + render::glsl::kNoiseLib +
+           render::glsl::kTextonEval + render::glsl::kMaterialEval +
+           render::glsl::kMaterialNoiseFrag;
+}
+
+TEST(KitShaders, MaterialSetGlslAgreesWithCpu) {
+    auto gl = Gl::open();
+    if (!gl) GTEST_SKIP() << "no OSMesa";
+    for (int order : {1, 3}) check_set_entry(*gl, set_glsl_entry(), Entry::glsl, order);
+}
+
+TEST(KitShaders, MaterialSetHlslAgreesWithCpu) {
+    if (!have("glslangValidator") || !have("spirv-cross"))
+        GTEST_SKIP() << "glslangValidator or spirv-cross missing (docker/install-deps.sh "
+                        "installs glslang-tools and spirv-cross)";
+    auto gl = Gl::open();
+    if (!gl) GTEST_SKIP() << "no OSMesa";
+    std::string error;
+    const std::string frag =
+        hlsl_as_glsl({{"texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
+                      {"material_noise.hlsl", render::glsl::kMaterialNoiseHlsl}},
+                     "material_noise.hlsl", error);
+    ASSERT_FALSE(frag.empty()) << error;
+    for (int order : {1, 3}) check_set_entry(*gl, frag, Entry::hlsl, order);
 }
 
 } // namespace

@@ -1,7 +1,6 @@
 // Material sets (core/material_set.h, render/normal_map.h): maps of one set keep the exemplar
 // set's cross-covariance, and the normal map is the normalised analytic gradient of the height.
-// The set is derived from a shared photo: albedo = etr_pebbles04's RGB, height = its luminance
-// (mean of R, G, B: bright pebbles stand up, the dark gaps between them are low).
+// The set is derived from a shared photo (pebble_set, render_fixtures.h).
 #include "core/grid_poisson.h"
 #include "core/material_set.h"
 #include "core/noise_levels.h"
@@ -24,23 +23,6 @@ using core::noise::GridPoisson;
 using render::CpuBackend;
 using render::NoiseRequest;
 using render::PreparedTexton;
-
-std::shared_ptr<const PreparedTexton> pebble_set(int size, int order) {
-    const core::Image u = load_exemplar("etr_pebbles04.png");
-    core::Image stacked(u.width, u.height, 4);
-    for (std::size_t k = 0; k < u.plane_size(); ++k) {
-        for (int c = 0; c < 3; ++c) stacked.plane(c)[k] = u.plane(c)[k];
-        stacked.plane(3)[k] = (u.plane(0)[k] + u.plane(1)[k] + u.plane(2)[k]) / 3.0f;
-    }
-    core::AnalysisParams p;
-    p.size = size;
-    p.order = order;
-    auto r = core::analyze_material_set(stacked, {{"albedo", 0, 3}, {"height", 3, 1}}, p);
-    if (!r) throw std::runtime_error(r.error().message);
-    auto t = PreparedTexton::make(r.value().result.texton);
-    if (!t) throw std::runtime_error(t.error().message);
-    return t.value();
-}
 
 // Derivatives of the centred B-splines of orders 1 and 3 (closed forms, independent of the
 // backend's weight formulas), and the splines themselves.

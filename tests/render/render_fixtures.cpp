@@ -1,5 +1,6 @@
 #include "tests/render/render_fixtures.h"
 
+#include "core/material_set.h"
 #include "core/texton_analysis.h"
 #include "tests/support/test_support.h"
 
@@ -43,6 +44,28 @@ std::shared_ptr<const render::PreparedMix> analysed_mix(const std::string& u, co
     auto m = render::PreparedMix::make(mixed.value().levels, field);
     if (!m) throw std::runtime_error(m.error().message);
     return m.value();
+}
+
+std::shared_ptr<const render::PreparedTexton> pebble_set(int size, int order, bool roughness) {
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    const int h = roughness ? 4 : 3;
+    core::Image stacked(u.width, u.height, h + 1);
+    for (std::size_t k = 0; k < u.plane_size(); ++k) {
+        for (int c = 0; c < 3; ++c) stacked.plane(c)[k] = u.plane(c)[k];
+        if (roughness) stacked.plane(3)[k] = u.plane(0)[k] * u.plane(1)[k];
+        stacked.plane(h)[k] = (u.plane(0)[k] + u.plane(1)[k] + u.plane(2)[k]) / 3.0f;
+    }
+    std::vector<core::TextonMap> maps = {{"albedo", 0, 3}};
+    if (roughness) maps.push_back({"roughness", 3, 1});
+    maps.push_back({"height", h, 1});
+    core::AnalysisParams p;
+    p.size = size;
+    p.order = order;
+    auto r = core::analyze_material_set(stacked, maps, p);
+    if (!r) throw std::runtime_error(r.error().message);
+    auto t = render::PreparedTexton::make(r.value().result.texton);
+    if (!t) throw std::runtime_error(t.error().message);
+    return t.value();
 }
 
 int first_tile_off_the_region(const RenderFn& render, const render::NoiseRequest& q) {

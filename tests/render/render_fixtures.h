@@ -18,6 +18,13 @@ std::shared_ptr<const render::PreparedMix> analysed_mix(const std::string& u, co
                                                         int size, int levels,
                                                         const core::MixField& field);
 
+// A material set derived from a shared photo: albedo = etr_pebbles04's RGB, height = its
+// luminance (mean of R, G, B: bright pebbles stand up, the dark gaps between them are low); with
+// `roughness`, a fifth channel R G (a non-linear map) laid out albedo, roughness, height, so the
+// height is channel 4. Analysed with r = size and `order` (50 iterations, seed 0).
+std::shared_ptr<const render::PreparedTexton> pebble_set(int size, int order,
+                                                         bool roughness = false);
+
 // One function, many windows: `q` rendered whole and as its four quarter tiles (even sides).
 // Returns -1 when every tile equals its part of the whole bit for bit, else the first tile (0-3)
 // that does not, or -2 when a render fails.

@@ -4,6 +4,7 @@
 #include "core/grid_poisson.h"
 #include "render/osmesa_backend.h"
 #include "server/io/image_io.h"
+#include "server/io/texton_file.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -186,6 +187,68 @@ TEST(EngineKit, HlslCompilesWithGlslangsHlslFrontEnd) {
                             (kit.dir / "texton_noise.spv").string() + "' >/dev/null";
     EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
     EXPECT_GT(fs::file_size(kit.dir / "texton_noise.spv"), 1000u);
+}
+
+// A material set's kit: the set's shaders (the repository's bytes; kit_shaders_test runs them
+// against the CPU), its maps' layout and height channel, each map's coefficients as a 16-bit PNG
+// within the quantisation step of the stored texton's channels, and no texton16.png (a PNG holds
+// at most 4 channels; this set has 5).
+TEST(EngineKit, MaterialSetKitHoldsEveryMapAndTheSetShaders) {
+    TestServer server;
+    auto c = server.client();
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    core::Image grey(u.width, u.height, 1), rough(u.width, u.height, 1);
+    for (std::size_t k = 0; k < u.plane_size(); ++k) {
+        grey.data[k] = (u.plane(0)[k] + u.plane(1)[k] + u.plane(2)[k]) / 3.0f;
+        rough.data[k] = u.plane(0)[k] * u.plane(1)[k];
+    }
+    httplib::MultipartFormDataItems form = {
+        {"albedo", read_file(exemplar_path("etr_pebbles04.png")), "a.png", "image/png"},
+        {"height", io::encode_image_memory(grey, io::Encoding::png16).value(), "h.png",
+         "image/png"},
+        {"roughness", io::encode_image_memory(rough, io::Encoding::png8).value(), "r.png",
+         "image/png"},
+        {"size", "16", "", ""},
+        {"iterations", "20", "", ""}};
+    auto up = c.Post("/v1/textons", form);
+    ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
+    const std::string id = nlohmann::json::parse(up->body).at("id");
+    const Kit kit = unpack(c, id, "", "kit_set");
+    const fs::path src = TEXTOND_SOURCE_DIR;
+    for (const auto& [in_kit, in_repo] : std::vector<std::pair<std::string, std::string>>{
+             {"glsl/material_eval.glsl", "render/glsl/material_eval.glsl"},
+             {"glsl/material_noise.frag", "render/glsl/material_noise.frag"},
+             {"hlsl/material_noise.hlsl", "render/hlsl/material_noise.hlsl"},
+             {"hlsl/texton_noise.hlsl", "render/hlsl/texton_noise.hlsl"}})
+        EXPECT_EQ(read_file((kit.dir / in_kit).string()), read_file((src / in_repo).string()))
+            << in_kit;
+    EXPECT_FALSE(fs::exists(kit.dir / "texton16.png"));
+    EXPECT_EQ(kit.params["channels"], 5);
+    ASSERT_EQ(kit.params["maps"].size(), 3u);
+    EXPECT_EQ(kit.params["height_channel"], 3); // albedo 0..2, height 3, roughness 4
+    EXPECT_GT(kit.params["limit_level"].get<int>(), 0);
+    const std::string readme = read_file((kit.dir / "README.md").string());
+    EXPECT_NE(readme.find("## A material set (albedo, height, roughness)"), std::string::npos);
+    EXPECT_EQ(readme.find('%'), std::string::npos) << "a placeholder left in the README";
+    auto record = io::read_texton_file((kit.dir / "texton.exr").string());
+    ASSERT_TRUE(record.ok()) << record.error().message;
+    const core::Image& exr = record.value().texton.alpha;
+    ASSERT_EQ(exr.channels, 5);
+    const double offset = kit.params["png16_decode"]["offset"],
+                 scale = kit.params["png16_decode"]["scale"];
+    for (const auto& m : kit.params["maps"]) {
+        const core::Image png =
+            io::decode_image_file((kit.dir / m.at("file").get<std::string>()).string()).value();
+        const int first = m.at("first"), channels = m.at("channels");
+        ASSERT_EQ(png.channels, channels) << m.dump();
+        double worst = 0;
+        for (int ch = 0; ch < channels; ++ch)
+            for (int y = 0; y < exr.height; ++y)
+                for (int x = 0; x < exr.width; ++x)
+                    worst = std::max(worst, std::fabs(offset + scale * png.at(ch, x, y) -
+                                                      exr.at(first + ch, x, y)));
+        EXPECT_LE(worst, scale / 65535.0) << m.dump();
+    }
 }
 
 } // namespace
