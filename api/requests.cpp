@@ -62,6 +62,51 @@ std::optional<ApiError> int_field(const Query& q, const char* name, std::int64_t
     return std::nullopt;
 }
 
+std::string exact_text(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+std::optional<ApiError> map_fields(const Query& q, MapChoice& out) {
+    if (const std::string* s = field(q, "map")) {
+        bool known = *s == core::kNormalMap || *s == core::kLitMap;
+        for (const char* n : core::kMapNames) known = known || *s == n;
+        if (!known)
+            return bad("invalid_parameter",
+                       "map must be albedo, height, roughness, ao, metallic, normal or lit, not '" +
+                           s->substr(0, 40) + "'");
+        out.name = *s;
+    }
+    if (const std::string* s = field(q, "strength")) {
+        auto v = parse_finite(*s);
+        if (!v || !(*v > 0.0) || *v > core::kMaxNormalStrength)
+            return bad("invalid_parameter",
+                       "strength (texels a height step of 1 spans) must be a number in (0, " +
+                           number_text(core::kMaxNormalStrength) + "], not '" + s->substr(0, 40) +
+                           "'");
+        if (!out.uses_normals())
+            return bad("invalid_parameter", "strength applies to map=normal and map=lit only");
+        out.strength = *v;
+    }
+    if (const std::string* s = field(q, "light")) {
+        const auto comma = s->find(',');
+        const auto az = parse_finite(s->substr(0, comma));
+        const auto el =
+            comma == std::string::npos ? std::nullopt : parse_finite(s->substr(comma + 1));
+        if (!az || !el || *az < 0.0 || *az > 360.0 || !(*el > 0.0) || *el > 90.0)
+            return bad("invalid_parameter",
+                       "light must be AZIMUTH,ELEVATION in degrees (azimuth 0..360 counter-"
+                       "clockwise from +x, elevation in (0, 90]), not '" +
+                           s->substr(0, 40) + "'");
+        if (out.name != core::kLitMap)
+            return bad("invalid_parameter", "light applies to map=lit only");
+        out.azimuth = *az;
+        out.elevation = *el;
+    }
+    return std::nullopt;
+}
+
 std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
     if (const std::string* s = field(q, "seed")) {
         auto v = parse_u64(*s);
@@ -85,27 +130,7 @@ std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
                        "marginals must be gaussian or exemplar, not '" + s->substr(0, 40) + "'");
         out.exemplar_marginals = *s == "exemplar";
     }
-    if (const std::string* s = field(q, "map")) {
-        bool known = *s == core::kNormalMap;
-        for (const char* n : core::kMapNames) known = known || *s == n;
-        if (!known)
-            return bad("invalid_parameter",
-                       "map must be albedo, height, roughness, ao, metallic or "
-                       "normal, not '" +
-                           s->substr(0, 40) + "'");
-        out.map = *s;
-    }
-    if (const std::string* s = field(q, "strength")) {
-        auto v = parse_finite(*s);
-        if (!v || !(*v > 0.0) || *v > core::kMaxNormalStrength)
-            return bad("invalid_parameter",
-                       "strength (texels a height step of 1 spans) must be a number in (0, " +
-                           number_text(core::kMaxNormalStrength) + "], not '" + s->substr(0, 40) +
-                           "'");
-        if (out.map != core::kNormalMap)
-            return bad("invalid_parameter", "strength applies to map=normal only");
-        out.strength = *v;
-    }
+    return map_fields(q, out.map);
     return std::nullopt;
 }
 
@@ -147,7 +172,8 @@ std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int6
 
 // seed, mni and size: what every tile URL (and TileJSON) takes.
 std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
-    if (auto e = check_fields(q, {"seed", "mni", "size", "marginals", "map", "strength"})) return e;
+    if (auto e = check_fields(q, {"seed", "mni", "size", "marginals", "map", "strength", "light"}))
+        return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     if (const std::string* s = field(q, "size")) {
         auto v = parse_i64(*s);
@@ -202,6 +228,14 @@ const char* extension(ImageFormat f) {
         return "exr";
     }
     return "";
+}
+
+std::string MapChoice::query() const {
+    if (name.empty()) return "";
+    std::string q = "&map=" + name;
+    if (uses_normals()) q += "&strength=" + exact_text(strength);
+    if (name == core::kLitMap) q += "&light=" + exact_text(azimuth) + "," + exact_text(elevation);
+    return q;
 }
 
 bool is_texton_id(std::string_view s) {
@@ -271,7 +305,7 @@ std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, 
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
     if (auto e = check_fields(
-            q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals", "map", "strength"}))
+            q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals", "map", "strength", "light"}))
         return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
@@ -303,7 +337,8 @@ std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(q, {"w", "h", "seed", "mni", "marginals", "map", "strength"}))
+    if (auto e =
+            check_fields(q, {"w", "h", "seed", "mni", "marginals", "map", "strength", "light"}))
         return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;

@@ -38,6 +38,20 @@ struct Limits {
     int max_tileable_side = 4096;
 };
 
+// Which view of a material set an image shows: one of its maps (core/material_set.h; "" = albedo,
+// or the set's only map), "normal" (made from the height with `strength`, render/normal_map.h) or
+// "lit" (the albedo lit through that normal map by a light from `azimuth`, `elevation`, degrees).
+struct MapChoice {
+    std::string name;
+    double strength = core::kDefaultNormalStrength;
+    double azimuth = core::kDefaultLightAzimuth;
+    double elevation = core::kDefaultLightElevation;
+    bool uses_normals() const { return name == core::kNormalMap || name == core::kLitMap; }
+    // The query fields that ask for this view again ("" for the default view), every number
+    // exact: TileJSON's URLs and the image cache's keys.
+    std::string query() const;
+};
+
 // Noise parameters every image endpoint takes.
 struct NoiseParams {
     std::uint64_t seed = 0;
@@ -45,10 +59,7 @@ struct NoiseParams {
     // marginals=exemplar: each pixel mapped onto the exemplar's colour marginals (README
     // "Marginals"); the default, gaussian, is the noise as it is.
     bool exemplar_marginals = false;
-    // A material set's map (core/material_set.h; "" = albedo, or the set's only map) or
-    // "normal", made from the height map with `strength` (render/normal_map.h).
-    std::string map;
-    double strength = core::kDefaultNormalStrength;
+    MapChoice map; // map=, strength=, light=
 };
 
 struct TileRequest {

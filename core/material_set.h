@@ -19,6 +19,12 @@ namespace textond::core {
 inline constexpr const char* kMapNames[] = {"albedo", "height", "roughness", "ao", "metallic"};
 inline constexpr const char* kHeightMap = "height";
 inline constexpr const char* kNormalMap = "normal"; // made from the height (render/normal_map.h)
+// The albedo lit through the normal map by one directional light (render/normal_map.h).
+inline constexpr const char* kLitMap = "lit";
+// Where that light comes from by default: the upper left (azimuth counter-clockwise from +x,
+// +y up), 45 degrees above the surface.
+inline constexpr double kDefaultLightAzimuth = 135.0;
+inline constexpr double kDefaultLightElevation = 45.0;
 // The texels a height step of 1 spans in a normal map (its steepness), default and bound.
 inline constexpr double kDefaultNormalStrength = 8.0;
 inline constexpr double kMaxNormalStrength = 1000.0;

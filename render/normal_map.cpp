@@ -1,5 +1,6 @@
 #include "render/normal_map.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace textond::render {
@@ -61,6 +62,22 @@ Result<core::Image> render_normal_map(CpuBackend& cpu, const PreparedTexton& hei
         out.plane(0)[k] = static_cast<float>(0.5 * nx * inv + 0.5);
         out.plane(1)[k] = static_cast<float>(0.5 * ny * inv + 0.5);
         out.plane(2)[k] = static_cast<float>(0.5 * inv + 0.5);
+    }
+    return out;
+}
+
+core::Image shade_lit(const core::Image& albedo, const core::Image& normals, double azimuth_deg,
+                      double elevation_deg) {
+    const double az = azimuth_deg * M_PI / 180.0, el = elevation_deg * M_PI / 180.0;
+    const double l[3] = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+    core::Image out(albedo.width, albedo.height, 3);
+    for (std::size_t k = 0; k < out.plane_size(); ++k) {
+        double dot = 0.0;
+        for (int c = 0; c < 3; ++c) dot += (2.0 * normals.plane(c)[k] - 1.0) * l[c];
+        const double shade = 0.35 + 0.65 * std::max(0.0, dot);
+        for (int c = 0; c < 3; ++c)
+            out.plane(c)[k] =
+                static_cast<float>(albedo.plane(albedo.channels == 3 ? c : 0)[k] * shade);
     }
     return out;
 }

@@ -20,4 +20,12 @@ namespace textond::render {
 Result<core::Image> render_normal_map(CpuBackend& cpu, const PreparedTexton& height,
                                       const NoiseRequest& request, double strength);
 
+// The lit preview of a set (map=lit): each pixel of `albedo` (grey or RGB) times
+// 0.35 + 0.65 max(0, n . l), the mesh preview's shading, with n decoded from `normals` (a
+// render_normal_map of the same window) and l the unit light from azimuth (degrees,
+// counter-clockwise from +x, +y up) and elevation (degrees above the surface). Pointwise, so lit
+// tiles stitch as their maps do.
+core::Image shade_lit(const core::Image& albedo, const core::Image& normals, double azimuth_deg,
+                      double elevation_deg);
+
 } // namespace textond::render

@@ -140,7 +140,6 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool
             t.size,   t.size,
             false,    mix};
         job.map = t.noise.map;
-        job.strength = t.noise.strength;
         serve(req, res, job);
     };
 }
@@ -158,7 +157,6 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
             r.width,  r.height,
             true,     mix};
         job.map = r.noise.map;
-        job.strength = r.noise.strength;
         serve(req, res, job);
     };
 }
@@ -260,9 +258,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
     const std::string query =
         "?seed=" + std::to_string(probe.noise.seed) + "&mni=" + mni_text(probe.noise.mni) +
         (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
-        (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") +
-        (probe.noise.map.empty() ? "" : "&map=" + probe.noise.map) +
-        (probe.noise.map == core::kNormalMap ? "&strength=" + mni_text(probe.noise.strength) : "");
+        (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") + probe.noise.map.query();
     const std::string base = base_url(req);
     const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
     nlohmann::json j = {
@@ -280,7 +276,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
         {"textond",
          {{"tile_size", probe.size},
           {"marginals", probe.noise.exemplar_marginals ? "exemplar" : "gaussian"},
-          {"map", probe.noise.map.empty() ? nullptr : nlohmann::json(probe.noise.map)},
+          {"map", probe.noise.map.name.empty() ? nullptr : nlohmann::json(probe.noise.map.name)},
           {"level_of_zoom", "level = " + std::to_string(api::kMapMaxLevel) +
                                 " - z: zoom z shows 2^(24 - z) texels per pixel; z = 24 is "
                                 "the texton's own resolution"},

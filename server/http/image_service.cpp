@@ -4,6 +4,7 @@
 #include "core/periodic_component.h"
 #include "core/periodic_resample.h"
 #include "core/power_spectrum.h"
+#include "render/normal_map.h"
 #include "server/http/service.h"
 #include "server/io/image_io.h"
 #include "server/io/sha256.h"
@@ -74,7 +75,8 @@ map_of(Result<std::shared_ptr<const render::PreparedTexton>> prepared, const std
     if (!view && view.error().code == ErrorCode::not_found)
         return make_error(ErrorCode::invalid_argument,
                           map == core::kNormalMap
-                              ? "map=normal needs the set's height map, which it does not have"
+                              ? "map=normal and map=lit need the set's height map, which it "
+                                "does not have"
                               : "this material set has no map '" + name + "'");
     return view;
 }
@@ -115,9 +117,12 @@ std::string ImageService::key(const Job& job) {
            std::to_string(q.period[1]) + "/o" + std::to_string(job.out_width) + "x" +
            std::to_string(job.out_height) + "/s" + std::to_string(q.seed) + "/m" + mni_text(q.mni) +
            (q.marginals == render::Marginals::exemplar ? "/exemplar" : "") +
-           (job.map.empty() ? "" : "/map=" + job.map) +
-           (job.map == core::kNormalMap ? "/strength=" + mni_text(job.strength) : "") + "." +
-           api::extension(job.format);
+           (job.map.name.empty() ? "" : "/map=" + job.map.name) +
+           (job.map.uses_normals() ? "/strength=" + mni_text(job.map.strength) : "") +
+           (job.map.name == core::kLitMap
+                ? "/light=" + mni_text(job.map.azimuth) + "," + mni_text(job.map.elevation)
+                : "") +
+           "." + api::extension(job.format);
 }
 
 std::string ImageService::spectrum_key(const std::string& id, const api::NoiseParams& noise) {
@@ -154,15 +159,14 @@ Result<ImageService::Job> ImageService::tileable(const api::TileableRequest& t) 
     q.period = {cells(t.width), cells(t.height)};
     Job job{t.id, "tileable", t.format, q, t.width, t.height, true, false};
     job.map = t.noise.map;
-    job.strength = t.noise.strength;
     return job;
 }
 
 Result<core::Image> ImageService::evaluate(const std::string& id, const render::NoiseRequest& q,
                                            bool mix, bool whole_machine, const char* kind,
-                                           const std::string& map, double strength) {
+                                           const api::MapChoice& map) {
     const Work work = whole_machine ? Work::frame : Work::tile;
-    if (mix && !map.empty())
+    if (mix && !map.name.empty())
         return make_error(ErrorCode::invalid_argument, "a texture mix has no maps: drop map=");
     if (mix) {
         auto prepared = m_mixes.prepared(id);
@@ -172,13 +176,32 @@ Result<core::Image> ImageService::evaluate(const std::string& id, const render::
             return m_renderer.mix(*prepared.value(), q, work, used);
         });
     }
-    auto prepared = map_of(m_textons.prepared(id), map);
+    const auto set = m_textons.prepared(id);
+    if (map.name == core::kLitMap) {
+        if (set && set.value()->texton().maps.empty())
+            return make_error(ErrorCode::invalid_argument,
+                              "map=lit needs a material set with a height map; this texton has "
+                              "one exemplar");
+        auto albedo = map_of(set, "");
+        if (!albedo) return albedo.error();
+        auto height = map_of(set, core::kNormalMap);
+        if (!height) return height.error();
+        if (auto err = height.value()->check(q)) return *err;
+        return timed(kind, [&](std::string* used) -> Result<core::Image> {
+            auto colour = m_renderer.noise(*albedo.value(), q, work, used);
+            if (!colour) return colour;
+            auto normals = m_renderer.normals(*height.value(), q, map.strength, work);
+            if (!normals) return normals;
+            return render::shade_lit(colour.value(), normals.value(), map.azimuth, map.elevation);
+        });
+    }
+    auto prepared = map_of(set, map.name);
     if (!prepared) return prepared.error();
     if (auto err = prepared.value()->check(q)) return *err;
-    if (map == core::kNormalMap)
+    if (map.name == core::kNormalMap)
         return timed(kind, [&](std::string* used) {
             if (used) *used = "cpu";
-            return m_renderer.normals(*prepared.value(), q, strength, work);
+            return m_renderer.normals(*prepared.value(), q, map.strength, work);
         });
     return timed(kind, [&](std::string* used) {
         return m_renderer.noise(*prepared.value(), q, work, used);
@@ -208,7 +231,7 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
         q.precision = job.format == api::ImageFormat::png     ? render::Precision::u8
                       : job.format == api::ImageFormat::png16 ? render::Precision::u16
                                                               : render::Precision::f32;
-    auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.map, job.strength);
+    auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.map);
     if (image && resampled)
         return core::resample_periodic(image.value(), job.out_width, job.out_height);
     return image;

@@ -39,8 +39,7 @@ public:
         int out_width = 0, out_height = 0; // tileable textures are resampled to the asked size
         bool whole_machine = false;        // regions and tileables: the frame backend
         bool mix = false;                  // id names a texture mix
-        std::string map;                   // a material set's map, or "normal" ("": default)
-        double strength = core::kDefaultNormalStrength; // of map=normal
+        api::MapChoice map;                // a material set's map, normals or lit view
         std::int64_t pixels() const { return std::int64_t{request.width} * request.height; }
     };
     // One key per distinct image: everything that changes a pixel or a byte of it.
@@ -70,8 +69,8 @@ public:
 
 private:
     Result<core::Image> evaluate(const std::string& id, const render::NoiseRequest& q, bool mix,
-                                 bool whole_machine, const char* kind, const std::string& map = {},
-                                 double strength = core::kDefaultNormalStrength);
+                                 bool whole_machine, const char* kind,
+                                 const api::MapChoice& map = {});
     // Runs `evaluate` and adds its time to the render histogram of the backend it names.
     Result<core::Image> timed(const char* kind,
                               const std::function<Result<core::Image>(std::string*)>& evaluate);

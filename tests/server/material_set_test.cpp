@@ -8,6 +8,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+#include <tuple>
+
 namespace textond::test {
 namespace {
 
@@ -105,6 +108,81 @@ TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
     EXPECT_EQ(status(base + "/tiles/0/0/0.png?strength=3"), "invalid_parameter 400");
     EXPECT_EQ(status(base + "/tiles/0/0/0.png?map=height&marginals=exemplar"),
               "invalid_parameter 400");
+}
+
+// map=lit: the albedo times 0.35 + 0.65 max(0, n . l), with n from the normal tiles of the same
+// window and l from light=AZ,EL; lit tiles stitch into their region bit for bit; the light moves
+// the shading; the refusals.
+TEST(MaterialSet, LitTilesShadeTheAlbedoThroughTheNormalsAndStitch) {
+    TestServer server;
+    auto c = server.client();
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    httplib::MultipartFormDataItems form = {
+        {"albedo", read_file(exemplar_path("etr_pebbles04.png")), "a.png", "image/png"},
+        {"height", height_png16(u, u.width), "h.png", "image/png"},
+        {"size", "16", "", ""},
+        {"iterations", "20", "", ""}};
+    auto up = c.Post("/v1/textons", form);
+    ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
+    const std::string base = "/v1/textons/" + json::parse(up->body).at("id").get<std::string>();
+    const std::string q = "?seed=3&strength=5";
+    const core::Image albedo = decoded(c.Get(base + "/tiles/0/2/-1.exr?seed=3"));
+    const core::Image normals = decoded(c.Get(base + "/tiles/0/2/-1.exr" + q + "&map=normal"));
+    for (const auto& [light, az, el] : std::vector<std::tuple<std::string, double, double>>{
+             {"", 135.0, 45.0}, {"&light=300,20", 300.0, 20.0}, {"&light=0,90", 0.0, 90.0}}) {
+        const core::Image lit = decoded(c.Get(base + "/tiles/0/2/-1.exr" + q + "&map=lit" + light));
+        ASSERT_EQ(lit.channels, 3);
+        const double a = az * M_PI / 180, e = el * M_PI / 180;
+        const double l[3] = {std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)};
+        double worst = 0, darkest = 1;
+        for (std::size_t k = 0; k < lit.plane_size(); ++k) {
+            double dot = 0;
+            for (int ch = 0; ch < 3; ++ch) dot += (2.0 * normals.plane(ch)[k] - 1.0) * l[ch];
+            const double shade = 0.35 + 0.65 * std::max(0.0, dot);
+            darkest = std::min(darkest, shade);
+            for (int ch = 0; ch < 3; ++ch)
+                worst = std::max(worst, std::fabs(lit.plane(ch)[k] - albedo.plane(ch)[k] * shade));
+        }
+        EXPECT_LE(worst, 1e-6) << light;
+        EXPECT_LT(darkest, 0.6) << light << ": the relief must shade some pixels";
+    }
+    // Lit tiles are windows onto one function: two neighbours equal their region.
+    const std::string lq = "?seed=3&map=lit&light=200,35";
+    const core::Image left = decoded(c.Get(base + "/tiles/2/-1/0.exr" + lq));
+    const core::Image right = decoded(c.Get(base + "/tiles/2/0/0.exr" + lq));
+    const core::Image region =
+        decoded(c.Get(base + "/region.exr?x=-256&y=0&w=512&h=256&z=2&seed=3&map=lit&light=200,35"));
+    int differ = 0;
+    for (int ch = 0; ch < 3; ++ch)
+        for (int y = 0; y < 256; ++y)
+            for (int x = 0; x < 256; ++x) {
+                differ += left.at(ch, x, y) != region.at(ch, x, y);
+                differ += right.at(ch, x, y) != region.at(ch, 256 + x, y);
+            }
+    EXPECT_EQ(differ, 0);
+    const json tj = json::parse(c.Get(base + "/tilejson.json?map=lit&light=200,35")->body);
+    EXPECT_NE(tj.at("tiles")[0].get<std::string>().find("&map=lit&strength=8&light=200,35"),
+              std::string::npos)
+        << tj.dump();
+    auto code = [&](const std::string& path) {
+        auto r = c.Get(path);
+        return r ? json::parse(r->body).at("error").at("code").get<std::string>() + " " +
+                       std::to_string(r->status)
+                 : std::string("no answer");
+    };
+    EXPECT_EQ(code(base + "/tiles/0/0/0.png?light=10,10"), "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/tiles/0/0/0.png?map=normal&light=10,10"), "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/tiles/0/0/0.png?map=lit&light=10"), "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/tiles/0/0/0.png?map=lit&light=10,0"), "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/tiles/0/0/0.png?map=lit&light=400,10"), "invalid_parameter 400");
+    auto plain = c.Post("/v1/textons?size=16&iterations=5",
+                        read_file(exemplar_path("etr_pebbles04.png")), "image/png");
+    ASSERT_TRUE(plain);
+    auto t = c.Get("/v1/textons/" + json::parse(plain->body).at("id").get<std::string>() +
+                   "/tiles/0/0/0.png?map=lit");
+    ASSERT_TRUE(t);
+    EXPECT_EQ(t->status, 400);
+    EXPECT_NE(t->body.find("map=lit needs a material set"), std::string::npos) << t->body;
 }
 
 TEST(MaterialSet, MismatchedSizesAndNormalUploadsAreRefusedClearly) {
