@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <tuple>
 
 namespace textond::test {
 namespace {
@@ -183,6 +184,67 @@ TEST(OsmesaBackend, AgreesWithCpu) {
     auto gl = osmesa();
     if (!gl) GTEST_SKIP() << "no OSMesa";
     check_against_cpu(*gl);
+}
+
+// A material set's maps (texton views of the set's channels, driven by the set's Poisson process)
+// on a GL backend against the CPU, with the bounds above; at the limit levels, whose model couples
+// the maps through the set's normals, the GL backend says unsupported and the Renderer leaves
+// them to the CPU (server test MaterialSet.*).
+void check_maps_against_cpu(render::Backend& gl) {
+    render::CpuBackend cpu;
+    for (int order : {1, 3}) {
+        const auto set = pebble_set(16, order, true);
+        const std::int64_t far = std::int64_t{1} << 40;
+        const std::uint64_t high = (std::uint64_t{1} << 32) + 77;
+        for (const char* name : {"albedo", "roughness", "height"}) {
+            auto view = set->map(name);
+            ASSERT_TRUE(view.ok()) << name;
+            const auto& map = *view.value();
+            for (const auto& [level, x0, seed] :
+                 std::vector<std::tuple<int, std::int64_t, std::uint64_t>>{
+                     {0, 0, 77}, {0, far, high}, {2, -50, high}, {-1, 9, 77}}) {
+                render::NoiseRequest q;
+                q.seed = seed;
+                q.level = level;
+                q.x0 = x0;
+                q.y0 = -x0;
+                q.width = 41;
+                q.height = 23;
+                auto a = cpu.render(map, q);
+                auto b = gl.render(map, q);
+                ASSERT_TRUE(a.ok() && b.ok()) << (b.ok() ? "" : b.error().message);
+                ASSERT_EQ(b.value().channels, map.channels());
+                for (int ch = 0; ch < map.channels(); ++ch) {
+                    double worst = 0;
+                    for (int y = 0; y < q.height; ++y)
+                        for (int x = 0; x < q.width; ++x)
+                            worst = std::max(worst, std::fabs(double(a.value().at(ch, x, y)) -
+                                                              b.value().at(ch, x, y)));
+                    EXPECT_LE(worst, 1e-5 * field_std(map, ch))
+                        << gl.name() << " order " << order << " map " << name << " level " << level
+                        << " channel " << ch;
+                }
+            }
+            render::NoiseRequest q;
+            q.level = map.limit_level();
+            q.width = q.height = 8;
+            auto limit = gl.render(map, q);
+            ASSERT_FALSE(limit.ok());
+            EXPECT_EQ(limit.error().code, ErrorCode::unsupported);
+        }
+    }
+}
+
+TEST(OsmesaBackend, MaterialMapsAgreeWithCpu) {
+    auto gl = osmesa();
+    if (!gl) GTEST_SKIP() << "no OSMesa";
+    check_maps_against_cpu(*gl);
+}
+
+TEST(EglBackend, GpuMaterialMapsAgreeWithCpu) {
+    auto gl = egl_gpu();
+    if (!gl) GTEST_SKIP() << "no GPU";
+    check_maps_against_cpu(*gl);
 }
 
 // The encoder's rounding of one value to `bits` (server/io/image_io.cpp, interleave).
