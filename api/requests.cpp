@@ -68,7 +68,9 @@ std::string exact_text(double v) {
     return buf;
 }
 
-std::optional<ApiError> map_fields(const Query& q, MapChoice& out) {
+// `light_anywhere` (mesh previews): light= needs no map=lit, as every mesh is lit, and strength=
+// needs none either, as a set's mesh shows its relief by default.
+std::optional<ApiError> map_fields(const Query& q, MapChoice& out, bool light_anywhere = false) {
     if (const std::string* s = field(q, "map")) {
         bool known = *s == core::kNormalMap || *s == core::kLitMap;
         for (const char* n : core::kMapNames) known = known || *s == n;
@@ -85,7 +87,7 @@ std::optional<ApiError> map_fields(const Query& q, MapChoice& out) {
                        "strength (texels a height step of 1 spans) must be a number in (0, " +
                            number_text(core::kMaxNormalStrength) + "], not '" + s->substr(0, 40) +
                            "'");
-        if (!out.uses_normals())
+        if (!out.uses_normals() && !(light_anywhere && out.name.empty()))
             return bad("invalid_parameter", "strength applies to map=normal and map=lit only");
         out.strength = *v;
     }
@@ -99,7 +101,7 @@ std::optional<ApiError> map_fields(const Query& q, MapChoice& out) {
                        "light must be AZIMUTH,ELEVATION in degrees (azimuth 0..360 counter-"
                        "clockwise from +x, elevation in (0, 90]), not '" +
                            s->substr(0, 40) + "'");
-        if (out.name != core::kLitMap)
+        if (out.name != core::kLitMap && !light_anywhere)
             return bad("invalid_parameter", "light applies to map=lit only");
         out.azimuth = *az;
         out.elevation = *el;
@@ -417,12 +419,21 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
     if (auto e = check_texton_id(id)) return e;
     if (mesh) {
         if (auto e = check_fields(q, {"seed", "mni", "scale", "width", "height", "fov", "eye",
-                                      "target", "marginals"}))
+                                      "target", "marginals", "map", "strength", "light"}))
             return e;
         out.scale = 0; // automatic: the bounding box's diagonal spans 512 texels
-    } else if (auto e = check_fields(q, {"seed", "mni", "scale", "marginals"})) {
+    } else if (auto e = check_fields(q, {"seed", "mni", "scale", "marginals", "map"})) {
         return e;
     }
+    if (auto e = map_fields(q, out.map, true)) return e;
+    out.light = field(q, "light") != nullptr;
+    if (out.map.name == core::kNormalMap || (!mesh && out.map.name == core::kLitMap))
+        return bad("invalid_parameter",
+                   mesh ? "map=normal is an image of the plane; mesh.png lights a set's mesh "
+                          "through its height's relief (map=lit, the default with a height)"
+                        : "surface colours come from a map of the set: albedo, height, roughness, "
+                          "ao or metallic, not " +
+                              out.map.name);
     NoiseParams marginals; // the same values and message as the image endpoints
     if (auto e =
             noise_fields(Query{q.lower_bound("marginals"), q.upper_bound("marginals")}, marginals))

@@ -134,6 +134,12 @@ struct SurfaceParams {
     bool camera = false; // eye and target given
     double eye[3] = {0, 0, 0}, target[3] = {0, 0, 0};
     bool exemplar_marginals = false; // marginals=exemplar (NoiseParams)
+    // A material set's view: colours of map.name (default albedo); mesh.png also takes "lit"
+    // (its default for a set with a height: the height's relief bends the normals, strength=).
+    MapChoice map;
+    // mesh.png: light=AZIMUTH,ELEVATION (degrees; +y up, azimuth from +x towards +z), in
+    // map.azimuth and map.elevation; the default light is (0.4, 0.8, 0.6).
+    bool light = false;
 };
 std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool mesh,
                                       SurfaceParams& out);

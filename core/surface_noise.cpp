@@ -3,6 +3,7 @@
 #include "core/grid_poisson.h"
 #include "core/noise_hash.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace textond::core {
@@ -90,16 +91,16 @@ void SurfaceNoise::h(double z1, double z2, double* v) const {
     }
 }
 
-void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float* out,
-                        SurfaceStats* stats) const {
-    Vec3 u1, u2;
-    tangent_frame(n, u1, u2);
-    const int r = m_t.size, nc = std::min(m_t.channels, 3); // 1 or 3 (checked at load)
+// Calls f(eps w, z1, z2) for every point of the process that reaches y (normal n, frame u1, u2),
+// in the process's order.
+template <typename F>
+void SurfaceNoise::for_each_impact(std::uint64_t seed, const Vec3& y, const Vec3& n, const Vec3& u1,
+                                   const Vec3& u2, SurfaceStats* stats, F&& f) const {
+    const int r = m_t.size;
     const double half = 0.5 * r;
     // Every point within the r-cube around y lies within r sqrt(3) / 2 of y, and the texton's
     // support (with its interpolation) within r/2 + 2 of the centre in each tangent direction.
     const double reach = std::sqrt(3.0) * (half + 2.0);
-    double acc[3] = {0, 0, 0};
     std::int64_t lo[3], hi[3];
     for (int d = 0; d < 3; ++d) {
         lo[d] = floor_div(
@@ -133,13 +134,86 @@ void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float*
                     const double z2 = d[0] * u2[0] + d[1] * u2[1] + d[2] * u2[2];
                     if (stats && std::fabs(z1) < half && std::fabs(z2) < half) ++stats->impacts;
                     if (std::fabs(z1) >= half + 2.0 || std::fabs(z2) >= half + 2.0) continue;
-                    double v[3] = {0, 0, 0};
-                    h(z1, z2, v);
-                    for (int c = 0; c < nc; ++c) acc[c] += eps * w * v[c];
+                    f(eps * w, z1, z2);
                 }
             }
+}
+
+void SurfaceNoise::eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float* out,
+                        SurfaceStats* stats) const {
+    Vec3 u1, u2;
+    tangent_frame(n, u1, u2);
+    const int nc = std::min(m_t.channels, 3); // 1 or 3 (checked at load)
+    double acc[3] = {0, 0, 0};
+    for_each_impact(seed, y, n, u1, u2, stats, [&](double ew, double z1, double z2) {
+        double v[3] = {0, 0, 0};
+        h(z1, z2, v);
+        for (int c = 0; c < nc; ++c) acc[c] += ew * v[c];
+    });
     for (int c = 0; c < nc; ++c)
         out[c] = static_cast<float>(m_t.mean[static_cast<std::size_t>(c)] + m_norm * acc[c]);
+}
+
+// The weights' derivatives: d/dz of h's taps (order 1: the two linear weights; order 3: the cubic
+// B-spline's quadratic derivative); order 0 has none.
+void SurfaceNoise::dh(double z1, double z2, double g[2]) const {
+    const double shift = 0.5 * (m_t.size - 1);
+    const double x = z1 + shift, y = z2 + shift;
+    const int r = m_t.size;
+    const double fx = std::floor(x), fy = std::floor(y);
+    const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
+    const double tx = x - fx, ty = y - fy;
+    double wx[4] = {0, 0, 0, 0}, wy[4] = {0, 0, 0, 0}, dx[4] = {0, 0, 0, 0}, dy[4] = {0, 0, 0, 0};
+    int n = 0, first = 0;
+    if (m_t.order == 1) {
+        n = 2;
+        wx[0] = 1 - tx, wx[1] = tx, dx[0] = -1, dx[1] = 1;
+        wy[0] = 1 - ty, wy[1] = ty, dy[0] = -1, dy[1] = 1;
+    } else if (m_t.order == 3) {
+        n = 4;
+        first = -1;
+        auto w = [](double t, double v[4], double d[4]) {
+            const double s = 1 - t;
+            v[0] = s * s * s / 6;
+            v[1] = (3 * t * t * t - 6 * t * t + 4) / 6;
+            v[2] = (3 * s * s * s - 6 * s * s + 4) / 6;
+            v[3] = t * t * t / 6;
+            d[0] = -s * s / 2;
+            d[1] = (3 * t * t - 4 * t) / 2;
+            d[2] = (4 * s - 3 * s * s) / 2;
+            d[3] = t * t / 2;
+        };
+        w(tx, wx, dx);
+        w(ty, wy, dy);
+    }
+    g[0] = g[1] = 0.0;
+    for (int j = 0; j < n; ++j) {
+        const int yy = iy + first + j;
+        if (yy < 0 || yy >= r) continue;
+        for (int i = 0; i < n; ++i) {
+            const int xx = ix + first + i;
+            if (xx < 0 || xx >= r) continue;
+            const double a = m_t.alpha.at(0, xx, yy);
+            g[0] += wy[j] * dx[i] * a;
+            g[1] += dy[j] * wx[i] * a;
+        }
+    }
+}
+
+Vec3 SurfaceNoise::gradient(std::uint64_t seed, const Vec3& y, const Vec3& n) const {
+    Vec3 u1, u2;
+    tangent_frame(n, u1, u2);
+    double g[2] = {0, 0};
+    for_each_impact(seed, y, n, u1, u2, nullptr, [&](double ew, double z1, double z2) {
+        double d[2];
+        dh(z1, z2, d);
+        g[0] += ew * d[0];
+        g[1] += ew * d[1];
+    });
+    // z moves with y along the frame and w does not (u1, u2 are orthogonal to n).
+    Vec3 out;
+    for (std::size_t k = 0; k < 3; ++k) out[k] = m_norm * (g[0] * u1[k] + g[1] * u2[k]);
+    return out;
 }
 
 } // namespace textond::core

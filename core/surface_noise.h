@@ -35,6 +35,11 @@ public:
     void eval(std::uint64_t seed, const Vec3& y, const Vec3& n, float* out,
               SurfaceStats* stats = nullptr) const;
 
+    // The gradient of channel 0 at y within the tangent plane (per texel, world axes): what a
+    // material set's height bends the normals by (render/surface_eval.h, Relief). Orders 1 and
+    // 3; zero for order 0, whose texton is piecewise constant.
+    Vec3 gradient(std::uint64_t seed, const Vec3& y, const Vec3& n) const;
+
     int cell_size() const { return m_a; }
     double lambda() const { return m_lambda; }
     double norm() const { return m_norm; } // 1 / sqrt(lambda r / 3)
@@ -42,6 +47,10 @@ public:
 
 private:
     void h(double z1, double z2, double* v) const; // h(z + centre) per channel, the centred texton
+    void dh(double z1, double z2, double g[2]) const; // d h / d z1, d z2 of channel 0
+    template <typename F>
+    void for_each_impact(std::uint64_t seed, const Vec3& y, const Vec3& n, const Vec3& u1,
+                         const Vec3& u2, SurfaceStats* stats, F&& f) const;
     const Texton& m_t;
     int m_a;
     double m_lambda, m_norm;

@@ -178,4 +178,25 @@ const core::noise::LimitModel& PreparedTexton::limit(int level) const {
     return it->second;
 }
 
+Result<std::shared_ptr<const PreparedTexton>>
+map_view(Result<std::shared_ptr<const PreparedTexton>> prepared, const std::string& map) {
+    if (!prepared) return prepared;
+    const auto& maps = prepared.value()->texton().maps;
+    if (maps.empty()) {
+        if (map.empty()) return prepared;
+        return make_error(ErrorCode::invalid_argument,
+                          "map=" + map + " needs a material set; this texton has one exemplar");
+    }
+    const bool normals = map == core::kNormalMap || map == core::kLitMap;
+    std::string name = normals ? core::kHeightMap : map;
+    if (name.empty()) name = core::find_map(maps, "albedo") ? "albedo" : maps.front().name;
+    auto view = prepared.value()->map(name);
+    if (!view && view.error().code == ErrorCode::not_found)
+        return make_error(ErrorCode::invalid_argument,
+                          normals ? "map=normal and map=lit need the set's height map, which it "
+                                    "does not have"
+                                  : "this material set has no map '" + name + "'");
+    return view;
+}
+
 } // namespace textond::render

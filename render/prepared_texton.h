@@ -87,6 +87,12 @@ private:
     mutable std::map<std::string, std::shared_ptr<const PreparedTexton>> m_maps;
 };
 
+// The texton that shows `map` (api MapChoice names) of `prepared`: a set's map (its albedo, or its
+// only map, for ""; the height for "normal" and "lit"), or a plain texton as it is for "";
+// invalid_argument with the reason otherwise. Errors of `prepared` pass through.
+Result<std::shared_ptr<const PreparedTexton>>
+map_view(Result<std::shared_ptr<const PreparedTexton>> prepared, const std::string& map);
+
 // Maps every pixel of `image` (a render of the texton `tables` belong to) onto the exemplar's
 // marginals: pointwise, so windows and tiles of one plane still agree bit for bit.
 void restore_marginals(const core::MarginalTables& tables, core::Image& image);

@@ -113,8 +113,8 @@ Result<std::vector<float>> Renderer::surface(const PreparedTexton& texton,
 
 Result<core::Image> Renderer::mesh_preview(const PreparedTexton& texton, const SurfaceRequest& req,
                                            const Mesh& mesh, const Camera& camera, int width,
-                                           int height, std::string* used) {
-    if (m_gl) {
+                                           int height, std::string* used, const Relief& relief) {
+    if (m_gl && !relief.height) {
         // OpenGL draws it (glsl/mesh_preview.*).
         auto view = mesh_view(mesh, req, camera, width, height);
         if (!view) return view.error();
@@ -122,7 +122,7 @@ Result<core::Image> Renderer::mesh_preview(const PreparedTexton& texton, const S
         return m_gl->mesh_preview(texton, req.seed, req.mni, mesh, view.value(), width, height);
     }
     if (used) *used = "cpu";
-    return render_mesh_preview(texton.texton(), req, mesh, camera, width, height, 0);
+    return render_mesh_preview(texton.texton(), req, mesh, camera, width, height, 0, relief);
 }
 
 } // namespace textond::render

@@ -41,9 +41,10 @@ public:
                                        const std::vector<float>& points,
                                        const std::vector<float>& normals,
                                        std::string* used = nullptr);
+    // With relief (a set's height bending the normals) on the CPU, which alone has it.
     Result<core::Image> mesh_preview(const PreparedTexton& texton, const SurfaceRequest& req,
                                      const Mesh& mesh, const Camera& camera, int width, int height,
-                                     std::string* used = nullptr);
+                                     std::string* used = nullptr, const Relief& relief = {});
 
     const std::string& tiles_backend() const { return m_tiles_name; }
     // Whether all noise (tiles and frames) goes through a GL batcher, and what it did: batches

@@ -149,6 +149,9 @@ Result<MeshView> mesh_view(const Mesh& mesh, const SurfaceRequest& req, Camera c
     v.right = cross(v.fwd, cam.up);
     if (!normalise(v.right)) return make_error(ErrorCode::invalid_argument, "up is along the view");
     v.up = cross(v.right, v.fwd);
+    v.light = cam.light;
+    if (!normalise(v.light))
+        return make_error(ErrorCode::invalid_argument, "the light has no direction");
     v.focal = 1.0 / std::tan(cam.fov_degrees * 3.14159265358979 / 360);
     v.aspect = static_cast<double>(width) / height;
     double zmin = 1e300, zmax = -1e300;
@@ -222,7 +225,7 @@ std::uint64_t mesh_raster_tests(const Mesh& mesh, const MeshView& mv, int width,
 
 Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
                                         const Mesh& mesh, Camera cam, int width, int height,
-                                        int threads) {
+                                        int threads, const Relief& relief) {
     auto view = mesh_view(mesh, req, cam, width, height);
     if (!view) return view.error();
     const MeshView& mv = view.value();
@@ -273,8 +276,7 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
     std::vector<double> ys;
     std::vector<float> ns;
     std::vector<float> shade;
-    Vec3 light = {0.4, 0.8, 0.6};
-    normalise(light);
+    const Vec3& light = mv.light;
     for (int py = 0; py < height; ++py)
         for (int px = 0; px < width; ++px) {
             const std::size_t k = static_cast<std::size_t>(py) * width + px;
@@ -315,14 +317,22 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
     const int stride = nc;
     std::vector<float> colours(where.size() * static_cast<std::size_t>(nc));
     const core::SurfaceNoise noise(texton, req.mni);
+    std::optional<core::SurfaceNoise> bump;
+    if (relief.height) bump.emplace(*relief.height, req.mni);
     std::atomic<bool> skipped{false};
 #pragma omp parallel for schedule(dynamic, 256) num_threads(core::resolve_threads(threads))
     for (std::size_t i = 0; i < where.size(); ++i) {
         if (i % 256 == 0 && stopped(req.cancel)) skipped = true;
         if (skipped) continue;
-        noise.eval(req.seed, {ys[3 * i], ys[3 * i + 1], ys[3 * i + 2]},
-                   {ns[3 * i], ns[3 * i + 1], ns[3 * i + 2]},
-                   &colours[i * static_cast<std::size_t>(nc)]);
+        const Vec3 y = {ys[3 * i], ys[3 * i + 1], ys[3 * i + 2]};
+        const Vec3 n = {ns[3 * i], ns[3 * i + 1], ns[3 * i + 2]};
+        noise.eval(req.seed, y, n, &colours[i * static_cast<std::size_t>(nc)]);
+        if (!bump) continue;
+        const Vec3 g = bump->gradient(req.seed, y, n);
+        Vec3 bent = {n[0] - relief.strength * g[0], n[1] - relief.strength * g[1],
+                     n[2] - relief.strength * g[2]};
+        normalise(bent);
+        shade[i] = static_cast<float>(0.35 + 0.65 * std::max(0.0, dot(bent, light)));
     }
     if (skipped) return abandoned(req.cancel, "the evaluation");
     core::Image out(width, height, 4);

@@ -3,6 +3,7 @@
 // core/surface_noise.h spread over threads, and a preview of a triangle mesh textured by it.
 // CPU only for now.
 #include "core/image.h"
+#include "core/material_set.h"
 #include "core/result.h"
 #include "core/surface_noise.h"
 #include "core/texton.h"
@@ -41,7 +42,8 @@ using Mesh = core::TriangleMesh;
 struct Camera {
     core::Vec3 eye{0, 0, 0}, target{0, 0, 0}, up{0, 1, 0};
     double fov_degrees = 35;
-    bool automatic = true; // frame the mesh's bounding box from the front, slightly above
+    bool automatic = true;           // frame the mesh's bounding box from the front, slightly above
+    core::Vec3 light{0.4, 0.8, 0.6}; // towards the one directional light (world; any length)
 };
 
 // A perspective view of the mesh, each visible pixel the surface noise at its interpolated
@@ -54,6 +56,7 @@ struct MeshView {
     double aspect = 1;                 // width / height
     double scale = 1;                  // texels per mesh unit
     double near_z = 0.01, far_z = 100; // depths (along fwd) covering the mesh in front of the eye
+    core::Vec3 light{0, 1, 0};         // the camera's light, unit
     // The OpenGL clip transform, row-major.
     std::array<float, 16> mvp() const;
 };
@@ -65,8 +68,17 @@ Result<MeshView> mesh_view(const Mesh& mesh, const SurfaceRequest& req, Camera c
 // meshes over its work budget: a few kB of stacked screen-sized quads took 46 s).
 std::uint64_t mesh_raster_tests(const Mesh& mesh, const MeshView& view, int width, int height);
 
+// Relief for a material set's preview: the surface noise of the set's height map (same seed, the
+// same process: one r) bends each pixel's normal, n' = normalize(n - strength grad h), with grad h
+// the height's gradient in the tangent plane (core::SurfaceNoise::gradient), as map=normal bends
+// the plane's; the light then shades n'. CPU only.
+struct Relief {
+    const core::Texton* height = nullptr; // none: the mesh's own normals
+    double strength = core::kDefaultNormalStrength;
+};
+
 Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
                                         const Mesh& mesh, Camera camera, int width, int height,
-                                        int threads = 0);
+                                        int threads = 0, const Relief& relief = {});
 
 } // namespace textond::render

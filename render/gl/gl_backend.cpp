@@ -739,9 +739,8 @@ Result<core::Image> GlBackend::mesh_preview(const PreparedTexton& tex, std::uint
     g.Uniform1f(loc("u_scale"), static_cast<float>(view.scale));
     g.Uniform3f(loc("u_fwd"), static_cast<float>(view.fwd[0]), static_cast<float>(view.fwd[1]),
                 static_cast<float>(view.fwd[2]));
-    const double l = std::sqrt(0.4 * 0.4 + 0.8 * 0.8 + 0.6 * 0.6);
-    g.Uniform3f(loc("u_light"), static_cast<float>(0.4 / l), static_cast<float>(0.8 / l),
-                static_cast<float>(0.6 / l));
+    g.Uniform3f(loc("u_light"), static_cast<float>(view.light[0]),
+                static_cast<float>(view.light[1]), static_cast<float>(view.light[2]));
     g.Uniform1i(loc("u_grey"), tex.channels() == 1 ? 1 : 0);
 
     GLuint vao = 0, bufs[3] = {0, 0, 0}, target = 0, depth = 0, fbo = 0;

@@ -58,29 +58,6 @@ core::Image side_by_side(const core::Image& a, const core::Image& b) {
     return out;
 }
 
-// The texton to evaluate for `map`: a set's map (its albedo, or its only map, by default; the
-// height for normals), or a plain texton as it is.
-Result<std::shared_ptr<const render::PreparedTexton>>
-map_of(Result<std::shared_ptr<const render::PreparedTexton>> prepared, const std::string& map) {
-    if (!prepared) return prepared;
-    const auto& maps = prepared.value()->texton().maps;
-    if (maps.empty()) {
-        if (map.empty()) return prepared;
-        return make_error(ErrorCode::invalid_argument,
-                          "map=" + map + " needs a material set; this texton has one exemplar");
-    }
-    std::string name = map == core::kNormalMap ? core::kHeightMap : map;
-    if (name.empty()) name = core::find_map(maps, "albedo") ? "albedo" : maps.front().name;
-    auto view = prepared.value()->map(name);
-    if (!view && view.error().code == ErrorCode::not_found)
-        return make_error(ErrorCode::invalid_argument,
-                          map == core::kNormalMap
-                              ? "map=normal and map=lit need the set's height map, which it "
-                                "does not have"
-                              : "this material set has no map '" + name + "'");
-    return view;
-}
-
 } // namespace
 
 std::string mni_text(double mni) {
@@ -182,9 +159,9 @@ Result<core::Image> ImageService::evaluate(const std::string& id, const render::
             return make_error(ErrorCode::invalid_argument,
                               "map=lit needs a material set with a height map; this texton has "
                               "one exemplar");
-        auto albedo = map_of(set, "");
+        auto albedo = render::map_view(set, "");
         if (!albedo) return albedo.error();
-        auto height = map_of(set, core::kNormalMap);
+        auto height = render::map_view(set, core::kNormalMap);
         if (!height) return height.error();
         if (auto err = height.value()->check(q)) return *err;
         return timed(kind, [&](std::string* used) -> Result<core::Image> {
@@ -195,7 +172,7 @@ Result<core::Image> ImageService::evaluate(const std::string& id, const render::
             return render::shade_lit(colour.value(), normals.value(), map.azimuth, map.elevation);
         });
     }
-    auto prepared = map_of(set, map.name);
+    auto prepared = render::map_view(set, map.name);
     if (!prepared) return prepared.error();
     if (auto err = prepared.value()->check(q)) return *err;
     if (map.name == core::kNormalMap)

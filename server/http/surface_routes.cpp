@@ -70,7 +70,7 @@ void SurfaceRoutes::points(Req req, Res res, const httplib::ContentReader& reade
     if (!m_gate.read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, false, p)) return send_error(res, *e);
-    auto prepared = m_store.prepared(id);
+    auto prepared = render::map_view(m_store.prepared(id), p.map.name);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
     const render::PreparedTexton& texton = *prepared.value();
     // Parsing a million JSON points takes hundreds of MB: inside the slot, like the evaluation.
@@ -111,19 +111,29 @@ void SurfaceRoutes::mesh(Req req, Res res, const httplib::ContentReader& reader)
     if (!m_gate.read_request_body(reader, res, body)) return;
     api::SurfaceParams p;
     if (auto e = api::parse_surface(id, req.params, true, p)) return send_error(res, *e);
-    auto prepared = m_store.prepared(id);
+    auto set = m_store.prepared(id);
+    if (!set) return send_error(res, to_api_error(set.error()));
+    // A set's mesh: coloured by a map (albedo by default) and, with a height, lit through its
+    // relief unless a map is named.
+    const auto& maps = set.value()->texton().maps;
+    const bool relief = p.map.name == core::kLitMap ||
+                        (p.map.name.empty() && core::find_map(maps, core::kHeightMap));
+    auto prepared = render::map_view(set, relief ? std::string() : p.map.name);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    auto height = relief ? render::map_view(set, core::kLitMap) : prepared;
+    if (!height) return send_error(res, to_api_error(height.error()));
     const render::PreparedTexton& texton = *prepared.value();
     auto slot = m_gate.admit(res, 0.0); // parsing, the view, rasterising and encoding
     if (!slot) return;
-    auto preview = SurfaceService::preview(body.bytes, texton, p);
+    auto preview = SurfaceService::preview(body.bytes, texton, p, relief);
     if (!preview)
         return send_error(res, content_error(preview.error(), "invalid_mesh", "payload_too_large"));
     body.bytes = std::string();
     if (!m_gate.within_budget(res, preview.value().work_s)) return;
     const render::Cancel cancel = m_gate.work_cancel();
     std::string evaluated_on;
-    auto png = m_surfaces.preview_png(texton, preview.value(), p, cancel, &evaluated_on);
+    auto png = m_surfaces.preview_png(texton, relief ? height.value().get() : nullptr,
+                                      preview.value(), p, cancel, &evaluated_on);
     if (!png) return m_gate.send_work_error(res, png.error(), cancel);
     res.set_header("X-Textond-Backend", evaluated_on);
     res.set_content(png.value(), "image/png");

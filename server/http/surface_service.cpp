@@ -4,6 +4,8 @@
 #include "server/io/image_io.h"
 #include "server/io/obj_mesh.h"
 
+#include <cmath>
+
 namespace textond::http {
 
 SurfaceService::SurfaceService(render::Renderer& renderer) : m_renderer(renderer) {}
@@ -48,12 +50,16 @@ SurfaceService::colours(const render::PreparedTexton& texton, const api::Surface
 
 Result<SurfaceService::Preview> SurfaceService::preview(std::string_view obj,
                                                         const render::PreparedTexton& texton,
-                                                        const api::SurfaceParams& p) {
+                                                        const api::SurfaceParams& p, bool relief) {
     auto mesh = io::parse_obj(obj);
     if (!mesh) return mesh.error();
     Preview out;
     out.mesh = std::move(mesh.value());
     out.camera.fov_degrees = p.fov;
+    if (p.light) {
+        const double az = p.map.azimuth * M_PI / 180.0, el = p.map.elevation * M_PI / 180.0;
+        out.camera.light = {std::cos(el) * std::cos(az), std::sin(el), std::cos(el) * std::sin(az)};
+    }
     if (p.camera) {
         out.camera.automatic = false;
         out.camera.eye = {p.eye[0], p.eye[1], p.eye[2]};
@@ -64,7 +70,8 @@ Result<SurfaceService::Preview> SurfaceService::preview(std::string_view obj,
     if (!view) return view.error();
     const std::uint64_t tests =
         render::mesh_raster_tests(out.mesh, view.value(), p.width, p.height);
-    out.work_s = mesh_work_s(tests, std::int64_t{p.width} * p.height, p.mni, texton.order());
+    out.work_s = mesh_work_s(tests, std::int64_t{p.width} * p.height, p.mni, texton.order()) *
+                 (relief ? 2.0 : 1.0);
     return out;
 }
 
@@ -81,13 +88,15 @@ void SurfaceService::restore_covered(const core::MarginalTables& tables, core::I
 }
 
 Result<std::string> SurfaceService::preview_png(const render::PreparedTexton& texton,
+                                                const render::PreparedTexton* height,
                                                 const Preview& preview, const api::SurfaceParams& p,
                                                 const render::Cancel& cancel, std::string* used) {
     auto tables = surface_tables(texton, p);
     if (!tables) return tables.error();
     const render::SurfaceRequest sr{p.seed, p.mni, p.scale, &cancel};
-    auto image =
-        m_renderer.mesh_preview(texton, sr, preview.mesh, preview.camera, p.width, p.height, used);
+    const render::Relief relief{height ? &height->texton() : nullptr, p.map.strength};
+    auto image = m_renderer.mesh_preview(texton, sr, preview.mesh, preview.camera, p.width,
+                                         p.height, used, relief);
     if (!image) return image.error();
     if (tables.value()) restore_covered(*tables.value(), image.value());
     return io::encode_image_memory(image.value(), io::Encoding::png8);

@@ -37,10 +37,13 @@ public:
         render::Camera camera;
         double work_s = 0;
     };
+    // `relief`: a set's height bends the normals (twice the noise evaluations).
     static Result<Preview> preview(std::string_view obj, const render::PreparedTexton& texton,
-                                   const api::SurfaceParams& p);
-    // The preview rendered and encoded as an 8-bit PNG.
-    Result<std::string> preview_png(const render::PreparedTexton& texton, const Preview& preview,
+                                   const api::SurfaceParams& p, bool relief = false);
+    // The preview rendered and encoded as an 8-bit PNG; `height` (or null) a set's height map,
+    // whose relief lights the mesh (render::Relief, with p.map.strength).
+    Result<std::string> preview_png(const render::PreparedTexton& texton,
+                                    const render::PreparedTexton* height, const Preview& preview,
                                     const api::SurfaceParams& p, const render::Cancel& cancel,
                                     std::string* used);
 

@@ -523,6 +523,7 @@ void check_mesh_against_cpu(GlBackend& gl) {
     render::SurfaceRequest req;
     req.seed = 4;
     render::Camera cam;
+    cam.light = {-0.5, 0.6, 0.4}; // not the default: the light must reach the shader
     const int w = 96, h = 80;
     auto cpu = render::render_mesh_preview(tex->texton(), req, sphere, cam, w, h);
     auto view = render::mesh_view(sphere, req, cam, w, h);

@@ -185,6 +185,87 @@ TEST(MaterialSet, LitTilesShadeTheAlbedoThroughTheNormalsAndStitch) {
     EXPECT_NE(t->body.find("map=lit needs a material set"), std::string::npos) << t->body;
 }
 
+// A set on surfaces: colours of a map (albedo by default, 3 channels; the height 1), and mesh.png
+// lit through the height's relief by default (CPU), flat with map=albedo, the same coverage;
+// light= moves the shading; a vanishing strength gives the flat picture (up to the rasteriser:
+// the flat one may be OpenGL's); the refusals.
+TEST(MaterialSet, MeshPreviewShowsTheReliefAndSurfaceColoursAMap) {
+    TestServer server;
+    auto c = server.client();
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    httplib::MultipartFormDataItems form = {
+        {"albedo", read_file(exemplar_path("etr_pebbles04.png")), "a.png", "image/png"},
+        {"height", height_png16(u, u.width), "h.png", "image/png"},
+        {"size", "16", "", ""},
+        {"iterations", "20", "", ""}};
+    auto up = c.Post("/v1/textons", form);
+    ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
+    const std::string base = "/v1/textons/" + json::parse(up->body).at("id").get<std::string>();
+    const std::string points = R"({"points":[[0,0,0],[10,5,2]],"normals":[[0,0,1],[0,1,0]]})";
+    auto colours = [&](const std::string& q) {
+        auto r = c.Post(base + "/surface?seed=1" + q, points, "application/json");
+        EXPECT_TRUE(r && r->status == 200) << (r ? r->body : "no answer");
+        return json::parse(r->body);
+    };
+    EXPECT_EQ(colours("").at("channels"), 3);
+    EXPECT_EQ(colours("").at("colors"), colours("&map=albedo").at("colors"));
+    EXPECT_EQ(colours("&map=height").at("channels"), 1);
+
+    const std::string quad = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n";
+    auto mesh = [&](const std::string& q, std::string* backend = nullptr) {
+        auto r = c.Post(base + "/mesh.png?width=96&height=96&seed=2" + q, quad, "model/obj");
+        EXPECT_TRUE(r && r->status == 200) << (r ? r->body : "no answer");
+        if (backend) *backend = r->get_header_value("X-Textond-Backend");
+        return io::decode_image_memory(r->body).value();
+    };
+    std::string backend;
+    const core::Image lit = mesh("", &backend);
+    EXPECT_EQ(backend, "cpu");
+    const core::Image flat = mesh("&map=albedo");
+    const core::Image faint = mesh("&strength=1e-6");
+    const core::Image moved = mesh("&light=200,30");
+    // The decoder drops alpha; the background is black and the mesh never is (albedo x >= 0.35).
+    auto on = [](const core::Image& im, int x, int y) {
+        return im.at(0, x, y) + im.at(1, x, y) + im.at(2, x, y) > 0.0f;
+    };
+    // The flat one may be drawn by OpenGL (the relief only on the CPU): edges may differ.
+    int covered = 0, edge = 0, relief = 0, faint_off = 0, light_moves = 0;
+    for (int y = 0; y < 96; ++y)
+        for (int x = 0; x < 96; ++x) {
+            edge += on(lit, x, y) != on(flat, x, y);
+            if (!on(lit, x, y) || !on(flat, x, y) || !on(faint, x, y)) continue;
+            ++covered;
+            double d = 0, f = 0, m = 0;
+            for (int ch = 0; ch < 3; ++ch) {
+                d = std::max(d, double(std::fabs(lit.at(ch, x, y) - flat.at(ch, x, y))));
+                f = std::max(f, double(std::fabs(faint.at(ch, x, y) - flat.at(ch, x, y))));
+                m = std::max(m, double(std::fabs(moved.at(ch, x, y) - lit.at(ch, x, y))));
+            }
+            relief += d > 2.5 / 255;
+            faint_off += f > 1.5 / 255; // one 8-bit step of rounding
+            light_moves += m > 2.5 / 255;
+        }
+    ASSERT_GT(covered, 1000);
+    EXPECT_LT(edge, covered / 50);
+    EXPECT_GT(relief, covered / 2) << "the relief must change most pixels' shading";
+    EXPECT_EQ(faint_off, 0) << "strength -> 0 must give the flat mesh";
+    EXPECT_GT(light_moves, covered / 2);
+
+    auto code = [&](const std::string& path, const std::string& body, const char* type) {
+        auto r = c.Post(path, body, type);
+        return r ? json::parse(r->body).at("error").at("code").get<std::string>() + " " +
+                       std::to_string(r->status)
+                 : std::string("no answer");
+    };
+    EXPECT_EQ(code(base + "/mesh.png?map=normal", quad, "model/obj"), "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/mesh.png?light=10", quad, "model/obj"), "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/mesh.png?map=albedo&strength=2", quad, "model/obj"),
+              "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/surface?map=lit", points, "application/json"), "invalid_parameter 400");
+    EXPECT_EQ(code(base + "/surface?map=roughness", points, "application/json"),
+              "invalid_parameter 400");
+}
+
 TEST(MaterialSet, MismatchedSizesAndNormalUploadsAreRefusedClearly) {
     TestServer server;
     auto c = server.client();
