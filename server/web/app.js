@@ -43,10 +43,28 @@ function seedQuery() {
   return `seed=${seed}&mni=${mni}`;
 }
 
-// The tiles, regions and downloads: also the exemplar's colour marginals when asked for.
+// The tiles, regions and downloads: also the exemplar's colour marginals when asked for, and a
+// material set's view (map=, with the light for map=lit).
 function noiseQuery() {
   const marginals = $('marginals').checked && !$('marginals').disabled;
-  return seedQuery() + (marginals ? '&marginals=exemplar' : '');
+  let q = seedQuery() + (marginals ? '&marginals=exemplar' : '');
+  const view = $('map-view-label').hidden ? '' : $('map-view').value;
+  if (view) q += `&map=${view}`;
+  if (view === 'lit') q += `&light=${Number($('light').value) || 0},45`;
+  return q;
+}
+
+// A material set's views in the map selector: each map, and from a height its normals and the
+// lit albedo (the default, the set's preview); hidden for a single photo.
+function showMapViews(meta) {
+  const select = $('map-view');
+  select.replaceChildren();
+  const names = (meta.maps || []).map((m) => m.name);
+  if (names.includes('height')) names.push('normal', 'lit');
+  for (const name of names) select.append(new Option(name, name));
+  if (names.includes('lit')) select.value = 'lit';
+  $('map-view-label').hidden = names.length === 0;
+  $('light-label').hidden = select.value !== 'lit';
 }
 
 async function upload(file) {
@@ -60,6 +78,36 @@ async function upload(file) {
       body: file,
       headers: { 'Content-Type': file.type || 'application/octet-stream', Prefer: 'respond-async' },
     });
+    if (!res.ok) throw new Error(await apiError(res));
+    let body = await res.json();
+    if (res.status === 202) body = await waitForAnalysis(body);
+    $('progress-text').textContent = 'Done.';
+    await show(body);
+  } catch (e) {
+    $('progress-text').textContent = '';
+    showError(e.message);
+  } finally {
+    $('progress').hidden = true;
+  }
+}
+
+// A material set: the chosen maps as one multipart form (README "Material sets").
+async function uploadSet() {
+  showError('');
+  const form = new FormData();
+  for (const name of ['albedo', 'height', 'roughness', 'ao', 'metallic']) {
+    const file = $(`set-${name}`).files[0];
+    if (file) form.append(name, file, file.name);
+  }
+  if ([...form.keys()].length === 0) {
+    showError('Pick at least one map of the set (albedo, height, ...).');
+    return;
+  }
+  form.append('size', $('size').value);
+  $('progress').hidden = false;
+  $('progress-text').textContent = 'Uploading the set...';
+  try {
+    const res = await fetch('/v1/textons', { method: 'POST', body: form, headers: { Prefer: 'respond-async' } });
     if (!res.ok) throw new Error(await apiError(res));
     let body = await res.json();
     if (res.status === 202) body = await waitForAnalysis(body);
@@ -110,6 +158,7 @@ async function show(meta) {
   $('mean').textContent = meta.mean.map((v) => v.toFixed(3)).join(', ');
   $('analysis-ms').textContent = `${Math.round(meta.analysis_ms)} ms`;
   $('texton-id').textContent = meta.id;
+  showMapViews(meta);
   await refreshNoise();
   refreshList();
 }
@@ -254,6 +303,12 @@ drop.addEventListener('drop', (e) => {
 });
 $('apply').addEventListener('click', () => refreshNoise().catch((e) => showError(e.message)));
 $('marginals').addEventListener('change', () => refreshNoise().catch((e) => showError(e.message)));
+$('map-view').addEventListener('change', () => {
+  $('light-label').hidden = $('map-view').value !== 'lit';
+  refreshNoise().catch((e) => showError(e.message));
+});
+$('light').addEventListener('change', () => refreshNoise().catch((e) => showError(e.message)));
+$('set-send').addEventListener('click', () => uploadSet());
 for (const id of ['dl-w', 'dl-h', 'dl-format', 'seed', 'mni'])
   $(id).addEventListener('input', updateDownloads);
 $('copy-url').addEventListener('click', async () => {

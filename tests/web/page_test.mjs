@@ -1,7 +1,8 @@
 // The page at / in a real browser (Debian's Chromium, driven by playwright-core) against a real
 // `textond serve` on 127.0.0.1: upload, texton and RME, the map's tiles (all 200, no console
 // errors, more on pan and zoom), no seam across tile boundaries in a screenshot, a new seed
-// changes the tiles, downloads have the asked size, errors in plain words, the stored list.
+// changes the tiles, downloads have the asked size, errors in plain words, the stored list, a
+// material set uploaded from the page and its lit and normal views.
 //
 // usage: node page_test.mjs TEXTOND_BINARY EXEMPLAR.png ARTEFACT_DIR
 import { chromium } from 'playwright-core';
@@ -237,6 +238,39 @@ try {
   check(await page.locator('#texton-list li img').count() >= 1, 'the stored textons are listed with thumbnails');
 
   check(consoleErrors.length === 0, `no console errors (${JSON.stringify(consoleErrors)})`);
+
+  // A material set from the page's set form (albedo and height: the same photo, whose channels
+  // the height averages): the map shows the lit view by default, with the light in its URL; the
+  // normals are another view; every tile 200; a single photo hides the selector.
+  check(await page.locator('#map-view-label').isHidden(), 'a single photo has no map selector');
+  await page.click('#set-upload summary');
+  await page.setInputFiles('#set-albedo', exemplar);
+  await page.setInputFiles('#set-height', exemplar);
+  const setTiles = tileStatus.length;
+  await page.click('#set-send');
+  await page.waitForFunction(() => [...document.querySelectorAll('#map .leaflet-tile-loaded')]
+    .some((t) => t.src.includes('map=lit')), null, { timeout: 60000 });
+  check(!(await page.locator('#map-view-label').isHidden()), 'a set shows the map selector');
+  check(!(await page.locator('#light-label').isHidden()), 'the lit view shows the light');
+  const views = await page.locator('#map-view option').allTextContents();
+  check(JSON.stringify(views) === JSON.stringify(['albedo', 'height', 'normal', 'lit']),
+        `the set's views are offered (${views})`);
+  check((await page.inputValue('#tile-url')).includes('map=lit&strength=8&light=135,45'),
+        `the lit view and its light reach the tile URL (${await page.inputValue('#tile-url')})`);
+  await page.waitForLoadState('networkidle');
+  await page.waitForTimeout(500); // Leaflet fades tiles in
+  await page.locator('#map').screenshot({ path: join(artefacts, 'map-set-lit.png') });
+  await page.fill('#light', '300');
+  await page.dispatchEvent('#light', 'change');
+  await page.waitForFunction(() => [...document.querySelectorAll('#map .leaflet-tile-loaded')]
+    .some((t) => t.src.includes('light=300,45')), null, { timeout: 30000 });
+  await page.selectOption('#map-view', 'normal');
+  await page.waitForFunction(() => [...document.querySelectorAll('#map .leaflet-tile-loaded')]
+    .some((t) => t.src.includes('map=normal')), null, { timeout: 30000 });
+  check(await page.locator('#light-label').isHidden(), 'the normals hide the light');
+  await page.waitForLoadState('networkidle');
+  check(tileStatus.length > setTiles && tileStatus.every((s) => s === 200),
+        'the set\'s tiles load, all 200');
 
   // An error in plain words (its 415 is the one console error the browser may log).
   await page.setInputFiles('#file', { name: 'notes.txt', mimeType: 'text/plain', buffer: Buffer.from('not a picture') });
