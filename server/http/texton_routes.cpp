@@ -35,13 +35,27 @@ const char* kLinkTemplates[][2] = {
 };
 
 // A view of the coefficients people can look at: mid-grey is zero, full scale the largest
-// magnitude of any channel (the raw values are in texton.exr).
+// magnitude of any channel (the raw values are in texton.exr). A material set's maps stand side
+// by side in RGB, in their channel order (a PNG holds at most 4 channels; a set up to 8).
 core::Image visualise(const core::Texton& t) {
-    core::Image out(t.size, t.size, t.channels);
     float peak = 0;
     for (float v : t.alpha.data) peak = std::max(peak, std::abs(v));
     const float scale = peak > 0 ? 0.5f / peak : 0.0f;
-    for (std::size_t k = 0; k < out.data.size(); ++k) out.data[k] = 0.5f + t.alpha.data[k] * scale;
+    if (t.maps.empty()) {
+        core::Image out(t.size, t.size, t.channels);
+        for (std::size_t k = 0; k < out.data.size(); ++k)
+            out.data[k] = 0.5f + t.alpha.data[k] * scale;
+        return out;
+    }
+    core::Image out(t.size * static_cast<int>(t.maps.size()), t.size, 3);
+    for (std::size_t i = 0; i < t.maps.size(); ++i) {
+        const core::TextonMap& m = t.maps[i];
+        for (int c = 0; c < 3; ++c)
+            for (int y = 0; y < t.size; ++y)
+                for (int x = 0; x < t.size; ++x)
+                    out.at(c, static_cast<int>(i) * t.size + x, y) =
+                        0.5f + t.alpha.at(m.first + std::min(c, m.channels - 1), x, y) * scale;
+    }
     return out;
 }
 

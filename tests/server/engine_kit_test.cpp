@@ -213,6 +213,16 @@ TEST(EngineKit, MaterialSetKitHoldsEveryMapAndTheSetShaders) {
     auto up = c.Post("/v1/textons", form);
     ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
     const std::string id = nlohmann::json::parse(up->body).at("id");
+    // texton.png: the maps side by side in RGB (5 channels do not fit a PNG), grey maps grey.
+    auto png = c.Get("/v1/textons/" + id + "/texton.png");
+    ASSERT_TRUE(png && png->status == 200) << (png ? png->body : "no answer");
+    const core::Image view = io::decode_image_memory(png->body).value();
+    EXPECT_EQ(view.width, 3 * 16);
+    EXPECT_EQ(view.height, 16);
+    for (int y = 0; y < 16; ++y)
+        for (int x = 16; x < 48; ++x) // height and roughness
+            ASSERT_TRUE(view.at(0, x, y) == view.at(1, x, y) &&
+                        view.at(1, x, y) == view.at(2, x, y));
     const Kit kit = unpack(c, id, "", "kit_set");
     const fs::path src = TEXTOND_SOURCE_DIR;
     for (const auto& [in_kit, in_repo] : std::vector<std::pair<std::string, std::string>>{
