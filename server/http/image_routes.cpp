@@ -135,11 +135,11 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool
                            req.matches[4].str(), req.matches[5].str(), req.params, t))
             return send_error(res, *e);
         ImageService::Job job{
-            t.id,     "tile",
-            t.format, noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
-            t.size,   t.size,
-            false,    mix};
-        job.map = t.noise.map;
+            t.id,       "tile",
+            t.format,   noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
+            t.size,     t.size,
+            false,      mix,
+            t.noise.map};
         serve(req, res, job);
     };
 }
@@ -152,11 +152,11 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
                                        m_config.limits, r))
             return send_error(res, *e);
         ImageService::Job job{
-            r.id,     "region",
-            r.format, noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
-            r.width,  r.height,
-            true,     mix};
-        job.map = r.noise.map;
+            r.id,       "region",
+            r.format,   noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
+            r.width,    r.height,
+            true,       mix,
+            r.noise.map};
         serve(req, res, job);
     };
 }

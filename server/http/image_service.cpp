@@ -134,9 +134,7 @@ Result<ImageService::Job> ImageService::tileable(const api::TileableRequest& t) 
     render::NoiseRequest q =
         noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
     q.period = {cells(t.width), cells(t.height)};
-    Job job{t.id, "tileable", t.format, q, t.width, t.height, true, false};
-    job.map = t.noise.map;
-    return job;
+    return Job{t.id, "tileable", t.format, q, t.width, t.height, true, false, t.noise.map};
 }
 
 Result<core::Image> ImageService::evaluate(const std::string& id, const render::NoiseRequest& q,

@@ -194,7 +194,7 @@ void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader
     core::AnalysisParams params;
     if (auto e = api::parse_analysis(fields, params)) return send_error(res, *e);
     if (!maps.empty()) {
-        auto ingest = m_textons.ingest_set(std::move(maps), params);
+        auto ingest = m_textons.ingest_set(maps, params);
         if (const auto* refused = std::get_if<TextonService::Refused>(&ingest))
             return send_refused(res, *refused);
         return send_ingested(req, res, std::get<TextonService::Ingested>(ingest));

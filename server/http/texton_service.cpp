@@ -59,6 +59,7 @@ Result<io::TextonRecord> TextonService::analyse_set(const core::Image& stacked,
                                                     const core::AnalysisParams& params,
                                                     const core::ProgressFn& progress) {
     std::vector<core::TextonMap> layout;
+    layout.reserve(maps.size());
     for (const api::MapMeta& m : maps) layout.push_back({m.name, m.first, m.channels});
     auto result = core::analyze_material_set(stacked, layout, params, progress);
     if (!result) return result.error();
@@ -112,7 +113,7 @@ TextonService::decode_maps(const std::vector<MapUpload>& maps, core::Image& stac
 }
 
 std::variant<TextonService::Ingested, TextonService::Refused>
-TextonService::ingest_set(std::vector<MapUpload> maps, const core::AnalysisParams& params,
+TextonService::ingest_set(const std::vector<MapUpload>& maps, const core::AnalysisParams& params,
                           const std::function<bool()>& gone) {
     using Stage = Refused::Stage;
     // Channel order is the canonical map order, whatever the form's order.
@@ -143,8 +144,8 @@ TextonService::ingest_set(std::vector<MapUpload> maps, const core::AnalysisParam
 }
 
 AnalysisPool::Submitted TextonService::submit(const std::string& id,
-                                              std::shared_ptr<const core::Image> shown,
-                                              Analyse analyse) {
+                                              const std::shared_ptr<const core::Image>& shown,
+                                              const Analyse& analyse) {
     const std::shared_ptr<const core::Image>& u = shown;
     TextonStore* store = &m_store;
     Metrics* metrics = &m_metrics;

@@ -64,7 +64,7 @@ public:
         std::string name;
         std::string_view bytes;
     };
-    std::variant<Ingested, Refused> ingest_set(std::vector<MapUpload> maps,
+    std::variant<Ingested, Refused> ingest_set(const std::vector<MapUpload>& maps,
                                                const core::AnalysisParams& params,
                                                const std::function<bool()>& gone = {});
     static Result<io::TextonRecord> analyse_set(const core::Image& stacked,
@@ -76,8 +76,9 @@ private:
     using Analyse = std::function<Result<io::TextonRecord>(const core::ProgressFn&)>;
     // Runs `analyse` on the pool and stores its record with `shown` (the exemplar, or a set's
     // first map) as the stored exemplar.
-    AnalysisPool::Submitted submit(const std::string& id, std::shared_ptr<const core::Image> shown,
-                                   Analyse analyse);
+    AnalysisPool::Submitted submit(const std::string& id,
+                                   const std::shared_ptr<const core::Image>& shown,
+                                   const Analyse& analyse);
     std::optional<Refused> decode_maps(const std::vector<MapUpload>& maps, core::Image& stacked,
                                        std::vector<api::MapMeta>& meta,
                                        const std::function<bool()>& gone);
