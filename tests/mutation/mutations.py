@@ -76,6 +76,18 @@ MUTATIONS = [
      "ivec2(gl_FragCoord.xy) + u_offset;",
      "ivec2(gl_FragCoord.xy) + u_offset + ivec2(1, 0);",
      ["render_test"]),
+    ("normal-derivative-sign", "render/cpu_backend.cpp",
+     "    w0 = 1.0f;  // G[t + 1]",
+     "    w0 = -1.0f; // G[t + 1]",
+     ["render_stats_test"]),
+    ("set-shader-height-table", "render/glsl/material_eval.glsl",
+     "float h = u_height < 4 ? t0[u_height] : t1[u_height - 4];",
+     "float h = t0[u_height & 3];",
+     ["render_test"]),
+    ("lit-light-elevation", "render/normal_map.cpp",
+     "std::cos(el) * std::sin(az), std::sin(el)};",
+     "std::cos(el) * std::sin(az), std::cos(el)};",
+     ["server_test"]),
 ]
 
 _saved = {}  # path -> original bytes, while a mutation is applied
