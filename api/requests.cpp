@@ -139,9 +139,24 @@ std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
 std::optional<ApiError> format_of(std::string_view ext, ImageFormat& out) {
     auto f = parse_image_format(ext);
     if (!f)
-        return bad("invalid_format", "image format must be png, png16 or exr, not '" +
+        return bad("invalid_format", "image format must be png, png16, exr, webp or avif, not '" +
                                          std::string(ext.substr(0, 20)) + "'");
     out = *f;
+    return std::nullopt;
+}
+
+// quality=: lossy WebP and AVIF only.
+std::optional<ApiError> quality_of(const Query& q, ImageFormat f, int& out) {
+    const std::string* s = field(q, "quality");
+    if (!s) return std::nullopt;
+    auto v = parse_i64(*s);
+    if (!v || *v < 1 || *v > 100)
+        return bad("invalid_parameter",
+                   "quality must be an integer in [1, 100], not '" + s->substr(0, 40) + "'");
+    if (f != ImageFormat::webp && f != ImageFormat::avif)
+        return bad("invalid_parameter",
+                   "quality applies to .webp and .avif (PNG and EXR are lossless)");
+    out = static_cast<int>(*v);
     return std::nullopt;
 }
 
@@ -174,8 +189,10 @@ std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int6
 
 // seed, mni and size: what every tile URL (and TileJSON) takes.
 std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
-    if (auto e = check_fields(q, {"seed", "mni", "size", "marginals", "map", "strength", "light"}))
+    if (auto e = check_fields(
+            q, {"seed", "mni", "size", "marginals", "map", "strength", "light", "quality"}))
         return e;
+    if (auto e = quality_of(q, out.format, out.quality)) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     if (const std::string* s = field(q, "size")) {
         auto v = parse_i64(*s);
@@ -193,6 +210,16 @@ std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
     if (auto e = tile_fields(q, out)) return e;
+    // {y}@2x: the same square of the plane at twice the pixels, one level finer.
+    constexpr std::string_view kRetina = "@2x";
+    if (y.size() > kRetina.size() && y.substr(y.size() - kRetina.size()) == kRetina) {
+        y.remove_suffix(kRetina.size());
+        if (out.level - 1 < core::noise::kMinLevel)
+            return bad("level_out_of_range",
+                       "an @2x tile needs a level above " + std::to_string(core::noise::kMinLevel));
+        out.level -= 1;
+        out.size *= 2;
+    }
     auto tx = parse_i64(x), ty = parse_i64(y);
     if (!tx || !ty)
         return bad("coordinate_out_of_range", "tile indices must be signed 64-bit integers, not '" +
@@ -213,11 +240,55 @@ std::optional<ImageFormat> parse_image_format(std::string_view ext) {
     if (ext == "png") return ImageFormat::png;
     if (ext == "png16") return ImageFormat::png16;
     if (ext == "exr") return ImageFormat::exr;
+    if (ext == "webp") return ImageFormat::webp;
+    if (ext == "avif") return ImageFormat::avif;
     return std::nullopt;
 }
 
+namespace {
+
+// Whether an Accept header lists `type` with a q above 0 (RFC 9110 section 12.5.1; wildcards
+// are not a request for a modern format: browsers send */* with everything).
+bool accepts(std::string_view accept, std::string_view type) {
+    std::size_t at = 0;
+    while (at <= accept.size()) {
+        const std::size_t comma = std::min(accept.find(',', at), accept.size());
+        std::string_view item = accept.substr(at, comma - at);
+        at = comma + 1;
+        const std::size_t semi = std::min(item.find(';'), item.size());
+        std::string_view name = item.substr(0, semi);
+        while (!name.empty() && name.front() == ' ') name.remove_prefix(1);
+        while (!name.empty() && name.back() == ' ') name.remove_suffix(1);
+        if (name != type) continue;
+        const std::size_t qpos = item.find("q=", semi);
+        if (qpos == std::string_view::npos) return true;
+        const auto qv = parse_finite(item.substr(qpos + 2));
+        return !qv || *qv > 0.0;
+    }
+    return false;
+}
+
+} // namespace
+
+ImageFormat negotiate_format(std::string_view accept) {
+    if (accepts(accept, "image/avif")) return ImageFormat::avif;
+    if (accepts(accept, "image/webp")) return ImageFormat::webp;
+    return ImageFormat::png;
+}
+
 const char* content_type(ImageFormat f) {
-    return f == ImageFormat::exr ? "image/x-exr" : "image/png";
+    switch (f) {
+    case ImageFormat::exr:
+        return "image/x-exr";
+    case ImageFormat::webp:
+        return "image/webp";
+    case ImageFormat::avif:
+        return "image/avif";
+    case ImageFormat::png:
+    case ImageFormat::png16:
+        break;
+    }
+    return "image/png";
 }
 
 const char* extension(ImageFormat f) {
@@ -228,6 +299,10 @@ const char* extension(ImageFormat f) {
         return "png16";
     case ImageFormat::exr:
         return "exr";
+    case ImageFormat::webp:
+        return "webp";
+    case ImageFormat::avif:
+        return "avif";
     }
     return "";
 }
@@ -306,9 +381,10 @@ std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, 
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(
-            q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals", "map", "strength", "light"}))
+    if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals", "map",
+                                  "strength", "light", "quality"}))
         return e;
+    if (auto e = quality_of(q, out.format, out.quality)) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 1, 16384, w)) return e;
@@ -339,9 +415,10 @@ std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e =
-            check_fields(q, {"w", "h", "seed", "mni", "marginals", "map", "strength", "light"}))
+    if (auto e = check_fields(
+            q, {"w", "h", "seed", "mni", "marginals", "map", "strength", "light", "quality"}))
         return e;
+    if (auto e = quality_of(q, out.format, out.quality)) return e;
     if (auto e = noise_fields(q, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 8, limits.max_tileable_side, w)) return e;

@@ -24,8 +24,12 @@ struct ApiError {
 
 using Query = std::multimap<std::string, std::string>; // httplib::Params has this type
 
-enum class ImageFormat { png, png16, exr };
-std::optional<ImageFormat> parse_image_format(std::string_view ext); // "png" | "png16" | "exr"
+enum class ImageFormat { png, png16, exr, webp, avif };
+// "png" | "png16" | "exr" | "webp" | "avif"
+std::optional<ImageFormat> parse_image_format(std::string_view ext);
+// What an extension-less tile URL is answered with: AVIF, then WebP when the Accept header
+// names them (with a q above 0), else PNG.
+ImageFormat negotiate_format(std::string_view accept);
 const char* content_type(ImageFormat f);
 const char* extension(ImageFormat f); // without the dot, as in URLs
 
@@ -39,7 +43,7 @@ struct Limits {
 };
 
 // Which view of a material set an image shows: one of its maps (core/material_set.h; "" = albedo,
-// or the set's only map), "normal" (made from the height with `strength`, render/normal_map.h) or
+// or the set's first map), "normal" (made from the height with `strength`, render/normal_map.h) or
 // "lit" (the albedo lit through that normal map by a light from `azimuth`, `elevation`, degrees).
 struct MapChoice {
     std::string name;
@@ -62,12 +66,16 @@ struct NoiseParams {
     MapChoice map; // map=, strength=, light=
 };
 
+// quality= of lossy formats: 1..100; 0 is the format's default (WebP: lossless, AVIF: 80).
+inline constexpr int kDefaultQuality = 0;
+
 struct TileRequest {
     std::string id;
     int level = 0;             // z: 2^z texels per pixel, -4..24
     std::int64_t x = 0, y = 0; // tile indices, any int64 whose pixels stay on the plane
-    int size = 256;            // 256 or 512
+    int size = 256;            // 256 or 512; twice that for @2x (which is one level finer)
     ImageFormat format = ImageFormat::png;
+    int quality = kDefaultQuality;
     NoiseParams noise;
     std::int64_t x0() const { return x * size; }
     std::int64_t y0() const { return y * size; }
@@ -79,6 +87,7 @@ struct RegionRequest {
     std::int64_t x = 0, y = 0; // window origin in pixels of the level
     int width = 512, height = 512;
     ImageFormat format = ImageFormat::png;
+    int quality = kDefaultQuality;
     NoiseParams noise;
 };
 
@@ -86,6 +95,7 @@ struct TileableRequest {
     std::string id;
     int width = 512, height = 512;
     ImageFormat format = ImageFormat::png;
+    int quality = kDefaultQuality;
     NoiseParams noise;
 };
 

@@ -59,7 +59,21 @@ Result<std::shared_ptr<const PreparedTexton>> PreparedTexton::map(const std::str
         std::lock_guard<std::mutex> lock(m_mutex);
         if (auto it = m_maps.find(name); it != m_maps.end()) return it->second;
     }
-    auto view = make_map(shared_from_this(), name);
+    // The views own the joint model's holder, a copy of this set without views: were it the set
+    // itself, set and views would own each other and never be freed.
+    std::shared_ptr<const PreparedTexton> joint;
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        joint = m_joint;
+    }
+    if (!joint) {
+        auto made = make(m_texton);
+        if (!made) return made.error();
+        std::lock_guard<std::mutex> lock(m_mutex);
+        if (!m_joint) m_joint = made.value();
+        joint = m_joint;
+    }
+    auto view = make_map(joint, name);
     if (!view) return view.error();
     std::lock_guard<std::mutex> lock(m_mutex);
     return m_maps.emplace(name, view.value()).first->second;

@@ -41,7 +41,7 @@ inline int table_pad(int order) {
     return order == 3 ? 3 : 1;
 }
 
-class PreparedTexton : public std::enable_shared_from_this<PreparedTexton> {
+class PreparedTexton {
 public:
     static Result<std::shared_ptr<const PreparedTexton>> make(core::Texton texton);
     // Map `name` of a material set (core/material_set.h) as a texton of its own channels, driven
@@ -75,7 +75,7 @@ public:
 private:
     explicit PreparedTexton(core::Texton t);
     core::Texton m_texton;
-    std::shared_ptr<const PreparedTexton> m_set; // the set a map belongs to
+    std::shared_ptr<const PreparedTexton> m_set; // the set's joint model (a copy without views)
     int m_first = 0;                             // the map's first channel in the set
     int m_cell_size = 0;
     int m_limit_level = 0;
@@ -85,10 +85,11 @@ private:
     mutable std::unique_ptr<core::LagCovariance> m_cov;
     mutable std::map<int, std::shared_ptr<const core::MarginalTables>> m_marginals;
     mutable std::map<std::string, std::shared_ptr<const PreparedTexton>> m_maps;
+    mutable std::shared_ptr<const PreparedTexton> m_joint; // what the views share (map())
 };
 
 // The texton that shows `map` (api MapChoice names) of `prepared`: a set's map (its albedo, or its
-// only map, for ""; the height for "normal" and "lit"), or a plain texton as it is for "";
+// first map, for ""; the height for "normal" and "lit"), or a plain texton as it is for "";
 // invalid_argument with the reason otherwise. Errors of `prepared` pass through.
 Result<std::shared_ptr<const PreparedTexton>>
 map_view(Result<std::shared_ptr<const PreparedTexton>> prepared, const std::string& map);

@@ -250,6 +250,12 @@ Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const Prep
     assert(mix ? !mix->check(q) : !tex.check(q)); // checked by the caller (backend.h)
     if (mix && q.level >= mix->level(0).limit_level())
         return make_error(ErrorCode::unsupported, m_name + ": a mix's limit levels are CPU only");
+    // The GL paths hold grey or RGB (a set's whole texton, up to 8 channels, is for the CPU; the
+    // server renders a set's maps, views of 1 or 3 channels).
+    if (!mix && tex.channels() != 1 && tex.channels() != 3)
+        return make_error(ErrorCode::unsupported,
+                          m_name + ": " + std::to_string(tex.channels()) +
+                              " channels (a material set's whole texton) are CPU only");
     if (!mix && tex.limit_coupled() && q.level >= tex.limit_level())
         return make_error(ErrorCode::unsupported,
                           m_name + ": a material map's limit levels are CPU only");

@@ -233,7 +233,8 @@ Result<std::vector<io::TarEntry>> set_entries(const core::Texton& t, const std::
     }
     const core::TextonMap* height = core::find_map(t.maps, core::kHeightMap);
     params["maps"] = maps;
-    params["height_channel"] = height ? height->first : -1;
+    // Order 0 is piecewise constant: no gradient to give.
+    params["height_channel"] = height && t.order != 0 ? height->first : -1;
     params["limit_level"] = prepared.value()->limit_level();
     std::string section = kSetReadme;
     replace_all(section, "%MAPS%", names);

@@ -3,6 +3,7 @@
 #include "server/http/image_routes.h"
 
 #include "render/image_buffers.h"
+#include "render/prepared_texton.h"
 #include "server/http/http_support.h"
 
 #include <spdlog/spdlog.h>
@@ -37,6 +38,7 @@ void send_cached(httplib::Response& res, Metrics& metrics, std::shared_ptr<const
         });
 }
 
+// Compressed formats never exceed the raw bytes of 8-bit RGBA (plus headers).
 std::size_t encoded_bytes_at_most(api::ImageFormat f, std::int64_t pixels) {
     const std::size_t per = f == api::ImageFormat::exr ? 16 : f == api::ImageFormat::png16 ? 8 : 4;
     return static_cast<std::size_t>(pixels) * per + 4096;
@@ -53,7 +55,7 @@ ImageRoutes::ImageRoutes(const ServeConfig& config, ImageService& images, Texton
 void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& res,
                                const std::string& id, const std::string& key,
                                api::ImageFormat format, const Produce& produce, bool mix,
-                               std::int64_t pixels, double mni) {
+                               std::int64_t pixels, double mni, int quality) {
     auto order = m_images.order(id, mix);
     if (!order) return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
@@ -74,8 +76,8 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         lease = m_gate.lease_transfer(res, out);
         if (!lease) return;
     }
-    auto entry =
-        produce_in_slot(res, id, format, produce, noise_work_s(pixels, mni, order.value()));
+    auto entry = produce_in_slot(res, id, format, quality, produce,
+                                 noise_work_s(pixels, mni, order.value()));
     if (!entry) return;
     entry->etag = etag;
     m_cache.put(key, entry);
@@ -86,7 +88,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
 // largest region) exist only while a slot is held.
 std::shared_ptr<CachedImage> ImageRoutes::produce_in_slot(httplib::Response& res,
                                                           const std::string& id,
-                                                          api::ImageFormat format,
+                                                          api::ImageFormat format, int quality,
                                                           const Produce& produce, double work_s) {
     using Clock = std::chrono::steady_clock;
     auto seconds = [](Clock::time_point a, Clock::time_point b) {
@@ -105,7 +107,7 @@ std::shared_ptr<CachedImage> ImageRoutes::produce_in_slot(httplib::Response& res
     }
     const auto t2 = Clock::now();
     m_metrics.stage("render", seconds(t1, t2));
-    auto bytes = m_images.encode(image.value(), format, id);
+    auto bytes = m_images.encode(image.value(), format, quality, id);
     m_metrics.stage("encode", seconds(t2, Clock::now()));
     render::recycle_image(std::move(image.value())); // the pixels go before the bytes are cached
     if (!bytes) {
@@ -121,25 +123,36 @@ std::shared_ptr<CachedImage> ImageRoutes::produce_in_slot(httplib::Response& res
 
 void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
                         const ImageService::Job& job) {
+    // Admission's estimate: normals take two CPU gradient passes, the lit view a render more.
+    const std::int64_t passes = job.map.name == core::kLitMap      ? 3
+                                : job.map.name == core::kNormalMap ? 2
+                                                                   : 1;
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
         [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, job.mix,
-        job.pixels(), job.request.mni);
+        job.pixels() * passes, job.request.mni, job.quality);
 }
 
 ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool mix) {
     return [this, route, parse, mix](const httplib::Request& req, httplib::Response& res) {
         set_route(route);
         api::TileRequest t;
+        // No extension: the format the client's Accept header asks for (AVIF, WebP, else PNG);
+        // caches must key the answer on Accept too.
+        std::string ext = req.matches.size() > 5 ? req.matches[5].str() : "";
+        if (ext.empty()) {
+            ext = api::extension(api::negotiate_format(req.get_header_value("Accept")));
+            res.set_header("Vary", "Accept");
+        }
         if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
-                           req.matches[4].str(), req.matches[5].str(), req.params, t))
+                           req.matches[4].str(), ext, req.params, t))
             return send_error(res, *e);
         ImageService::Job job{
-            t.id,       "tile",
-            t.format,   noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
-            t.size,     t.size,
-            false,      mix,
-            t.noise.map};
+            t.id,        "tile",
+            t.format,    noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
+            t.size,      t.size,
+            false,       mix,
+            t.noise.map, t.quality};
         serve(req, res, job);
     };
 }
@@ -152,11 +165,11 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
                                        m_config.limits, r))
             return send_error(res, *e);
         ImageService::Job job{
-            r.id,       "region",
-            r.format,   noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
-            r.width,    r.height,
-            true,       mix,
-            r.noise.map};
+            r.id,        "region",
+            r.format,    noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
+            r.width,     r.height,
+            true,        mix,
+            r.noise.map, r.quality};
         serve(req, res, job);
     };
 }
@@ -254,6 +267,12 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
     } else if (probe.noise.exemplar_marginals && !meta.value().exemplar_marginals) {
         return send_error(res, no_marginals);
     }
+    // A map the tiles would refuse is refused here, not in every tile.
+    if (mix && !probe.noise.map.name.empty())
+        return send_error(res, {"invalid_parameter", "a texture mix has no maps: drop map="});
+    if (!mix && !probe.noise.map.name.empty())
+        if (auto view = render::map_view(m_textons.prepared(id), probe.noise.map.name); !view)
+            return send_error(res, to_api_error(view.error()));
     const std::string prefix = mix ? "/v1/mixes/" : "/v1/textons/";
     const std::string query =
         "?seed=" + std::to_string(probe.noise.seed) + "&mni=" + mni_text(probe.noise.mni) +

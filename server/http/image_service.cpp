@@ -8,6 +8,7 @@
 #include "server/http/service.h"
 #include "server/io/image_io.h"
 #include "server/io/sha256.h"
+#include "server/io/web_image.h"
 
 #include <algorithm>
 #include <chrono>
@@ -27,6 +28,9 @@ io::Encoding encoding_of(api::ImageFormat f) {
         return io::Encoding::png16;
     case api::ImageFormat::exr:
         return io::Encoding::exr;
+    case api::ImageFormat::webp: // encoded by libwebp and libavif (ImageService::encode)
+    case api::ImageFormat::avif:
+        break;
     }
     return io::Encoding::png8;
 }
@@ -99,7 +103,8 @@ std::string ImageService::key(const Job& job) {
            (job.map.name == core::kLitMap
                 ? "/light=" + mni_text(job.map.azimuth) + "," + mni_text(job.map.elevation)
                 : "") +
-           "." + api::extension(job.format);
+           (job.quality != api::kDefaultQuality ? "/q" + std::to_string(job.quality) : "") + "." +
+           api::extension(job.format);
 }
 
 std::string ImageService::spectrum_key(const std::string& id, const api::NoiseParams& noise) {
@@ -134,7 +139,8 @@ Result<ImageService::Job> ImageService::tileable(const api::TileableRequest& t) 
     render::NoiseRequest q =
         noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
     q.period = {cells(t.width), cells(t.height)};
-    return Job{t.id, "tileable", t.format, q, t.width, t.height, true, false, t.noise.map};
+    return Job{t.id,     "tileable", t.format, q,           t.width,
+               t.height, true,       false,    t.noise.map, t.quality};
 }
 
 Result<core::Image> ImageService::evaluate(const std::string& id, const render::NoiseRequest& q,
@@ -157,6 +163,9 @@ Result<core::Image> ImageService::evaluate(const std::string& id, const render::
             return make_error(ErrorCode::invalid_argument,
                               "map=lit needs a material set with a height map; this texton has "
                               "one exemplar");
+        if (set && !core::find_map(set.value()->texton().maps, "albedo"))
+            return make_error(ErrorCode::invalid_argument,
+                              "map=lit needs the set's albedo, which it does not have");
         auto albedo = render::map_view(set, "");
         if (!albedo) return albedo.error();
         auto height = render::map_view(set, core::kNormalMap);
@@ -203,9 +212,9 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
     // The encoder keeps only the format's bits: a GL backend rounds on the GPU and reads back
     // only those (the same bytes). A resampled window needs the floats.
     if (!resampled)
-        q.precision = job.format == api::ImageFormat::png     ? render::Precision::u8
-                      : job.format == api::ImageFormat::png16 ? render::Precision::u16
-                                                              : render::Precision::f32;
+        q.precision = job.format == api::ImageFormat::png16 ? render::Precision::u16
+                      : job.format == api::ImageFormat::exr ? render::Precision::f32
+                                                            : render::Precision::u8;
     auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.map);
     if (image && resampled)
         return core::resample_periodic(image.value(), job.out_width, job.out_height);
@@ -261,7 +270,10 @@ Result<QualityReport> ImageService::quality(const std::string& id, const api::No
 }
 
 Result<std::string> ImageService::encode(const core::Image& image, api::ImageFormat format,
-                                         const std::string& id) const {
+                                         int quality, const std::string& id) const {
+    if (format == api::ImageFormat::webp) return io::encode_webp(image, quality);
+    if (format == api::ImageFormat::avif)
+        return io::encode_avif(image, quality > 0 ? quality : io::kDefaultAvifQuality);
     return io::encode_image_memory(
         image, encoding_of(format),
         {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}}, m_png_compression);

@@ -36,10 +36,11 @@ public:
         const char* kind = "tile"; // tile | region | tileable (metrics label)
         api::ImageFormat format = api::ImageFormat::png;
         render::NoiseRequest request;
-        int out_width = 0, out_height = 0; // tileable textures are resampled to the asked size
-        bool whole_machine = false;        // regions and tileables: the frame backend
-        bool mix = false;                  // id names a texture mix
-        api::MapChoice map;                // a material set's map, normals or lit view
+        int out_width = 0, out_height = 0;  // tileable textures are resampled to the asked size
+        bool whole_machine = false;         // regions and tileables: the frame backend
+        bool mix = false;                   // id names a texture mix
+        api::MapChoice map;                 // a material set's map, normals or lit view
+        int quality = api::kDefaultQuality; // of lossy WebP and AVIF
         std::int64_t pixels() const { return std::int64_t{request.width} * request.height; }
     };
     // One key per distinct image: everything that changes a pixel or a byte of it.
@@ -64,7 +65,7 @@ public:
                                   const render::Cancel& cancel);
     static std::string quality_key(const std::string& id, const api::NoiseParams& noise);
     // The image's bytes in `format`, tagged with the noise version and the id.
-    Result<std::string> encode(const core::Image& image, api::ImageFormat format,
+    Result<std::string> encode(const core::Image& image, api::ImageFormat format, int quality,
                                const std::string& id) const;
 
 private:

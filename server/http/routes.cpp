@@ -53,6 +53,10 @@ void Service::install_get_routes() {
                i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, true));
     m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
                i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}", &parse_tile, true));
+    m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}", &parse_map_tile, true));
     m_http.Get(R"(/v1/mixes/([^/]+)/region\.([a-z0-9]+))",
                i->region("/v1/mixes/{id}/region.{format}", true));
     m_http.Get(R"(/v1/mixes/([^/]+)/tilejson\.json)",
@@ -61,6 +65,11 @@ void Service::install_get_routes() {
                i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, false));
     m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
                i->tile("/v1/textons/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, false));
+    // Extension-less tiles: the format from Accept (AVIF, WebP or PNG), with Vary: Accept.
+    m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}", &parse_tile, false));
+    m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile("/v1/textons/{id}/map/{z}/{x}/{y}", &parse_map_tile, false));
     m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))",
                i->region("/v1/textons/{id}/region.{format}", false));
     m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", call(i, &ImageRoutes::tileable));

@@ -116,8 +116,14 @@ void SurfaceRoutes::mesh(Req req, Res res, const httplib::ContentReader& reader)
     // A set's mesh: coloured by a map (albedo by default) and, with a height, lit through its
     // relief unless a map is named.
     const auto& maps = set.value()->texton().maps;
+    // Order 0 is piecewise constant: no gradient, so no relief (asked for: a clear 400).
+    const bool smooth = set.value()->order() != 0;
+    if (p.map.name == core::kLitMap && !smooth)
+        return send_error(res, {"invalid_parameter",
+                                "a texton of interpolation order 0 has no gradient: map=lit "
+                                "needs order 1 or 3"});
     const bool relief = p.map.name == core::kLitMap ||
-                        (p.map.name.empty() && core::find_map(maps, core::kHeightMap));
+                        (p.map.name.empty() && smooth && core::find_map(maps, core::kHeightMap));
     auto prepared = render::map_view(set, relief ? std::string() : p.map.name);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
     auto height = relief ? render::map_view(set, core::kLitMap) : prepared;

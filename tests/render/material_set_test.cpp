@@ -208,5 +208,22 @@ TEST(MaterialSet, MapsAreCheckedAndNamed) {
     EXPECT_FALSE(render::render_normal_map(cpu, *nearest->map("height").value(), q, 1.0).ok());
 }
 
+// A set's views share its joint model without owning the set: dropping the set frees it while a
+// view (a request in flight) still renders, limit levels included.
+TEST(MaterialSet, ASetIsFreedWhileItsViewsLive) {
+    auto set = pebble_set(16, 1);
+    std::weak_ptr<const PreparedTexton> watch = set;
+    auto height = set->map("height").value();
+    set.reset();
+    EXPECT_TRUE(watch.expired()) << "the set and its views must not own each other";
+    CpuBackend cpu;
+    NoiseRequest q;
+    q.width = q.height = 8;
+    for (int level : {0, height->limit_level()}) {
+        q.level = level;
+        EXPECT_TRUE(cpu.render(*height, q).ok()) << "level " << level;
+    }
+}
+
 } // namespace
 } // namespace textond::test

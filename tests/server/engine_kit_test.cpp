@@ -214,9 +214,9 @@ TEST(EngineKit, MaterialSetKitHoldsEveryMapAndTheSetShaders) {
     ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
     const std::string id = nlohmann::json::parse(up->body).at("id");
     // texton.png: the maps side by side in RGB (5 channels do not fit a PNG), grey maps grey.
-    auto png = c.Get("/v1/textons/" + id + "/texton.png");
-    ASSERT_TRUE(png && png->status == 200) << (png ? png->body : "no answer");
-    const core::Image view = io::decode_image_memory(png->body).value();
+    auto shown = c.Get("/v1/textons/" + id + "/texton.png");
+    ASSERT_TRUE(shown && shown->status == 200) << (shown ? shown->body : "no answer");
+    const core::Image view = io::decode_image_memory(shown->body).value();
     EXPECT_EQ(view.width, 3 * 16);
     EXPECT_EQ(view.height, 16);
     for (int y = 0; y < 16; ++y)
