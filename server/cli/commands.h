@@ -17,6 +17,7 @@ int render_command(const Argv& args);
 int mix_command(const Argv& args);
 int serve_command(const Argv& args);
 int probe_command(const Argv& args);
+int sign_command(const Argv& args);
 
 // Prints "textond: <message>" to stderr and returns `code`.
 int fail(int code, const std::string& message);

@@ -23,6 +23,7 @@ commands:
   serve     run the HTTP service (textond serve --help; README "HTTP API")
   bench     benchmarks (textond bench analyze | render)
   probe     GET a URL, exit 0 on 2xx (the container HEALTHCHECK)
+  sign      sign an image URL for a server run with --url-signing-key
 
   textond <command> --help   options of one command
   textond --version
@@ -77,6 +78,7 @@ int main(int argc, char** argv) {
         if (cmd == "bench") return textond::cli::bench_command(rest);
         if (cmd == "serve") return textond::cli::serve_command(rest);
         if (cmd == "probe") return textond::cli::probe_command(rest);
+        if (cmd == "sign") return textond::cli::sign_command(rest);
         std::fputs(kUsage, stderr);
         return textond::cli::fail(2, "unknown command '" + cmd + "'");
     } catch (const std::exception& e) {

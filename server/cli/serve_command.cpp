@@ -10,8 +10,10 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <malloc.h>
 #include <pthread.h>
+#include <sstream>
 #include <thread>
 
 namespace textond::cli {
@@ -34,6 +36,8 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --backend B              auto | cpu | osmesa | egl (auto: GPU via EGL, else CPU) [auto]
   --public-url URL         base of the absolute URLs in TileJSON      [from the Host header]
   --api-key KEY            require "Authorization: Bearer KEY" for POST and DELETE  [none]
+  --url-signing-key KEY    image URLs need sig (HMAC-SHA256, textond sign URL), else 403 [none]
+  --presets FILE           image URLs name one of these JSON parameter sets (preset=NAME) [none]
   --cors-origin O          "*", a comma-separated list of origins, or "" for no CORS   [*]
   --web-dir DIR            the page served at / (built into build/release/web)
 
@@ -67,6 +71,9 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --body-timeout S         seconds for a whole request body (408)              [120]
   --queue-timeout-ms N     longest wait for a render slot before 429           [10000]
   --render-queue N         requests waiting for a render slot before 429       [1024]
+  --render-rate N          renders (cache misses) one client may start a minute, 0 = any;
+                           a client is the --api-key's holder, else an address (429) [0]
+  --render-burst N         renders one client may start at once within its rate [20]
   --max-request-cpu-s S    estimated CPU seconds one request may cost (413 above) [20]
   --render-deadline-s S    admitted work is abandoned after S seconds (503)    [60]
   --body-budget-mb N       request bodies held in memory by all requests, MiB (429) [256]
@@ -84,6 +91,8 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--backend",
                                                 "--public-url",
                                                 "--api-key",
+                                                "--url-signing-key",
+                                                "--presets",
                                                 "--cors-origin",
                                                 "--web-dir",
                                                 "--listen-backlog",
@@ -112,6 +121,8 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--body-timeout",
                                                 "--queue-timeout-ms",
                                                 "--render-queue",
+                                                "--render-rate",
+                                                "--render-burst",
                                                 "--max-request-cpu-s",
                                                 "--render-deadline-s",
                                                 "--body-budget-mb",
@@ -178,6 +189,8 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
           num("--body-timeout", c.body_timeout_s, 1, 3600, c.body_timeout_s),
           num("--queue-timeout-ms", c.queue_timeout_ms, 0, 3'600'000, c.queue_timeout_ms),
           num("--render-queue", c.render_queue, 0, 1'000'000, c.render_queue),
+          num("--render-rate", c.render_rate, 0, 1'000'000, c.render_rate),
+          num("--render-burst", c.render_burst, 1, 1'000'000, c.render_burst),
           num("--max-request-cpu-s", cpu_s, 1, 86400, cpu_s),
           num("--render-deadline-s", c.render_deadline_s, 1, 86400, c.render_deadline_s),
           num("--body-budget-mb", body_budget_mb, 1, 1 << 20, body_budget_mb)})
@@ -219,6 +232,20 @@ Result<http::ServeConfig> config_from(const Args& a) {
         if (auto url = store::parse_redis_url(c.store_url); !url) return url.error();
     c.public_url = a.get("--public-url", c.public_url);
     c.api_key = a.get("--api-key", c.api_key);
+    c.url_signing_key = a.get("--url-signing-key", c.url_signing_key);
+    if (a.options.count("--presets")) {
+        std::ifstream in(a.get("--presets"), std::ios::binary);
+        if (!in)
+            return make_error(ErrorCode::invalid_argument,
+                              "--presets: cannot read " + a.get("--presets"));
+        std::stringstream text;
+        text << in.rdbuf();
+        auto presets = http::parse_presets(text.str());
+        if (!presets)
+            return make_error(ErrorCode::invalid_argument,
+                              "--presets " + a.get("--presets") + ": " + presets.error().message);
+        c.presets = std::move(presets.value());
+    }
     c.cors_origin = a.get("--cors-origin", c.cors_origin);
     c.log_level = a.get("--log-level", c.log_level);
     c.web_dir = a.get("--web-dir", c.web_dir);

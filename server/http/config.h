@@ -5,6 +5,7 @@
 // (server/cli/serve_command).
 #include "api/requests.h"
 #include "render/backend_factory.h"
+#include "server/http/url_signing.h"
 
 #include <cstdint>
 #include <string>
@@ -49,6 +50,10 @@ struct ServeConfig {
     // many may wait, the most estimated CPU seconds one request may cost, and the request bodies
     // held in memory by all requests together.
     int queue_timeout_ms = 10'000;
+    // Renders (cache misses) a client may start a minute, and in one burst (rate_limiter.h);
+    // 0: no limit.
+    int render_rate = 0;
+    int render_burst = 20;
     int render_queue = 1024;
     double max_request_cpu_s = 20;
     // Admitted work is abandoned this long after it started (503 deadline_exceeded), and as soon
@@ -68,7 +73,10 @@ struct ServeConfig {
     // 8-bit tile for 8x the encoding time (tests/load/README.md), so the default stores.
     int png_compression = 0;
 
-    std::string api_key;           // empty: POST and DELETE are open
+    std::string api_key; // empty: POST and DELETE are open
+    // Image URLs signed with this key (server/http/url_signing.h); empty: unsigned URLs.
+    std::string url_signing_key;
+    Presets presets;               // non-empty: image URLs name one of these parameter sets
     std::string cors_origin = "*"; // "" disables CORS; else "*" or a comma-separated list
     std::string web_dir; // the page served at / (index.html, app.js, leaflet/); empty = built-in
     std::string log_level = "info";

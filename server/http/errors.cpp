@@ -9,6 +9,7 @@ const std::vector<ErrorStatus>& error_table() {
         // The request as sent (api/requests.cpp and the routes).
         {"invalid_parameter", 400},
         {"unknown_parameter", 400},
+        {"unknown_preset", 400},
         {"invalid_id", 400},
         {"invalid_format", 400},
         {"coordinate_out_of_range", 400},
@@ -22,6 +23,11 @@ const std::vector<ErrorStatus>& error_table() {
         {"unsupported_transfer_encoding", 400},
         {"invalid_body", 400},
         {"unauthorized", 401},
+        // Signed URLs and presets (server/http/url_signing.h).
+        {"signature_missing", 403},
+        {"signature_invalid", 403},
+        {"signature_expired", 403},
+        {"preset_required", 403},
         {"not_found", 404},
         // The connection (server/http/connection.cpp, admission.cpp).
         {"header_timeout", 408},
@@ -42,6 +48,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"unprocessable", 422},
         // The server.
         {"overloaded", 429},
+        {"rate_limited", 429},
         {"header_too_large", 431},
         {"too_many_headers", 431},
         {"internal", 500},

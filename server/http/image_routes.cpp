@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <cmath>
 
 namespace textond::http {
 
@@ -50,7 +51,13 @@ ImageRoutes::ImageRoutes(const ServeConfig& config, ImageService& images, Texton
                          MixStore& mixes, ImageCache& cache, Gate& gate, Metrics& metrics,
                          const int& port)
     : m_config(config), m_images(images), m_textons(textons), m_mixes(mixes), m_cache(cache),
-      m_gate(gate), m_metrics(metrics), m_port(port) {}
+      m_gate(gate), m_metrics(metrics), m_port(port),
+      m_limiter(config.render_rate / 60.0, config.render_burst) {
+    if (m_limiter.enabled())
+        m_metrics.gauge("textond_rate_limited_clients",
+                        "Clients with a render bucket (--render-rate).",
+                        [this] { return static_cast<double>(m_limiter.clients()); });
+}
 
 void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& res,
                                const std::string& id, const std::string& key,
@@ -68,6 +75,16 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         return;
     }
     if (cached) return send_cached(res, m_metrics, std::move(cached));
+    // Only renders count against a client's rate: hits and 304s cost next to nothing.
+    if (double wait = 0; !m_limiter.take(rate_client(req), wait)) {
+        m_metrics.not_admitted("rate_limited");
+        res.set_header("Retry-After",
+                       std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
+        return send_error(
+            res,
+            {"rate_limited", "this client starts at most " + std::to_string(m_config.render_rate) +
+                                 " renders a minute (cached images are not counted)"});
+    }
     // The encoded image outlives the slot while a client reads it: large ones hold bytes of the
     // transfer budget until they are written (10 concurrent 4K regions took 326 MB without).
     std::shared_ptr<BudgetLease> lease;
@@ -140,12 +157,18 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool
         // No extension: the format the client's Accept header asks for (AVIF, WebP, else PNG);
         // caches must key the answer on Accept too.
         std::string ext = req.matches.size() > 5 ? req.matches[5].str() : "";
-        if (ext.empty()) {
-            ext = api::extension(api::negotiate_format(req.get_header_value("Accept")));
+        const auto params = served_query(req, res, ext);
+        if (!params) return;
+        if (ext.empty()) { // a preset's format, else the one Accept asks for
+            if (const auto p = req.params.find("preset");
+                p != req.params.end() && !m_config.presets.empty())
+                ext = m_config.presets.at(p->second).format;
+            if (ext.empty())
+                ext = api::extension(api::negotiate_format(req.get_header_value("Accept")));
             res.set_header("Vary", "Accept");
         }
         if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
-                           req.matches[4].str(), ext, req.params, t))
+                           req.matches[4].str(), ext, *params, t))
             return send_error(res, *e);
         ImageService::Job job{
             t.id,        "tile",
@@ -161,7 +184,9 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
     return [this, route, mix](const httplib::Request& req, httplib::Response& res) {
         set_route(route);
         api::RegionRequest r;
-        if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), req.params,
+        const auto params = served_query(req, res, req.matches[2].str());
+        if (!params) return;
+        if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), *params,
                                        m_config.limits, r))
             return send_error(res, *e);
         ImageService::Job job{
@@ -177,7 +202,9 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
 void ImageRoutes::tileable(const httplib::Request& req, httplib::Response& res) {
     set_route("/v1/textons/{id}/tileable.{format}");
     api::TileableRequest t;
-    if (auto e = api::parse_tileable(req.matches[1].str(), req.matches[2].str(), req.params,
+    const auto params = served_query(req, res, req.matches[2].str());
+    if (!params) return;
+    if (auto e = api::parse_tileable(req.matches[1].str(), req.matches[2].str(), *params,
                                      m_config.limits, t))
         return send_error(res, *e);
     auto job = m_images.tileable(t);
@@ -191,7 +218,9 @@ void ImageRoutes::spectrum(const httplib::Request& req, httplib::Response& res) 
     set_route("/v1/textons/{id}/spectrum.png");
     const std::string id = req.matches[1].str();
     api::NoiseParams noise;
-    if (auto e = api::parse_spectrum(id, req.params, noise)) return send_error(res, *e);
+    const auto params = served_query(req, res, "png");
+    if (!params) return;
+    if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     serve_cached(
         req, res, id, ImageService::spectrum_key(id, noise), api::ImageFormat::png,
         [&](const render::Cancel& cancel) { return m_images.spectrum(id, noise, cancel); }, false,
@@ -236,6 +265,50 @@ void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) 
     res.set_content(png.value(), "image/png");
 }
 
+std::optional<api::Query> ImageRoutes::served_query(const httplib::Request& req,
+                                                    httplib::Response& res,
+                                                    std::string_view format) const {
+    const bool signing = !m_config.url_signing_key.empty();
+    if (signing) {
+        const auto now = std::chrono::duration_cast<std::chrono::seconds>(
+                             std::chrono::system_clock::now().time_since_epoch())
+                             .count();
+        if (auto e = check_signature(m_config.url_signing_key, req.path, req.params, now)) {
+            send_error(res, *e);
+            return std::nullopt;
+        }
+    }
+    api::Query q;
+    if (!m_config.presets.empty()) {
+        if (auto e = apply_preset(m_config.presets, req.params, format, q)) {
+            send_error(res, *e);
+            return std::nullopt;
+        }
+        return q;
+    }
+    for (const auto& [k, v] : req.params)
+        if (!signing || (k != "sig" && k != "exp")) q.emplace(k, v);
+    return q;
+}
+
+std::string ImageRoutes::signed_link(const httplib::Request& req,
+                                     const std::string& path_and_query) const {
+    if (m_config.url_signing_key.empty()) return path_and_query;
+    std::int64_t exp = 0;
+    if (const auto e = req.params.find("exp"); e != req.params.end())
+        exp = api::parse_i64(e->second).value_or(0);
+    auto signed_url = sign_url(m_config.url_signing_key, path_and_query, exp);
+    return signed_url ? signed_url.value() : path_and_query;
+}
+
+std::string ImageRoutes::rate_client(const httplib::Request& req) const {
+    // Any other token would be a fresh bucket for the asking: only the server's key counts.
+    if (!m_config.api_key.empty() &&
+        req.get_header_value("Authorization") == "Bearer " + m_config.api_key)
+        return "api-key";
+    return "addr:" + req.remote_addr;
+}
+
 std::string ImageRoutes::base_url(const httplib::Request& req) const {
     if (!m_config.public_url.empty()) {
         std::string u = m_config.public_url;
@@ -250,34 +323,62 @@ std::string ImageRoutes::base_url(const httplib::Request& req) const {
     return "http://" + host;
 }
 
-void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, bool mix) {
-    const std::string id = req.matches[1].str();
-    set_route(mix ? "/v1/mixes/{id}/tilejson.json" : "/v1/textons/{id}/tilejson.json");
-    api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
-    if (auto e = api::parse_tilejson(id, req.params, probe)) return send_error(res, *e);
+// What the tiles of a TileJSON would refuse, refused once here: marginals a texton does not
+// keep, a map it does not have, any map of a mix.
+std::optional<api::ApiError>
+ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& probe, bool mix) {
     const api::ApiError no_marginals{
         "invalid_parameter",
         "marginals=exemplar needs the exemplar's marginals, which this texton does not keep "
         "(a mix, or analysed before they were kept); use marginals=gaussian"};
     if (mix) {
-        if (auto meta = m_mixes.meta(id); !meta) return send_error(res, to_api_error(meta.error()));
-        if (probe.noise.exemplar_marginals) return send_error(res, no_marginals);
-    } else if (auto meta = m_textons.find(id); !meta) {
-        return send_error(res, to_api_error(meta.error()));
-    } else if (probe.noise.exemplar_marginals && !meta.value().exemplar_marginals) {
-        return send_error(res, no_marginals);
+        if (auto meta = m_mixes.meta(id); !meta) return to_api_error(meta.error());
+        if (probe.noise.exemplar_marginals) return no_marginals;
+        if (!probe.noise.map.name.empty())
+            return api::ApiError{"invalid_parameter", "a texture mix has no maps: drop map="};
+        return std::nullopt;
     }
-    // A map the tiles would refuse is refused here, not in every tile.
-    if (mix && !probe.noise.map.name.empty())
-        return send_error(res, {"invalid_parameter", "a texture mix has no maps: drop map="});
-    if (!mix && !probe.noise.map.name.empty())
+    if (auto meta = m_textons.find(id); !meta)
+        return to_api_error(meta.error());
+    else if (probe.noise.exemplar_marginals && !meta.value().exemplar_marginals)
+        return no_marginals;
+    if (!probe.noise.map.name.empty())
         if (auto view = render::map_view(m_textons.prepared(id), probe.noise.map.name); !view)
-            return send_error(res, to_api_error(view.error()));
+            return to_api_error(view.error());
+    return std::nullopt;
+}
+
+// The extension and query of a TileJSON's tile templates. With presets the tiles name the preset
+// (and take its format); signed_link signs them when URLs are signed, so one TileJSON opens its
+// whole pyramid.
+std::pair<std::string, std::string> ImageRoutes::tile_suffix(const httplib::Request& req,
+                                                             const api::TileRequest& probe) const {
+    if (!m_config.presets.empty()) {
+        const std::string& name = req.params.find("preset")->second;
+        const std::string& f = m_config.presets.at(name).format;
+        return {f.empty() ? "png" : f, "?preset=" + name};
+    }
+    return {"png", "?seed=" + std::to_string(probe.noise.seed) +
+                       "&mni=" + mni_text(probe.noise.mni) +
+                       (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
+                       (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") +
+                       probe.noise.map.query()};
+}
+
+void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, bool mix) {
+    const std::string id = req.matches[1].str();
+    set_route(mix ? "/v1/mixes/{id}/tilejson.json" : "/v1/textons/{id}/tilejson.json");
+    api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
+    const auto params = served_query(req, res, "");
+    if (!params) return;
+    if (!m_config.presets.empty()) // the preset's format: its quality belongs to it
+        if (auto f = api::parse_image_format(
+                m_config.presets.at(req.params.find("preset")->second).format))
+            probe.format = *f;
+    if (auto e = api::parse_tilejson(id, *params, probe)) return send_error(res, *e);
+    if (auto e = tilejson_refusal(id, probe, mix)) return send_error(res, *e);
     const std::string prefix = mix ? "/v1/mixes/" : "/v1/textons/";
-    const std::string query =
-        "?seed=" + std::to_string(probe.noise.seed) + "&mni=" + mni_text(probe.noise.mni) +
-        (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
-        (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") + probe.noise.map.query();
+    const auto [ext, query] = tile_suffix(req, probe);
     const std::string base = base_url(req);
     const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
     nlohmann::json j = {
@@ -288,7 +389,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
                             mni_text(probe.noise.mni) + "), an unbounded seamless plane"},
         {"version", "1.0.0"},
         {"scheme", "xyz"},
-        {"tiles", {base + prefix + id + "/map/{z}/{x}/{y}.png" + query}},
+        {"tiles", {base + signed_link(req, prefix + id + "/map/{z}/{x}/{y}." + ext + query)}},
         {"minzoom", 0},
         {"maxzoom", api::kMapMaxZoom},
         {"center", {0, 0, native_zoom}},
@@ -301,7 +402,8 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
                                 "the texton's own resolution"},
           {"native_zoom", native_zoom},
           {"crs", "Leaflet L.CRS.Simple / OpenLayers pixel projection; y grows downwards"},
-          {"game_tiles", base + prefix + id + "/tiles/{level}/{x}/{y}.png" + query}}}};
+          {"game_tiles",
+           base + signed_link(req, prefix + id + "/tiles/{level}/{x}/{y}." + ext + query)}}}};
     // The absolute URLs come from the Host header unless --public-url is set.
     if (m_config.public_url.empty()) res.set_header("Vary", "Host");
     send_json(res, 200, j, "public, max-age=60");

@@ -9,6 +9,7 @@
 #include "server/http/image_cache.h"
 #include "server/http/image_service.h"
 #include "server/http/metrics.h"
+#include "server/http/rate_limiter.h"
 
 #include <httplib.h>
 
@@ -50,6 +51,20 @@ private:
                                                  api::ImageFormat format, int quality,
                                                  const Produce& produce, double work_s);
     std::string base_url(const httplib::Request& req) const;
+    std::optional<api::ApiError> tilejson_refusal(const std::string& id,
+                                                  const api::TileRequest& probe, bool mix);
+    std::pair<std::string, std::string> tile_suffix(const httplib::Request& req,
+                                                    const api::TileRequest& probe) const;
+    // Whom a render is counted against: the --api-key's holder, else the client's address.
+    std::string rate_client(const httplib::Request& req) const;
+    // The query an image is served with (README "Signed URLs and presets"): the request's, its
+    // signature checked and sig and exp dropped, or the fields of the preset it names. Nothing,
+    // the error sent, when refused. `format`: the URL's extension ("" when negotiated).
+    std::optional<api::Query> served_query(const httplib::Request& req, httplib::Response& res,
+                                           std::string_view format) const;
+    // `path_and_query` as this server's clients must ask for it: signed when URLs are, with the
+    // request's exp.
+    std::string signed_link(const httplib::Request& req, const std::string& path_and_query) const;
 
     const ServeConfig& m_config;
     ImageService& m_images;
@@ -59,6 +74,7 @@ private:
     Gate& m_gate;
     Metrics& m_metrics;
     const int& m_port;
+    RateLimiter m_limiter; // renders per client (--render-rate)
 };
 
 } // namespace textond::http

@@ -144,9 +144,10 @@ void Metrics::write_work_locked(std::ostream& o) const {
       << "textond_tile_cache_requests_total{result=\"hit\"} " << m_cache_hits << "\n"
       << "textond_tile_cache_requests_total{result=\"miss\"} " << m_cache_misses << "\n";
     o << "# HELP textond_not_admitted_total Work refused before it started: too_large (413), "
-         "busy (429), gone (the client left while it waited).\n"
+         "busy (429), rate_limited (429: the client's renders a minute), gone (the client left "
+         "while it waited).\n"
          "# TYPE textond_not_admitted_total counter\n";
-    for (const char* why : {"too_large", "busy", "gone"}) {
+    for (const char* why : {"too_large", "busy", "rate_limited", "gone"}) {
         auto it = m_not_admitted.find(why);
         o << "textond_not_admitted_total{reason=\"" << why << "\"} "
           << (it == m_not_admitted.end() ? 0 : it->second) << "\n";

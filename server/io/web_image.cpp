@@ -25,8 +25,11 @@ std::vector<std::uint8_t> rgb8(const core::Image& u) {
         for (int x = 0; x < u.width; ++x)
             for (int c = 0; c < 3; ++c) {
                 const float v = u.at(u.channels == 1 ? 0 : c, x, y);
+                // Never negative here, so +0.5 rounds to nearest, as the PNG encoder does.
+                // NOLINTBEGIN(bugprone-incorrect-roundings)
                 out[(static_cast<std::size_t>(y) * u.width + x) * 3 + static_cast<std::size_t>(c)] =
                     static_cast<std::uint8_t>(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f);
+                // NOLINTEND(bugprone-incorrect-roundings)
             }
     return out;
 }

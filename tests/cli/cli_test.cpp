@@ -19,9 +19,9 @@ using namespace textond;
 namespace fs = std::filesystem;
 
 TEST(Cli, HelpForEveryCommand) {
-    for (const char* c :
-         {"--help", "analyze --help", "synth --help", "bench --help", "render --help",
-          "bench render --help", "bench tile --help", "serve --help", "mix --help"}) {
+    for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help",
+                          "render --help", "bench render --help", "bench tile --help",
+                          "serve --help", "mix --help", "sign --help"}) {
         const test::RunResult r = test::run(c);
         EXPECT_EQ(r.code, 0) << c;
         EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
@@ -251,6 +251,7 @@ TEST(Cli, ServeRefusesBadConfigurationFromFlagsAndEnvironment) {
          {Case{"serve --cache-mb lots", "--cache-mb"}, Case{"serve --port 70000", "--port"},
           Case{"serve --backend vulkan", "vulkan"}, Case{"serve --formats png,gif", "gif"},
           Case{"serve --log-level loud", "--log-level"},
+          Case{"serve --presets /no/such/presets.json", "--presets"},
           Case{"serve --no-such-flag", "--no-such-flag"}, Case{"serve extra", "positional"},
           Case{"TEXTOND_CACHE_MB=lots " + std::string(TEXTOND_BINARY) + " serve", "--cache-mb"},
           Case{"TEXTOND_PORT=-1 " + std::string(TEXTOND_BINARY) + " serve", "--port"}}) {
