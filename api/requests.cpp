@@ -3,6 +3,8 @@
 #include "core/grid_poisson.h"
 #include "core/noise_levels.h"
 
+#include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -250,20 +252,37 @@ namespace {
 // Whether an Accept header lists `type` with a q above 0 (RFC 9110 section 12.5.1; wildcards
 // are not a request for a modern format: browsers send */* with everything).
 bool accepts(std::string_view accept, std::string_view type) {
+    auto trim = [](std::string_view v) {
+        while (!v.empty() && (v.front() == ' ' || v.front() == '\t')) v.remove_prefix(1);
+        while (!v.empty() && (v.back() == ' ' || v.back() == '\t')) v.remove_suffix(1);
+        return v;
+    };
+    auto same = [](std::string_view a, std::string_view b) { // media types ignore case
+        return a.size() == b.size() &&
+               std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+                   return std::tolower(static_cast<unsigned char>(x)) ==
+                          std::tolower(static_cast<unsigned char>(y));
+               });
+    };
     std::size_t at = 0;
     while (at <= accept.size()) {
         const std::size_t comma = std::min(accept.find(',', at), accept.size());
         std::string_view item = accept.substr(at, comma - at);
         at = comma + 1;
-        const std::size_t semi = std::min(item.find(';'), item.size());
-        std::string_view name = item.substr(0, semi);
-        while (!name.empty() && name.front() == ' ') name.remove_prefix(1);
-        while (!name.empty() && name.back() == ' ') name.remove_suffix(1);
-        if (name != type) continue;
-        const std::size_t qpos = item.find("q=", semi);
-        if (qpos == std::string_view::npos) return true;
-        const auto qv = parse_finite(item.substr(qpos + 2));
-        return !qv || *qv > 0.0;
+        std::size_t semi = std::min(item.find(';'), item.size());
+        if (!same(trim(item.substr(0, semi)), type)) continue;
+        // Its parameters: q=0 refuses it; one we cannot read is not an acceptance.
+        bool refused = false;
+        while (semi < item.size()) {
+            const std::size_t next = std::min(item.find(';', semi + 1), item.size());
+            const std::string_view param = trim(item.substr(semi + 1, next - semi - 1));
+            if (param.size() > 2 && (param[0] == 'q' || param[0] == 'Q') && param[1] == '=') {
+                const auto q = parse_finite(trim(param.substr(2)));
+                refused = !q || *q <= 0.0;
+            }
+            semi = next;
+        }
+        return !refused;
     }
     return false;
 }
@@ -393,6 +412,9 @@ std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, 
         return bad("region_too_large", "region of " + std::to_string(w) + "x" + std::to_string(h) +
                                            " pixels is over the limit of " +
                                            std::to_string(limits.max_region_pixels) + " pixels");
+    if (out.format == ImageFormat::webp && (w > kMaxWebpSide || h > kMaxWebpSide))
+        return bad("region_too_large",
+                   "a WebP image is at most " + std::to_string(kMaxWebpSide) + " pixels a side");
     out.width = static_cast<int>(w);
     out.height = static_cast<int>(h);
     if (const std::string* s = field(q, "z"))

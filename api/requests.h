@@ -66,6 +66,9 @@ struct NoiseParams {
     MapChoice map; // map=, strength=, light=
 };
 
+// libwebp's largest side (WEBP_MAX_DIMENSION).
+inline constexpr int kMaxWebpSide = 16383;
+
 // quality= of lossy formats: 1..100; 0 is the format's default (WebP: lossless, AVIF: 80).
 inline constexpr int kDefaultQuality = 0;
 

@@ -233,6 +233,10 @@ Result<http::ServeConfig> config_from(const Args& a) {
     c.public_url = a.get("--public-url", c.public_url);
     c.api_key = a.get("--api-key", c.api_key);
     c.url_signing_key = a.get("--url-signing-key", c.url_signing_key);
+    if (!c.url_signing_key.empty() && c.url_signing_key.size() < http::kMinSigningKey)
+        return make_error(ErrorCode::invalid_argument, "--url-signing-key must have at least " +
+                                                           std::to_string(http::kMinSigningKey) +
+                                                           " characters");
     if (a.options.count("--presets")) {
         std::ifstream in(a.get("--presets"), std::ios::binary);
         if (!in)

@@ -6,6 +6,7 @@
 #include "render/prepared_texton.h"
 #include "server/http/http_support.h"
 
+#include <openssl/crypto.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -68,13 +69,21 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
     const std::string etag = cached ? cached->etag : m_images.etag(key);
-    res.set_header("ETag", etag);
-    res.set_header("Cache-Control", kImmutable);
+    // A signed URL with exp must not outlive it in any cache (the edge's, a CDN's, a browser's).
+    const std::string cache_control = cache_control_for(req);
+    auto validators = [&] {
+        res.set_header("ETag", etag);
+        res.set_header("Cache-Control", cache_control);
+    };
     if (etag_matches(req.get_header_value("If-None-Match"), etag)) {
+        validators();
         res.status = 304;
         return;
     }
-    if (cached) return send_cached(res, m_metrics, std::move(cached));
+    if (cached) {
+        validators();
+        return send_cached(res, m_metrics, std::move(cached));
+    }
     // Only renders count against a client's rate: hits and 304s cost next to nothing.
     if (double wait = 0; !m_limiter.take(rate_client(req), wait)) {
         m_metrics.not_admitted("rate_limited");
@@ -98,6 +107,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
     if (!entry) return;
     entry->etag = etag;
     m_cache.put(key, entry);
+    validators(); // on the image only: an error carries no ETag and is never immutable
     send_cached(res, m_metrics, std::move(entry), std::move(lease));
 }
 
@@ -233,7 +243,9 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
     set_route(png ? "/v1/textons/{id}/quality.png" : "/v1/textons/{id}/quality.json");
     const std::string id = req.matches[1].str();
     api::NoiseParams noise;
-    if (auto e = api::parse_spectrum(id, req.params, noise)) return send_error(res, *e);
+    const auto params = served_query(req, res, png ? "png" : "");
+    if (!params) return;
+    if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     auto produce = [&](const render::Cancel& cancel) -> Result<core::Image> {
         auto r = m_images.quality(id, noise, cancel);
         if (!r) return r.error();
@@ -244,14 +256,24 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
                             api::ImageFormat::png, produce, false, 2 * 256 * 256, noise.mni);
     auto order = m_images.order(id, false);
     if (!order) return send_error(res, to_api_error(order.error()));
+    if (double wait = 0; !m_limiter.take(rate_client(req), wait)) { // a render every time
+        m_metrics.not_admitted("rate_limited");
+        res.set_header("Retry-After",
+                       std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
+        return send_error(res, {"rate_limited", "this client's renders a minute are spent"});
+    }
     auto slot = m_gate.admit(res, noise_work_s(2 * 256 * 256, noise.mni, order.value()));
     if (!slot) return;
     const render::Cancel cancel = m_gate.work_cancel();
     auto report = m_images.quality(id, noise, cancel);
     if (!report) return m_gate.send_work_error(res, report.error(), cancel);
-    report.value().json["links"] = {{"png", "/v1/textons/" + id +
-                                                "/quality.png?seed=" + std::to_string(noise.seed) +
-                                                "&mni=" + mni_text(noise.mni)}};
+    const auto preset = req.params.find("preset");
+    report.value().json["links"] = {
+        {"png", signed_link(req, "/v1/textons/" + id + "/quality.png" +
+                                     (!m_config.presets.empty() && preset != req.params.end()
+                                          ? "?preset=" + preset->second
+                                          : "?seed=" + std::to_string(noise.seed) +
+                                                "&mni=" + mni_text(noise.mni)))}};
     send_json(res, 200, report.value().json, "no-cache");
 }
 
@@ -303,10 +325,32 @@ std::string ImageRoutes::signed_link(const httplib::Request& req,
 
 std::string ImageRoutes::rate_client(const httplib::Request& req) const {
     // Any other token would be a fresh bucket for the asking: only the server's key counts.
-    if (!m_config.api_key.empty() &&
-        req.get_header_value("Authorization") == "Bearer " + m_config.api_key)
-        return "api-key";
-    return "addr:" + req.remote_addr;
+    if (!m_config.api_key.empty()) {
+        const std::string got = req.get_header_value("Authorization"),
+                          want = "Bearer " + m_config.api_key;
+        if (got.size() == want.size() && CRYPTO_memcmp(got.data(), want.data(), want.size()) == 0)
+            return "api-key";
+    }
+    // IPv6: a /64 is one client (anyone holding one has 2^64 addresses).
+    const std::string& a = req.remote_addr;
+    if (a.find(':') != std::string::npos) {
+        std::size_t at = 0;
+        for (int groups = 0; groups < 4 && at != std::string::npos; ++groups)
+            at = a.find(':', at + (groups ? 1 : 0));
+        return "net6:" + a.substr(0, at);
+    }
+    return "addr:" + a;
+}
+
+std::string ImageRoutes::cache_control_for(const httplib::Request& req) const {
+    const auto exp = req.params.find("exp");
+    if (m_config.url_signing_key.empty() || exp == req.params.end()) return kImmutable;
+    const auto now = std::chrono::duration_cast<std::chrono::seconds>(
+                         std::chrono::system_clock::now().time_since_epoch())
+                         .count();
+    const std::int64_t left =
+        std::max<std::int64_t>(0, api::parse_i64(exp->second).value_or(0) - now);
+    return "public, max-age=" + std::to_string(left);
 }
 
 std::string ImageRoutes::base_url(const httplib::Request& req) const {

@@ -55,6 +55,8 @@ private:
                                                   const api::TileRequest& probe, bool mix);
     std::pair<std::string, std::string> tile_suffix(const httplib::Request& req,
                                                     const api::TileRequest& probe) const;
+    // Cache-Control of an image: immutable, or until a signed URL's exp.
+    std::string cache_control_for(const httplib::Request& req) const;
     // Whom a render is counted against: the --api-key's holder, else the client's address.
     std::string rate_client(const httplib::Request& req) const;
     // The query an image is served with (README "Signed URLs and presets"): the request's, its

@@ -10,10 +10,25 @@ namespace textond::http {
 RateLimiter::RateLimiter(double per_second, double burst, std::size_t max_clients)
     : m_rate(per_second), m_burst(std::max(1.0, burst)), m_max_clients(max_clients) {}
 
+bool RateLimiter::take(const std::string& client, double& retry_after_s) {
+    if (!enabled()) {
+        retry_after_s = 0;
+        return true;
+    }
+    std::lock_guard lock(m_mutex); // the clock under the lock: a bucket's time never goes back
+    return take_locked(client, retry_after_s, Clock::now());
+}
+
 bool RateLimiter::take(const std::string& client, double& retry_after_s, Clock::time_point now) {
     retry_after_s = 0;
     if (!enabled()) return true;
     std::lock_guard lock(m_mutex);
+    return take_locked(client, retry_after_s, now);
+}
+
+bool RateLimiter::take_locked(const std::string& client, double& retry_after_s,
+                              Clock::time_point now) {
+    retry_after_s = 0;
     auto it = m_buckets.find(client);
     if (it == m_buckets.end()) {
         // Bounded memory: past the limit, forget the clients whose buckets have refilled (they

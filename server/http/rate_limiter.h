@@ -21,8 +21,9 @@ public:
     bool enabled() const { return m_rate > 0; }
     // Takes a token for `client`; when none is left, 0 and the seconds until one is in
     // `retry_after_s`.
-    bool take(const std::string& client, double& retry_after_s,
-              Clock::time_point now = Clock::now());
+    bool take(const std::string& client, double& retry_after_s);
+    // The same at a time of the caller's (tests).
+    bool take(const std::string& client, double& retry_after_s, Clock::time_point now);
     std::size_t clients() const;
 
 private:
@@ -30,6 +31,7 @@ private:
         double tokens = 0;
         Clock::time_point at;
     };
+    bool take_locked(const std::string& client, double& retry_after_s, Clock::time_point now);
     double m_rate, m_burst;
     std::size_t m_max_clients;
     mutable std::mutex m_mutex;

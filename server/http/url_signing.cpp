@@ -90,6 +90,17 @@ Result<Presets> parse_presets(std::string_view text) {
             else
                 p.fields.emplace(field, v);
         }
+        if (p.format.empty())
+            return make_error(ErrorCode::invalid_argument,
+                              "preset '" + name +
+                                  "' must name its format (png, png16, exr, webp "
+                                  "or avif): a preset pins every variant");
+        // The fields as a tile would read them: an unknown or bad one is refused now, not in
+        // every request.
+        api::TileRequest probe;
+        if (auto e =
+                api::parse_tile(std::string(64, '0'), "0", "0", "0", p.format, p.fields, probe))
+            return make_error(ErrorCode::invalid_argument, "preset '" + name + "': " + e->message);
         out.emplace(name, std::move(p));
     }
     return out;
@@ -105,22 +116,41 @@ std::string signed_path(std::string_view path) {
     return p;
 }
 
+// '%', '&' and '=' of a key or value escaped, so that no field can pass for two.
+std::string escaped(const std::string& s) {
+    std::string out;
+    for (char c : s) {
+        if (c == '%')
+            out += "%25";
+        else if (c == '&')
+            out += "%26";
+        else if (c == '=')
+            out += "%3D";
+        else
+            out += c;
+    }
+    return out;
+}
+
 std::string canonical_request(std::string_view path, const api::Query& query) {
     std::vector<std::pair<std::string, std::string>> fields;
     for (const auto& [k, v] : query)
-        if (k != "sig") fields.emplace_back(k, v);
+        if (k != "sig") fields.emplace_back(escaped(k), escaped(v));
     std::sort(fields.begin(), fields.end());
     std::string out = signed_path(path) + "?";
     for (std::size_t i = 0; i < fields.size(); ++i)
-        out += (i ? "&" : "") + fields[i].first + "=" + fields[i].second;
+        out.append(i ? "&" : "").append(fields[i].first).append("=").append(fields[i].second);
     return out;
 }
 
 std::string url_signature(std::string_view key, std::string_view canonical) {
     unsigned char mac[EVP_MAX_MD_SIZE];
     unsigned int n = 0;
-    HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()),
-         reinterpret_cast<const unsigned char*>(canonical.data()), canonical.size(), mac, &n);
+    if (!HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()),
+              reinterpret_cast<const unsigned char*>(canonical.data()), canonical.size(), mac,
+              &n) ||
+        n != 32)
+        return ""; // never equal to a signature: check_signature refuses an empty one
     std::string hex;
     char buf[3];
     for (unsigned int i = 0; i < n; ++i) {
@@ -141,7 +171,7 @@ std::optional<api::ApiError> check_signature(std::string_view key, std::string_v
         return forbidden("signature_invalid", "sig and exp may be given once");
     const std::string want = url_signature(key, canonical_request(path, query));
     // Constant time: a timing oracle would give the signature away byte by byte.
-    if (sig->second.size() != want.size() ||
+    if (want.empty() || sig->second.size() != want.size() ||
         CRYPTO_memcmp(sig->second.data(), want.data(), want.size()) != 0)
         return forbidden("signature_invalid",
                          "the signature does not match this path and query (or this key)");
@@ -154,7 +184,10 @@ std::optional<api::ApiError> check_signature(std::string_view key, std::string_v
 }
 
 Result<std::string> sign_url(std::string_view key, std::string_view url, std::int64_t expires) {
-    if (key.empty()) return make_error(ErrorCode::invalid_argument, "no signing key");
+    if (key.size() < kMinSigningKey)
+        return make_error(ErrorCode::invalid_argument, "the signing key must have at least " +
+                                                           std::to_string(kMinSigningKey) +
+                                                           " characters");
     // Split scheme://host, path and query; drop any sig, keep (or set) exp.
     std::string u(url);
     std::size_t path_at = 0;

@@ -3,7 +3,7 @@
 // server render endless parameter combinations, every image URL carries
 //   sig = hex(HMAC-SHA256(key, canonical)),
 //   canonical = signed path + "?" + the query's fields but sig, sorted by name then value,
-//               as name=value (the decoded values) joined by "&",
+//               as name=value (decoded, then '%', '&' and '=' escaped) joined by "&",
 // and optionally exp (Unix seconds, signed like any field) after which it is refused. A tile's
 // signed path is its layer, with {z}/{x}/{y} in place of the tile's numbers, so one signature
 // serves a whole tile pyramid (TileJSON hands out signed templates); any other path is signed as
@@ -29,8 +29,12 @@ struct Preset {
 using Presets = std::map<std::string, Preset>;
 
 // {"NAME": {"format": "webp", "seed": 0, "quality": 80, ...}, ...}: names of letters, digits,
-// '-', '_' and '.'; values strings or numbers, as their query fields would be written.
+// '-', '_' and '.'; a format each; values strings or numbers, as their query fields would be
+// written, checked as a tile request checks them.
 Result<Presets> parse_presets(std::string_view json);
+
+// A key an attacker holding one signed URL cannot search for offline.
+inline constexpr std::size_t kMinSigningKey = 16;
 
 // The path a signature covers (tile routes: the layer; others: the path itself).
 std::string signed_path(std::string_view path);

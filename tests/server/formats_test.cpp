@@ -81,6 +81,8 @@ TEST(Formats, WebpAndAvifTilesHoldThePngTilesPixels) {
     EXPECT_EQ(status(tile + ".webp?quality=0"), "400 invalid_parameter");
     EXPECT_EQ(status(tile + ".avif?quality=101"), "400 invalid_parameter");
     EXPECT_EQ(status(tile + ".gif"), "400 invalid_format");
+    // libwebp's largest side is 16383: refused before any render.
+    EXPECT_EQ(status("/v1/textons/" + id + "/region.webp?w=16384&h=1"), "400 region_too_large");
 }
 
 TEST(Formats, ExtensionlessTilesFollowAcceptWithVary) {
@@ -96,7 +98,9 @@ TEST(Formats, ExtensionlessTilesFollowAcceptWithVary) {
     for (const Case& k :
          {Case{"image/avif,image/webp,image/apng,image/*,*/*;q=0.8", "image/avif"},
           Case{"image/webp,*/*", "image/webp"}, Case{"image/avif;q=0, image/webp", "image/webp"},
-          Case{"*/*", "image/png"}, Case{"", "image/png"}}) {
+          Case{"IMAGE/WEBP", "image/webp"}, Case{"image/avif;q=0 ,image/webp", "image/webp"},
+          Case{"image/avif; q=0; x=1, image/webp", "image/webp"}, Case{"*/*", "image/png"},
+          Case{"", "image/png"}}) {
         auto r = get(c, tile + "?seed=2", k.accept);
         ASSERT_TRUE(r && r->status == 200) << k.accept;
         EXPECT_EQ(r->get_header_value("Content-Type"), k.type) << k.accept;

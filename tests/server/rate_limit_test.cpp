@@ -63,6 +63,8 @@ TEST(RateLimit, OnlyRendersCountAndTheKeyHolderHasItsOwnBucket) {
     ASSERT_TRUE(third);
     EXPECT_EQ(third->status, 429);
     EXPECT_EQ(nlohmann::json::parse(third->body).at("error").at("code"), "rate_limited");
+    EXPECT_FALSE(third->has_header("ETag")) << "an error carries no validator";
+    EXPECT_EQ(third->get_header_value_count("Cache-Control"), 1u);
     const int retry = std::stoi(third->get_header_value("Retry-After"));
     EXPECT_GE(retry, 50);
     EXPECT_LE(retry, 60);

@@ -69,11 +69,19 @@ TEST(SignedUrls, GoodSignaturesPassAndEveryTamperingIsRefused) {
     std::string flipped = good;
     flipped.back() = flipped.back() == '0' ? '1' : '0';
     EXPECT_EQ(outcome(c, flipped), "403 signature_invalid");
-    EXPECT_EQ(outcome(c, http::sign_url("another key", tile, 0).value()), "403 signature_invalid");
+    EXPECT_EQ(outcome(c, http::sign_url("another key of some length", tile, 0).value()),
+              "403 signature_invalid");
     // Expiry: a future exp passes, a past one fails, and a changed exp breaks the signature.
     const std::string region = "/v1/textons/" + id + "/region.png?w=32&h=32&seed=1";
     const std::string later = sign(region, now_s() + 3600);
     EXPECT_EQ(outcome(c, later), "200");
+    // No cache may keep it past its exp.
+    const std::string cc = c.Get(later)->get_header_value("Cache-Control");
+    EXPECT_EQ(cc.rfind("public, max-age=", 0), 0u) << cc;
+    EXPECT_LE(std::stoll(cc.substr(16)), 3600);
+    EXPECT_EQ(cc.find("immutable"), std::string::npos) << cc;
+    // An empty signature is no signature that matches.
+    EXPECT_EQ(outcome(c, tile + "&sig="), "403 signature_invalid");
     EXPECT_EQ(outcome(c, sign(region, now_s() - 5)), "403 signature_expired");
     const std::string exp_text = "exp=" + std::to_string(now_s() + 3600);
     EXPECT_EQ(outcome(c, replace(later, later.substr(later.find("exp="), exp_text.size()),
@@ -83,6 +91,12 @@ TEST(SignedUrls, GoodSignaturesPassAndEveryTamperingIsRefused) {
     EXPECT_EQ(outcome(c, "/v1/textons/" + id + "/tileable.png?w=32&h=32"), "403 signature_missing");
     EXPECT_EQ(outcome(c, sign("/v1/textons/" + id + "/tileable.png?w=32&h=32")), "200");
     EXPECT_EQ(outcome(c, "/v1/textons/" + id + "/spectrum.png"), "403 signature_missing");
+    EXPECT_EQ(outcome(c, "/v1/textons/" + id + "/quality.json"), "403 signature_missing");
+    EXPECT_EQ(outcome(c, "/v1/textons/" + id + "/quality.png"), "403 signature_missing");
+    auto quality = c.Get(sign("/v1/textons/" + id + "/quality.json?seed=2"));
+    ASSERT_TRUE(quality && quality->status == 200);
+    const std::string qpng = nlohmann::json::parse(quality->body).at("links").at("png");
+    EXPECT_EQ(outcome(c, qpng), "200") << "the report's own link is signed";
     EXPECT_EQ(outcome(c, "/v1/textons/" + id), "200");
 
     // A signed TileJSON hands out signed templates (with its exp): their tiles open.
@@ -101,13 +115,14 @@ TEST(SignedUrls, GoodSignaturesPassAndEveryTamperingIsRefused) {
     ASSERT_EQ(cli.code, 0) << cli.err;
     EXPECT_EQ(cli.out, good + "\n");
     EXPECT_NE(run("sign '" + tile + "'").code, 0) << "no key, no signature";
+    EXPECT_NE(run("sign '" + tile + "' --key short").code, 0) << "a key too short to be secret";
 }
 
 TEST(SignedUrls, PresetsAreTheOnlyParameterSets) {
     auto config = TestServer::default_config();
     config.presets =
         http::parse_presets(R"({"web-256": {"format": "webp", "quality": 80, "seed": 9},
-                                "game": {"seed": 7, "mni": 20}})")
+                                "game": {"format": "png", "seed": 7, "mni": 20}})")
             .value();
     TestServer server(config);
     auto c = server.client();
@@ -142,6 +157,10 @@ TEST(SignedUrls, PresetsAreTheOnlyParameterSets) {
     EXPECT_FALSE(http::parse_presets(R"({"x": {"sig": "1"}})").ok());
     EXPECT_FALSE(http::parse_presets(R"([1, 2])").ok());
     EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "gif"}})").ok());
+    EXPECT_FALSE(http::parse_presets(R"({"x": {"seed": 1}})").ok()) << "a format each";
+    EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "png", "quality": 80}})").ok());
+    EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "png", "sed": 1}})").ok());
+    EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "png", "seed": 1.5}})").ok());
 }
 
 } // namespace
