@@ -11,8 +11,9 @@
 #   tests/load/connections_test.sh               # 2000 connections, 60 s, through the edge
 #   CONNECTIONS=500 DURATION=20s DIRECT=1 tests/load/connections_test.sh
 #
-# The edge's per-address limit (limit_conn 256) is raised for the run: every client here has one
-# address, 127.0.0.1; the limit is a policy against one hostile address, not the capacity tested.
+# The edge's per-address limits (limit_conn 256, limit_req 500 r/s) are raised for the run: every
+# client here has one address, 127.0.0.1; they are a policy against one hostile address, not the
+# capacity tested.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -49,6 +50,7 @@ chmod 0755 "$tmp"
 chmod 0777 "$tmp/cache"
 sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080;|listen $edge_port;|" \
     -e "s|limit_conn textond_conn 256;|limit_conn textond_conn $((CONNECTIONS + 64));|" \
+    -e "s|rate=500r/s;|rate=1000000r/s;|" \
     "$root/deploy/base/nginx/edge.conf" >"$tmp/edge.conf"
 cp "$root/deploy/base/nginx/settings.conf" "$tmp/settings.conf"
 echo "server 127.0.0.1:$app_port;" >"$tmp/upstream-servers.conf"
@@ -106,12 +108,13 @@ run() { # target label -> one table row
     printf '| %s | %s | %s | %s | %s | %s | %s -> %s | %s -> %s | %s |\n' "$label" "$CONNECTIONS" \
         "$DURATION" "$open" "$rps" "$((${errors:-0} + ${non2xx:-0}))" "$((before_n / 1024))" \
         "$((during_n / 1024))" "$((before_t / 1024))" "$((during_t / 1024))" \
-        "$(awk -v a="$before_n" -v b="$during_n" -v c="$CONNECTIONS" 'BEGIN {printf "%.1f", (b - a) / c}')"
+        "$(awk -v a="$before_n" -v b="$during_n" -v t0="$before_t" -v t1="$during_t" -v c="$CONNECTIONS" \
+            'BEGIN {printf "%.1f, %.1f", (b - a) / c, (t1 - t0) / c}')"
     grep -E "Socket errors|Non-2xx" "$tmp/wrk.out" | sed 's/^/    /' >&2 || true
 }
 
 echo "textond $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?'), $(nproc) cores, MODE=$MODE"
-echo "| path | connections | duration | established (sampled) | requests/s | errors | nginx MiB | textond MiB | nginx kB/connection |"
+echo "| path | connections | duration | established (sampled) | requests/s | errors | nginx MiB | textond MiB | kB/connection (nginx, textond) |"
 echo "|---|---|---|---|---|---|---|---|---|"
 run "$edge" "through the nginx edge"
 if [ "${DIRECT:-0}" = 1 ]; then
