@@ -76,6 +76,10 @@ TextonService::decode_maps(const std::vector<MapUpload>& maps, core::Image& stac
     SlotGuard slot(&m_decode_slots);
     std::vector<core::Image> images;
     int channels = 0;
+    // A set's pixels in all: at most an RGB exemplar's worth (--max-pixels times 3 channels), so
+    // eight maps cannot hold eight times an upload's memory (with the stacked copy, twice that).
+    const std::uint64_t budget = 3 * m_limits.max_pixels;
+    std::uint64_t held = 0;
     for (const MapUpload& m : maps) {
         int bits = 8;
         auto image = io::decode_image_memory(m.bytes, m_limits, &bits);
@@ -97,6 +101,14 @@ TextonService::decode_maps(const std::vector<MapUpload>& maps, core::Image& stac
                                           "' " + std::to_string(images[0].width) + "x" +
                                           std::to_string(images[0].height) +
                                           ": every map of a set must have one size")};
+        held += static_cast<std::uint64_t>(u.plane_size()) * static_cast<std::uint64_t>(u.channels);
+        if (held > budget)
+            return Refused{Stage::decode,
+                           make_error(ErrorCode::too_large,
+                                      "the set's maps hold " + std::to_string(held) +
+                                          " channel-pixels by map '" + m.name + "', over " +
+                                          std::to_string(budget) +
+                                          " (an RGB exemplar of --max-pixels): use smaller maps")};
         meta.push_back({m.name, channels, u.channels, bits, {}, 0.0});
         channels += u.channels;
         images.push_back(std::move(u));

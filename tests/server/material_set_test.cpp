@@ -292,6 +292,27 @@ TEST(MaterialSet, MismatchedSizesAndNormalUploadsAreRefusedClearly) {
     ASSERT_TRUE(r);
     EXPECT_EQ(r->status, 400);
 
+    // A set holds at most an RGB exemplar's pixels in all: with --max-pixels 65536 (each 256 x 256
+    // map alone fits), albedo fits (3 x 65536) and albedo plus height does not: 413.
+    {
+        auto small = TestServer::default_config();
+        small.max_pixels = 256 * 256;
+        TestServer limited(small);
+        auto lc = limited.client();
+        const core::Image u = load_exemplar("etr_sand01.png");
+        ASSERT_EQ(u.width * u.height, 256 * 256);
+        httplib::MultipartFormDataItems one = {
+            {"albedo", read_file(exemplar_path("etr_sand01.png")), "a.png", "image/png"},
+            {"size", "16", "", ""}};
+        auto ok = lc.Post("/v1/textons", one);
+        ASSERT_TRUE(ok);
+        EXPECT_EQ(ok->status, 201) << ok->body;
+        one.insert(one.begin(), {"height", height_png16(u, u.width), "h.png", "image/png"});
+        auto big = lc.Post("/v1/textons", one);
+        ASSERT_TRUE(big);
+        EXPECT_EQ(big->status, 413) << big->body;
+        EXPECT_NE(big->body.find("channel-pixels"), std::string::npos) << big->body;
+    }
     // A plain texton has no maps.
     auto plain = c.Post("/v1/textons?size=16&iterations=5", albedo, "image/png");
     ASSERT_TRUE(plain);
