@@ -92,6 +92,17 @@ TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
         EXPECT_NEAR(x * x + y * y + z * z, 1.0, 1e-5);
         EXPECT_GT(z, 0.0);
     }
+    // A tileable normal map resampled to a size that is not a multiple of the cell keeps unit
+    // normals (resampling mixes neighbours; they are normalised again).
+    const core::Image wrap = decoded(c.Get(base + "/tileable.exr?w=77&h=53&seed=7&map=normal"));
+    ASSERT_EQ(wrap.width, 77);
+    double off_unit = 0;
+    for (std::size_t k = 0; k < wrap.plane_size(); ++k) {
+        const double x = 2.0 * wrap.plane(0)[k] - 1, y = 2.0 * wrap.plane(1)[k] - 1,
+                     z = 2.0 * wrap.plane(2)[k] - 1;
+        off_unit = std::max(off_unit, std::fabs(std::sqrt(x * x + y * y + z * z) - 1.0));
+    }
+    EXPECT_LT(off_unit, 1e-5);
     // TileJSON carries the map.
     const json tj = json::parse(c.Get(base + "/tilejson.json?map=height")->body);
     EXPECT_NE(tj.at("tiles")[0].get<std::string>().find("&map=height"), std::string::npos);
