@@ -66,6 +66,19 @@ Result<core::Image> render_normal_map(CpuBackend& cpu, const PreparedTexton& hei
     return out;
 }
 
+void renormalise_normal_map(core::Image& normals) {
+    for (std::size_t k = 0; k < normals.plane_size(); ++k) {
+        double n[3], len = 0;
+        for (int c = 0; c < 3; ++c) {
+            n[c] = 2.0 * normals.plane(c)[k] - 1.0;
+            len += n[c] * n[c];
+        }
+        len = len > 0 ? 1.0 / std::sqrt(len) : 0.0;
+        for (int c = 0; c < 3; ++c)
+            normals.plane(c)[k] = static_cast<float>(0.5 * n[c] * len + 0.5);
+    }
+}
+
 core::Image shade_lit(const core::Image& albedo, const core::Image& normals, double azimuth_deg,
                       double elevation_deg) {
     const double az = azimuth_deg * M_PI / 180.0, el = elevation_deg * M_PI / 180.0;

@@ -20,6 +20,10 @@ namespace textond::render {
 Result<core::Image> render_normal_map(CpuBackend& cpu, const PreparedTexton& height,
                                       const NoiseRequest& request, double strength);
 
+// A normal map (n / 2 + 1/2) whose normals were mixed (a resampled tileable texture) made of
+// unit normals again.
+void renormalise_normal_map(core::Image& normals);
+
 // The lit preview of a set (map=lit): each pixel of `albedo` (grey or RGB) times
 // 0.35 + 0.65 max(0, n . l), the mesh preview's shading, with n decoded from `normals` (a
 // render_normal_map of the same window) and l the unit light from azimuth (degrees,

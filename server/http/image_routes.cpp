@@ -85,15 +85,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         return send_cached(res, m_metrics, std::move(cached));
     }
     // Only renders count against a client's rate: hits and 304s cost next to nothing.
-    if (double wait = 0; !m_limiter.take(rate_client(req), wait)) {
-        m_metrics.not_admitted("rate_limited");
-        res.set_header("Retry-After",
-                       std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
-        return send_error(
-            res,
-            {"rate_limited", "this client starts at most " + std::to_string(m_config.render_rate) +
-                                 " renders a minute (cached images are not counted)"});
-    }
+    if (!within_rate(req, res)) return;
     // The encoded image outlives the slot while a client reads it: large ones hold bytes of the
     // transfer budget until they are written (10 concurrent 4K regions took 326 MB without).
     std::shared_ptr<BudgetLease> lease;
@@ -256,12 +248,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
                             api::ImageFormat::png, produce, false, 2 * 256 * 256, noise.mni);
     auto order = m_images.order(id, false);
     if (!order) return send_error(res, to_api_error(order.error()));
-    if (double wait = 0; !m_limiter.take(rate_client(req), wait)) { // a render every time
-        m_metrics.not_admitted("rate_limited");
-        res.set_header("Retry-After",
-                       std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
-        return send_error(res, {"rate_limited", "this client's renders a minute are spent"});
-    }
+    if (!within_rate(req, res)) return; // a render every time
     auto slot = m_gate.admit(res, noise_work_s(2 * 256 * 256, noise.mni, order.value()));
     if (!slot) return;
     const render::Cancel cancel = m_gate.work_cancel();
@@ -321,6 +308,17 @@ std::string ImageRoutes::signed_link(const httplib::Request& req,
         exp = api::parse_i64(e->second).value_or(0);
     auto signed_url = sign_url(m_config.url_signing_key, path_and_query, exp);
     return signed_url ? signed_url.value() : path_and_query;
+}
+
+bool ImageRoutes::within_rate(const httplib::Request& req, httplib::Response& res) {
+    double wait = 0;
+    if (m_limiter.take(rate_client(req), wait)) return true;
+    m_metrics.not_admitted("rate_limited");
+    res.set_header("Retry-After", std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
+    send_error(res, {"rate_limited", "this client starts at most " +
+                                         std::to_string(m_config.render_rate) +
+                                         " renders a minute (cached images are not counted)"});
+    return false;
 }
 
 std::string ImageRoutes::rate_client(const httplib::Request& req) const {

@@ -57,6 +57,8 @@ private:
                                                     const api::TileRequest& probe) const;
     // Cache-Control of an image: immutable, or until a signed URL's exp.
     std::string cache_control_for(const httplib::Request& req) const;
+    // Takes a render from the client's rate (--render-rate); false, 429 sent, when it is spent.
+    bool within_rate(const httplib::Request& req, httplib::Response& res);
     // Whom a render is counted against: the --api-key's holder, else the client's address.
     std::string rate_client(const httplib::Request& req) const;
     // The query an image is served with (README "Signed URLs and presets"): the request's, its

@@ -220,17 +220,7 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
     if (!image || !resampled) return image;
     core::Image out = core::resample_periodic(image.value(), job.out_width, job.out_height);
     // Resampling mixes neighbouring normals: unit length again.
-    if (job.map.name == core::kNormalMap)
-        for (std::size_t k = 0; k < out.plane_size(); ++k) {
-            double n[3], len = 0;
-            for (int c = 0; c < 3; ++c) {
-                n[c] = 2.0 * out.plane(c)[k] - 1.0;
-                len += n[c] * n[c];
-            }
-            len = len > 0 ? 1.0 / std::sqrt(len) : 0.0;
-            for (int c = 0; c < 3; ++c)
-                out.plane(c)[k] = static_cast<float>(0.5 * n[c] * len + 0.5);
-        }
+    if (job.map.name == core::kNormalMap) render::renormalise_normal_map(out);
     return out;
 }
 

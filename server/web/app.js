@@ -67,17 +67,15 @@ function showMapViews(meta) {
   $('light-label').hidden = select.value !== 'lit';
 }
 
-async function upload(file) {
+// POSTs an upload (asking for an asynchronous analysis), follows its progress and shows the
+// texton; errors in plain words.
+async function postTexton(label, url, init) {
   showError('');
   $('progress').hidden = false;
   $('progress').value = 0;
-  $('progress-text').textContent = `Uploading ${file.name}...`;
+  $('progress-text').textContent = `Uploading ${label}...`;
   try {
-    const res = await fetch(`/v1/textons?size=${$('size').value}`, {
-      method: 'POST',
-      body: file,
-      headers: { 'Content-Type': file.type || 'application/octet-stream', Prefer: 'respond-async' },
-    });
+    const res = await fetch(url, { method: 'POST', ...init, headers: { ...init.headers, Prefer: 'respond-async' } });
     if (!res.ok) throw new Error(await apiError(res));
     let body = await res.json();
     if (res.status === 202) body = await waitForAnalysis(body);
@@ -91,9 +89,15 @@ async function upload(file) {
   }
 }
 
+function upload(file) {
+  return postTexton(file.name, `/v1/textons?size=${$('size').value}`, {
+    body: file,
+    headers: { 'Content-Type': file.type || 'application/octet-stream' },
+  });
+}
+
 // A material set: the chosen maps as one multipart form (README "Material sets").
-async function uploadSet() {
-  showError('');
+function uploadSet() {
   const form = new FormData();
   for (const name of ['albedo', 'height', 'roughness', 'ao', 'metallic']) {
     const file = $(`set-${name}`).files[0];
@@ -101,24 +105,10 @@ async function uploadSet() {
   }
   if ([...form.keys()].length === 0) {
     showError('Pick at least one map of the set (albedo, height, ...).');
-    return;
+    return Promise.resolve();
   }
   form.append('size', $('size').value);
-  $('progress').hidden = false;
-  $('progress-text').textContent = 'Uploading the set...';
-  try {
-    const res = await fetch('/v1/textons', { method: 'POST', body: form, headers: { Prefer: 'respond-async' } });
-    if (!res.ok) throw new Error(await apiError(res));
-    let body = await res.json();
-    if (res.status === 202) body = await waitForAnalysis(body);
-    $('progress-text').textContent = 'Done.';
-    await show(body);
-  } catch (e) {
-    $('progress-text').textContent = '';
-    showError(e.message);
-  } finally {
-    $('progress').hidden = true;
-  }
+  return postTexton('the set', '/v1/textons', { body: form, headers: {} });
 }
 
 async function waitForAnalysis(accepted) {

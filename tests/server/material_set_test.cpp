@@ -24,6 +24,21 @@ std::string height_png16(const core::Image& u, int width) {
     return io::encode_image_memory(h, io::Encoding::png16).value();
 }
 
+// The pebble set (albedo: the photo; height: its luminance, 16-bit) uploaded: its texton's path,
+// "" (and a failure) when the upload fails.
+std::string upload_pebble_set(httplib::Client& c) {
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    httplib::MultipartFormDataItems form = {
+        {"albedo", read_file(exemplar_path("etr_pebbles04.png")), "a.png", "image/png"},
+        {"height", height_png16(u, u.width), "h.png", "image/png"},
+        {"size", "16", "", ""},
+        {"iterations", "20", "", ""}};
+    auto up = c.Post("/v1/textons", form);
+    EXPECT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
+    if (!up || up->status != 201) return "";
+    return "/v1/textons/" + json::parse(up->body).at("id").get<std::string>();
+}
+
 core::Image decoded(const httplib::Result& r) {
     EXPECT_TRUE(r);
     EXPECT_EQ(r->status, 200) << r->body;
@@ -127,15 +142,8 @@ TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
 TEST(MaterialSet, LitTilesShadeTheAlbedoThroughTheNormalsAndStitch) {
     TestServer server;
     auto c = server.client();
-    const core::Image u = load_exemplar("etr_pebbles04.png");
-    httplib::MultipartFormDataItems form = {
-        {"albedo", read_file(exemplar_path("etr_pebbles04.png")), "a.png", "image/png"},
-        {"height", height_png16(u, u.width), "h.png", "image/png"},
-        {"size", "16", "", ""},
-        {"iterations", "20", "", ""}};
-    auto up = c.Post("/v1/textons", form);
-    ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
-    const std::string base = "/v1/textons/" + json::parse(up->body).at("id").get<std::string>();
+    const std::string base = upload_pebble_set(c);
+    ASSERT_FALSE(base.empty());
     const std::string q = "?seed=3&strength=5";
     const core::Image albedo = decoded(c.Get(base + "/tiles/0/2/-1.exr?seed=3"));
     const core::Image normals = decoded(c.Get(base + "/tiles/0/2/-1.exr" + q + "&map=normal"));
@@ -203,15 +211,8 @@ TEST(MaterialSet, LitTilesShadeTheAlbedoThroughTheNormalsAndStitch) {
 TEST(MaterialSet, MeshPreviewShowsTheReliefAndSurfaceColoursAMap) {
     TestServer server;
     auto c = server.client();
-    const core::Image u = load_exemplar("etr_pebbles04.png");
-    httplib::MultipartFormDataItems form = {
-        {"albedo", read_file(exemplar_path("etr_pebbles04.png")), "a.png", "image/png"},
-        {"height", height_png16(u, u.width), "h.png", "image/png"},
-        {"size", "16", "", ""},
-        {"iterations", "20", "", ""}};
-    auto up = c.Post("/v1/textons", form);
-    ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
-    const std::string base = "/v1/textons/" + json::parse(up->body).at("id").get<std::string>();
+    const std::string base = upload_pebble_set(c);
+    ASSERT_FALSE(base.empty());
     const std::string points = R"({"points":[[0,0,0],[10,5,2]],"normals":[[0,0,1],[0,1,0]]})";
     auto colours = [&](const std::string& q) {
         auto r = c.Post(base + "/surface?seed=1" + q, points, "application/json");
