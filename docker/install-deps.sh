@@ -16,14 +16,14 @@ esac
 build=(
     build-essential cmake pkg-config git ca-certificates
     libfftw3-dev libopenimageio-dev nlohmann-json3-dev libspdlog-dev libcpp-httplib-dev
-    libssl-dev libhiredis-dev libosmesa6-dev libegl-dev libwebp-dev libavif-dev
+    libssl-dev libhiredis-dev libosmesa6-dev libegl-dev libwebp-dev libavif-dev libsqlite3-dev
 )
 # What the binary links and loads (dlopen: OSMesa, EGL with Mesa's and, under the NVIDIA
 # runtime, the driver's vendor library). tests/deploy/deploy_test.py checks this list against
 # the binary's NEEDED libraries.
 runtime=(
     libopenimageio2.4 libfftw3-single3 libspdlog1.10 libfmt9 libcpp-httplib0.11 libssl3
-    libhiredis0.14 libgomp1 libosmesa6 libegl1 libegl-mesa0 libgl1-mesa-dri libwebp7 libavif15
+    libhiredis0.14 libgomp1 libosmesa6 libegl1 libegl-mesa0 libgl1-mesa-dri libwebp7 libavif15 libsqlite3-0
 )
 tests=(
     openimageio-tools googletest libgtest-dev

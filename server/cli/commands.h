@@ -18,6 +18,7 @@ int mix_command(const Argv& args);
 int serve_command(const Argv& args);
 int probe_command(const Argv& args);
 int sign_command(const Argv& args);
+int export_command(const Argv& args);
 
 // Prints "textond: <message>" to stderr and returns `code`.
 int fail(int code, const std::string& message);

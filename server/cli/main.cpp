@@ -24,6 +24,7 @@ commands:
   bench     benchmarks (textond bench analyze | render)
   probe     GET a URL, exit 0 on 2xx (the container HEALTHCHECK)
   sign      sign an image URL for a server run with --url-signing-key
+  export    write a texton's tiles over a box and zooms into an MBTiles or PMTiles archive
 
   textond <command> --help   options of one command
   textond --version
@@ -79,6 +80,7 @@ int main(int argc, char** argv) {
         if (cmd == "serve") return textond::cli::serve_command(rest);
         if (cmd == "probe") return textond::cli::probe_command(rest);
         if (cmd == "sign") return textond::cli::sign_command(rest);
+        if (cmd == "export") return textond::cli::export_command(rest);
         std::fputs(kUsage, stderr);
         return textond::cli::fail(2, "unknown command '" + cmd + "'");
     } catch (const std::exception& e) {

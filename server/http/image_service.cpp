@@ -86,6 +86,48 @@ render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, 
     return q;
 }
 
+Result<core::Image> render_view(render::Renderer& renderer, const PreparedSet& set,
+                                const api::MapChoice& map, const render::NoiseRequest& q,
+                                render::Renderer::Work work, std::string* used) {
+    if (map.name == core::kLitMap) {
+        if (set && set.value()->texton().maps.empty())
+            return make_error(ErrorCode::invalid_argument,
+                              "map=lit needs a material set with a height map; this texton has "
+                              "one exemplar");
+        if (set && !core::find_map(set.value()->texton().maps, "albedo"))
+            return make_error(ErrorCode::invalid_argument,
+                              "map=lit needs the set's albedo, which it does not have");
+        auto albedo = render::map_view(set, "");
+        if (!albedo) return albedo.error();
+        auto height = render::map_view(set, core::kNormalMap);
+        if (!height) return height.error();
+        if (auto err = height.value()->check(q)) return *err;
+        auto colour = renderer.noise(*albedo.value(), q, work, used);
+        if (!colour) return colour;
+        auto normals = renderer.normals(*height.value(), q, map.strength, work);
+        if (!normals) return normals;
+        return render::shade_lit(colour.value(), normals.value(), map.azimuth, map.elevation);
+    }
+    auto prepared = render::map_view(set, map.name);
+    if (!prepared) return prepared.error();
+    if (auto err = prepared.value()->check(q)) return *err;
+    if (map.name == core::kNormalMap) {
+        if (used) *used = "cpu";
+        return renderer.normals(*prepared.value(), q, map.strength, work);
+    }
+    return renderer.noise(*prepared.value(), q, work, used);
+}
+
+Result<std::string> encode_image(const core::Image& image, api::ImageFormat format, int quality,
+                                 const std::string& id, int png_compression) {
+    if (format == api::ImageFormat::webp) return io::encode_webp(image, quality);
+    if (format == api::ImageFormat::avif)
+        return io::encode_avif(image, quality > 0 ? quality : io::kDefaultAvifQuality);
+    return io::encode_image_memory(
+        image, encoding_of(format),
+        {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}}, png_compression);
+}
+
 ImageService::ImageService(TextonStore& textons, MixStore& mixes, render::Renderer& renderer,
                            Metrics& metrics, int png_compression)
     : m_textons(textons), m_mixes(mixes), m_renderer(renderer), m_metrics(metrics),
@@ -159,38 +201,8 @@ Result<core::Image> ImageService::evaluate(const std::string& id, const render::
         });
     }
     const auto set = m_textons.prepared(id);
-    if (map.name == core::kLitMap) {
-        if (set && set.value()->texton().maps.empty())
-            return make_error(ErrorCode::invalid_argument,
-                              "map=lit needs a material set with a height map; this texton has "
-                              "one exemplar");
-        if (set && !core::find_map(set.value()->texton().maps, "albedo"))
-            return make_error(ErrorCode::invalid_argument,
-                              "map=lit needs the set's albedo, which it does not have");
-        auto albedo = render::map_view(set, "");
-        if (!albedo) return albedo.error();
-        auto height = render::map_view(set, core::kNormalMap);
-        if (!height) return height.error();
-        if (auto err = height.value()->check(q)) return *err;
-        return timed(kind, [&](std::string* used) -> Result<core::Image> {
-            auto colour = m_renderer.noise(*albedo.value(), q, work, used);
-            if (!colour) return colour;
-            auto normals = m_renderer.normals(*height.value(), q, map.strength, work);
-            if (!normals) return normals;
-            return render::shade_lit(colour.value(), normals.value(), map.azimuth, map.elevation);
-        });
-    }
-    auto prepared = render::map_view(set, map.name);
-    if (!prepared) return prepared.error();
-    if (auto err = prepared.value()->check(q)) return *err;
-    if (map.name == core::kNormalMap)
-        return timed(kind, [&](std::string* used) {
-            if (used) *used = "cpu";
-            return m_renderer.normals(*prepared.value(), q, map.strength, work);
-        });
-    return timed(kind, [&](std::string* used) {
-        return m_renderer.noise(*prepared.value(), q, work, used);
-    });
+    return timed(
+        kind, [&](std::string* used) { return render_view(m_renderer, set, map, q, work, used); });
 }
 
 Result<core::Image>
@@ -199,9 +211,11 @@ ImageService::timed(const char* kind,
     const auto t0 = std::chrono::steady_clock::now();
     std::string used;
     Result<core::Image> image = evaluate(&used);
-    m_metrics.render(
-        used, kind,
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    if (!used.empty()) // empty: refused before any backend ran
+        m_metrics.render(
+            used, kind,
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count());
     return image;
 }
 
@@ -274,12 +288,7 @@ Result<QualityReport> ImageService::quality(const std::string& id, const api::No
 
 Result<std::string> ImageService::encode(const core::Image& image, api::ImageFormat format,
                                          int quality, const std::string& id) const {
-    if (format == api::ImageFormat::webp) return io::encode_webp(image, quality);
-    if (format == api::ImageFormat::avif)
-        return io::encode_avif(image, quality > 0 ? quality : io::kDefaultAvifQuality);
-    return io::encode_image_memory(
-        image, encoding_of(format),
-        {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}}, m_png_compression);
+    return encode_image(image, format, quality, id, m_png_compression);
 }
 
 } // namespace textond::http

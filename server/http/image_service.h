@@ -8,6 +8,7 @@
 #include "core/result.h"
 #include "render/cancel.h"
 #include "render/noise_request.h"
+#include "render/prepared_texton.h"
 #include "render/renderer.h"
 #include "server/http/metrics.h"
 #include "server/http/mix_store.h"
@@ -16,6 +17,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 
 namespace textond::http {
@@ -25,6 +27,20 @@ std::string mni_text(double mni);
 
 render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
                                    const api::NoiseParams& noise);
+
+using PreparedSet = Result<std::shared_ptr<const render::PreparedTexton>>;
+
+// The pixels of a view (api::MapChoice) of a texton or material set: the texton's noise, a set's
+// map, its normals or its lit albedo. `used` names the backend that ran; it stays empty when
+// the request was refused before any did.
+Result<core::Image> render_view(render::Renderer& renderer, const PreparedSet& set,
+                                const api::MapChoice& map, const render::NoiseRequest& q,
+                                render::Renderer::Work work, std::string* used);
+
+// An image's bytes in an API format, tagged (PNG, EXR) with the noise version and the id: what
+// every image endpoint and `textond export` write.
+Result<std::string> encode_image(const core::Image& image, api::ImageFormat format, int quality,
+                                 const std::string& id, int png_compression);
 
 class ImageService {
 public:

@@ -1,6 +1,6 @@
 #include "server/io/image_io.h"
 
-#include "server/io/crash_point.h"
+#include "server/io/atomic_file.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -346,37 +346,11 @@ Result<std::string> read_file(const std::string& path) {
 }
 
 Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) {
+    auto file = AtomicFile::create(path);
+    if (!file) return file.error();
+    if (auto w = file.value()->write(bytes); !w) return w.error();
     const fs::path target(path);
-    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    std::string tmp = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
-    const int fd = mkstemp(tmp.data());
-    if (fd < 0)
-        return make_error(ErrorCode::io, "cannot create " + tmp + ": " + std::strerror(errno));
-    std::size_t off = 0;
-    bool ok = true;
-    while (ok && off < bytes.size()) {
-        const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
-        if (n <= 0) {
-            ok = false;
-            if (n == 0) errno = ENOSPC;
-        } else {
-            off += static_cast<std::size_t>(n);
-        }
-    }
-    ok = ok && ::fchmod(fd, 0644) == 0 && ::fsync(fd) == 0;
-    const int saved = errno;
-    ok = (::close(fd) == 0) && ok;
-    const std::string ext = target.extension().string().substr(target.has_extension() ? 1 : 0);
-    if (ok) crash_point(ext + "-written");
-    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-        const int e = ok ? errno : saved;
-        ::unlink(tmp.c_str());
-        const bool full = e == ENOSPC || e == EDQUOT || e == EFBIG;
-        return make_error(full ? ErrorCode::no_space : ErrorCode::io,
-                          "cannot write " + path + ": " + std::strerror(e));
-    }
-    crash_point(ext + "-renamed");
-    return true;
+    return file.value()->commit(target.extension().string().substr(target.has_extension() ? 1 : 0));
 }
 
 namespace {

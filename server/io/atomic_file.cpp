@@ -1,0 +1,67 @@
+#include "server/io/atomic_file.h"
+
+#include "server/io/crash_point.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace textond::io {
+
+namespace fs = std::filesystem;
+
+Result<std::unique_ptr<AtomicFile>> AtomicFile::create(const std::string& path) {
+    const fs::path target(path);
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    std::string tmp = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+    const int fd = mkstemp(tmp.data());
+    if (fd < 0)
+        return make_error(ErrorCode::io, "cannot create " + tmp + ": " + std::strerror(errno));
+    return std::unique_ptr<AtomicFile>(new AtomicFile(path, tmp, fd));
+}
+
+AtomicFile::AtomicFile(std::string path, std::string tmp, int fd)
+    : m_path(std::move(path)), m_tmp(std::move(tmp)), m_fd(fd) {}
+
+AtomicFile::~AtomicFile() {
+    if (m_fd >= 0) ::close(m_fd);
+    if (!m_committed) ::unlink(m_tmp.c_str());
+}
+
+Error AtomicFile::failure(int err) const {
+    const bool full = err == ENOSPC || err == EDQUOT || err == EFBIG;
+    return {full ? ErrorCode::no_space : ErrorCode::io,
+            "cannot write " + m_path + ": " + std::strerror(err)};
+}
+
+Result<bool> AtomicFile::write(std::string_view bytes) {
+    std::size_t off = 0;
+    while (off < bytes.size()) {
+        const ssize_t n = ::write(m_fd, bytes.data() + off, bytes.size() - off);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) return failure(n == 0 ? ENOSPC : errno);
+        off += static_cast<std::size_t>(n);
+    }
+    m_size += bytes.size();
+    return true;
+}
+
+Result<bool> AtomicFile::commit(std::string_view crash_ext) {
+    const std::string ext(crash_ext);
+    bool ok = ::fchmod(m_fd, 0644) == 0 && ::fsync(m_fd) == 0;
+    const int saved = errno;
+    ok = (::close(m_fd) == 0) && ok;
+    m_fd = -1;
+    if (!ok) return failure(saved);
+    if (!ext.empty()) crash_point(ext + "-written");
+    if (std::rename(m_tmp.c_str(), m_path.c_str()) != 0) return failure(errno);
+    m_committed = true;
+    if (!ext.empty()) crash_point(ext + "-renamed");
+    return true;
+}
+
+} // namespace textond::io

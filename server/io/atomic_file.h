@@ -1,0 +1,36 @@
+#pragma once
+// A file written in pieces that appears whole or not at all: a temporary beside the target,
+// fsynced and renamed over it by commit(); dropped (unlinked) when commit is never reached. For
+// outputs too large to hold in memory (tile archives); write_file_atomic is the one-piece case.
+#include "core/result.h"
+
+#include <memory>
+#include <string>
+#include <string_view>
+
+namespace textond::io {
+
+class AtomicFile {
+public:
+    static Result<std::unique_ptr<AtomicFile>> create(const std::string& path);
+    ~AtomicFile();
+    AtomicFile(const AtomicFile&) = delete;
+    AtomicFile& operator=(const AtomicFile&) = delete;
+
+    // Appends; a full disk is no_space, other failures io.
+    Result<bool> write(std::string_view bytes);
+    // fsync, then rename over the target. `crash_ext` names the crash points passed on the way
+    // ("<ext>-written", "<ext>-renamed": crash_point.h).
+    Result<bool> commit(std::string_view crash_ext = "");
+    std::uint64_t size() const { return m_size; }
+
+private:
+    AtomicFile(std::string path, std::string tmp, int fd);
+    Error failure(int err) const;
+    std::string m_path, m_tmp;
+    int m_fd = -1;
+    std::uint64_t m_size = 0;
+    bool m_committed = false;
+};
+
+} // namespace textond::io
