@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 TEST(Cli, HelpForEveryCommand) {
     for (const char* c : {"--help", "analyze --help", "synth --help", "bench --help",
                           "render --help", "bench render --help", "bench tile --help",
-                          "serve --help", "mix --help", "sign --help"}) {
+                          "serve --help", "mix --help", "sign --help", "export --help"}) {
         const test::RunResult r = test::run(c);
         EXPECT_EQ(r.code, 0) << c;
         EXPECT_NE(r.out.find("usage"), std::string::npos) << c;
