@@ -1,7 +1,10 @@
 // The textond page: upload an exemplar, look at its texton, pan an infinite texture of it.
-// Plain ES module over the HTTP API (api/openapi.yaml); Leaflet is the only dependency.
+// Plain ES module over the HTTP API (api/openapi.yaml); Leaflet draws the maps, and the pmtiles
+// library reads archives written by `textond export`.
 const $ = (id) => document.getElementById(id);
-const state = { meta: null, map: null, layer: null, tilesLoaded: 0, tileErrors: 0 };
+const state = {
+  meta: null, map: null, layer: null, tilesLoaded: 0, tileErrors: 0, archiveMap: null, archive: null,
+};
 window.textond = state; // for people poking around, and for the browser test
 
 // API errors in plain words: the server's message, with what to do for the common cases.
@@ -282,6 +285,32 @@ async function refreshList() {
   }
 }
 
+// A PMTiles archive from `textond export`, read from the local file by range (nothing is
+// uploaded) and shown on its own map, framed on the box it was exported for.
+async function openArchive(file) {
+  const archive = new pmtiles.PMTiles(new pmtiles.FileSource(file));
+  const header = await archive.getHeader();
+  if (![2, 4, 5].includes(header.tileType)) throw new Error(`${file.name} holds no PNG, WebP or AVIF tiles`);
+  const info = (await archive.getMetadata()).textond || {};
+  const size = info.tile_size || 256;
+  if (state.archiveMap) state.archiveMap.remove();
+  $('archive-map').hidden = false;
+  const map = L.map('archive-map', {
+    crs: L.CRS.Simple, minZoom: header.minZoom, maxZoom: header.maxZoom, attributionControl: false,
+  });
+  // Zoom 24 draws one texel a pixel, so the box's texels are its pixels there.
+  const [x0, y0, x1, y1] = info.bbox || [0, 0, size, size];
+  const bounds = L.latLngBounds(map.unproject([x0, y1], 24), map.unproject([x1, y0], 24));
+  map.fitBounds(bounds);
+  pmtiles.leafletRasterLayer(archive, {
+    tileSize: size, minZoom: header.minZoom, maxZoom: header.maxZoom, bounds, noWrap: true,
+  }).addTo(map);
+  state.archiveMap = map;
+  state.archive = archive;
+  $('archive-info').textContent = `${file.name}: ${header.numAddressedTiles} tiles, zooms ` +
+    `${header.minZoom}-${header.maxZoom}${info.texton ? `, texton ${info.texton.slice(0, 12)}` : ''}`;
+}
+
 $('file').addEventListener('change', (e) => { if (e.target.files[0]) upload(e.target.files[0]); });
 const drop = $('drop');
 drop.addEventListener('dragover', (e) => { e.preventDefault(); drop.classList.add('over'); });
@@ -299,6 +328,9 @@ $('map-view').addEventListener('change', () => {
 });
 $('light').addEventListener('change', () => refreshNoise().catch((e) => showError(e.message)));
 $('set-send').addEventListener('click', () => uploadSet());
+$('archive-file').addEventListener('change', (e) => {
+  if (e.target.files[0]) openArchive(e.target.files[0]).catch((err) => showError(err.message));
+});
 for (const id of ['dl-w', 'dl-h', 'dl-format', 'seed', 'mni'])
   $(id).addEventListener('input', updateDownloads);
 $('copy-url').addEventListener('click', async () => {

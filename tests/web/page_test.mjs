@@ -2,12 +2,14 @@
 // `textond serve` on 127.0.0.1: upload, texton and RME, the map's tiles (all 200, no console
 // errors, more on pan and zoom), no seam across tile boundaries in a screenshot, a new seed
 // changes the tiles, downloads have the asked size, errors in plain words, the stored list, a
-// material set uploaded from the page and its lit and normal views.
+// material set uploaded from the page and its lit and normal views, and a PMTiles archive written
+// by `textond export` opened on the page (read by the pmtiles library: tiles byte for byte the
+// service's).
 //
 // usage: node page_test.mjs TEXTOND_BINARY EXEMPLAR.png ARTEFACT_DIR
 import { chromium } from 'playwright-core';
-import { spawn } from 'node:child_process';
-import { mkdtempSync, mkdirSync, readFileSync, rmSync } from 'node:fs';
+import { spawn, spawnSync } from 'node:child_process';
+import { mkdtempSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { createInterface } from 'node:readline';
@@ -236,6 +238,35 @@ try {
   check(spectra[0] === 2 * spectra[1] + 4, `the spectra show, side by side (${spectra})`);
   check(await page.evaluate(() => !!window.textond.histograms), 'the histograms are drawn');
   check(await page.locator('#texton-list li img').count() >= 1, 'the stored textons are listed with thumbnails');
+
+  // A tile archive of this texton (`textond export` of its texton.exr), opened from the page: the
+  // pmtiles library reads it in the browser, Leaflet shows its tiles, and each is the service's
+  // own tile of that address, byte for byte (the service stores PNGs, as --png-compression 0).
+  const textonExr = join(data, 'texton.exr'), archive = join(data, 'cork.pmtiles');
+  writeFileSync(textonExr, Buffer.from(await (await fetch(`${url}/v1/textons/${id}/texton.exr`)).arrayBuffer()));
+  const exported = spawnSync(binary, ['export', textonExr, '--zooms', '22-24', '--bbox', '0,0,1024,768',
+                                      '--png-compression', '0', '--backend', 'cpu', '--quiet', '-o', archive]);
+  check(exported.status === 0, `textond export writes the archive (${exported.stderr})`);
+  await page.setInputFiles('#archive-file', archive);
+  await page.waitForFunction(() => document.querySelectorAll('#archive-map .leaflet-tile-loaded').length >= 4,
+                             null, { timeout: 30000 }).catch(() => {});
+  const archiveTiles = await page.locator('#archive-map .leaflet-tile-loaded').count();
+  check(archiveTiles >= 4, `the archive's tiles show on the page's map (${archiveTiles})`);
+  check(/17 tiles, zooms 22-24, texton [0-9a-f]{12}/.test(await page.textContent('#archive-info')),
+        `the archive is described (${await page.textContent('#archive-info')})`);
+  await page.waitForTimeout(300); // Leaflet fades tiles in
+  await page.locator('#archive-map').screenshot({ path: join(artefacts, 'archive.png') });
+  const same = await page.evaluate(async (texton) => {
+    const out = [];
+    for (const [z, x, y] of [[24, 0, 0], [24, 3, 2], [23, 1, 1], [22, 0, 0]]) {
+      const tile = await window.textond.archive.getZxy(z, x, y);
+      const res = await fetch(`/v1/textons/${texton}/map/${z}/${x}/${y}.png`);
+      const a = new Uint8Array(tile ? tile.data : []), b = new Uint8Array(await res.arrayBuffer());
+      out.push(res.status === 200 && a.length === b.length && a.length > 0 && a.every((v, i) => v === b[i]));
+    }
+    return out;
+  }, id);
+  check(same.every(Boolean), `archive tiles equal the service's, byte for byte (${same})`);
 
   check(consoleErrors.length === 0, `no console errors (${JSON.stringify(consoleErrors)})`);
 
