@@ -11,8 +11,6 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 using namespace textond;
 namespace fs = std::filesystem;
@@ -20,10 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
+    return io::read_file(path).value();
 }
 
 // One texton for every test of this file (an analysis is the slow part).
@@ -148,8 +143,8 @@ TEST(Export, PmtilesResumesAfterAKillIntoTheSameBytesAndReadsBack) {
     EXPECT_GT(summary["resumed_with"].get<int>(), 0);
     EXPECT_LT(summary["resumed_with"].get<int>(), 380);
     EXPECT_FALSE(fs::exists(resumed + ".partial"));
-    const std::string bytes = slurp(resumed);
-    EXPECT_TRUE(bytes == slurp(once));
+    const std::string bytes = io::read_file(resumed).value();
+    EXPECT_TRUE(bytes == io::read_file(once).value());
 
     const test::PmtilesFile f = test::read_pmtiles(bytes);
     ASSERT_TRUE(f.ok) << f.error;

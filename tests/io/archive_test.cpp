@@ -1,5 +1,6 @@
 // Tile archives (server/io/pmtiles, server/io/mbtiles) read back by other code than wrote them:
 // PMTiles by the spec-built reader of tests/support, MBTiles by raw SQL.
+#include "server/io/image_io.h"
 #include "server/io/mbtiles.h"
 #include "server/io/pmtiles.h"
 #include "tests/support/pmtiles_reader.h"
@@ -10,7 +11,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 using namespace textond;
 namespace pm = io::pmtiles;
@@ -19,10 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
+    return io::read_file(path).value();
 }
 
 // Distinct bytes of distinct lengths per tile, so a tile served at another address shows.
@@ -54,7 +51,7 @@ test::PmtilesFile write_and_read(const std::vector<pm::Tile>& tiles, const std::
         return Result<std::string>(payload(tiles[i].z, tiles[i].x, tiles[i].y));
     });
     EXPECT_TRUE(w.ok()) << (w ? "" : w.error().message);
-    return test::read_pmtiles(slurp(path));
+    return test::read_pmtiles(io::read_file(path).value());
 }
 
 } // namespace
