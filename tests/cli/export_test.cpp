@@ -17,10 +17,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const std::string& path) {
-    return io::read_file(path).value();
-}
-
 // One texton for every test of this file (an analysis is the slow part).
 const std::string& sand_texton() {
     static const std::string path = [] {

@@ -18,10 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const std::string& path) {
-    return io::read_file(path).value();
-}
-
 // Distinct bytes of distinct lengths per tile, so a tile served at another address shows.
 std::string payload(int z, std::uint32_t x, std::uint32_t y) {
     return "tile " + std::to_string(z) + "/" + std::to_string(x) + "/" + std::to_string(y) +
