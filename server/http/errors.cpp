@@ -27,6 +27,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"signature_missing", 403},
         {"signature_invalid", 403},
         {"signature_expired", 403},
+        {"signing_unavailable", 403},
         {"preset_required", 403},
         {"not_found", 404},
         // The connection (server/http/connection.cpp, admission.cpp).

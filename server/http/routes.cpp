@@ -35,6 +35,7 @@ void Service::install_routes() {
     m_http.Post(R"(/v1/textons/(.*))",
                 [](Req req, Res res, Reader) { TextonRoutes::fallback(req, res); });
     m_http.Post("/v1/mixes", call(m_mix_routes.get(), &MixRoutes::create));
+    m_http.Post("/v1/sign", call(m_sign_routes.get(), &SignRoutes::sign));
     m_http.Post(R"(/v1/mixes/(.*))",
                 [](Req req, Res res, Reader) { MixRoutes::fallback(req, res); });
     m_http.Post(R"(.*)", [](Req, Res res, Reader) {

@@ -133,6 +133,7 @@ void Service::make_services() {
     m_mix_routes = std::make_unique<MixRoutes>(m_config, *m_mix_service, *m_mixes, *m_pool, m_gate);
     m_surfaces = std::make_unique<SurfaceService>(*m_renderer);
     m_surface_routes = std::make_unique<SurfaceRoutes>(*m_store, *m_surfaces, m_gate);
+    m_sign_routes = std::make_unique<SignRoutes>(m_config, m_gate);
     m_ops_routes = std::make_unique<OpsRoutes>(m_config, m_metrics, *m_store, *m_mixes, *m_renderer,
                                                m_stopping);
 }

@@ -20,6 +20,7 @@
 #include "server/http/mix_service.h"
 #include "server/http/mix_store.h"
 #include "server/http/ops_routes.h"
+#include "server/http/sign_routes.h"
 #include "server/http/surface_routes.h"
 #include "server/http/texton_routes.h"
 #include "server/http/texton_service.h"
@@ -85,6 +86,7 @@ private:
     std::unique_ptr<TextonRoutes> m_texton_routes;
     std::unique_ptr<MixRoutes> m_mix_routes;
     std::unique_ptr<SurfaceRoutes> m_surface_routes;
+    std::unique_ptr<SignRoutes> m_sign_routes;
     std::unique_ptr<OpsRoutes> m_ops_routes;
     Gate m_gate;           // slots, budgets and the answers when they are full
     const bool m_cors_any; // --cors-origin "*"
