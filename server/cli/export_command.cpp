@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <mutex>
 #include <optional>
+#include <system_error>
 #include <thread>
 #include <unordered_set>
 
@@ -38,7 +39,8 @@ const char* kHelp =
 Writes the web-map tiles of TEXTON (a texton file: `textond analyze -o`, or a service's
 /v1/textons/{id}/texton.exr) over a box of the plane into one archive: MBTiles 1.3 (SQLite) or
 PMTiles v3 (one file a browser reads by range requests). Each tile has the bytes of the
-service's /v1/textons/{id}/map/{z}/{x}/{y} with the same options. Tiles render in parallel into
+service's /v1/textons/{id}/map/{z}/{x}/{y} with the same options (and the same --png-compression:
+serve stores PNGs, level 0, by default). Tiles render in parallel into
 OUT.partial; run the same command again after an interruption and it resumes from there.
 
   --zooms A-B         map zooms, 0..24 (level = 24 - zoom; 24: one texel per pixel)
@@ -50,15 +52,17 @@ OUT.partial; run the same command again after an interruption and it resumes fro
   --seed N, --mni M, --marginals gaussian|exemplar, --map NAME, --strength S, --light AZ,EL
                       the noise, as the tile URLs take them (README "HTTP API")
   --png-compression N zlib level of PNG tiles, 0..9           [1]
-  --jobs N            tiles rendered at once                  [one per core]
+  --jobs N            tiles rendered at once, 1..64           [one per core]
   --backend B         auto | cpu | osmesa | egl               [auto]
   --quiet             no progress bar
 Prints a JSON summary on stdout. Exit status 130 when interrupted (the work done is kept).
 )";
 
 std::atomic<bool> g_interrupted{false};
-extern "C" void on_interrupt(int) {
+// The first Ctrl-C stops the export cleanly; a second one (the default handler again) kills it.
+extern "C" void on_interrupt(int sig) {
     g_interrupted = true;
+    std::signal(sig, SIG_DFL);
 }
 
 struct Options {
@@ -100,6 +104,14 @@ Result<Options> options_from(const Args& a) {
     if (o.output.empty())
         return make_error(ErrorCode::invalid_argument,
                           "export needs -o OUT.mbtiles or OUT.pmtiles");
+    const auto dir = std::filesystem::path(o.output).parent_path();
+    if (std::error_code ec; !dir.empty() && !std::filesystem::is_directory(dir, ec))
+        return make_error(ErrorCode::invalid_argument,
+                          "-o " + o.output + ": no directory " + dir.string());
+    for (const char* required : {"--zooms", "--bbox"})
+        if (!a.has(required))
+            return make_error(ErrorCode::invalid_argument,
+                              std::string("export needs ") + required + " (export --help)");
     const std::string ext = std::filesystem::path(o.output).extension().string();
     o.archive = a.get("--format", ext.empty() ? "" : ext.substr(1));
     if (o.archive != "mbtiles" && o.archive != "pmtiles")
@@ -121,7 +133,7 @@ Result<Options> options_from(const Args& a) {
     if (!level) return level.error();
     o.png_compression = static_cast<int>(level.value());
     const long long cores = std::max(1U, std::thread::hardware_concurrency());
-    auto jobs = a.get_int("--jobs", cores, 1, 256);
+    auto jobs = a.get_int("--jobs", std::min(cores, 64LL), 1, 64);
     if (!jobs) return jobs.error();
     o.jobs = static_cast<int>(jobs.value());
     auto kind = render::parse_backend_kind(a.get("--backend", "auto"));
@@ -161,55 +173,72 @@ std::uint64_t packed(int z, std::uint32_t x, std::uint32_t y) {
     return (std::uint64_t(z) << 58) | (std::uint64_t(x) << 29) | y; // x, y < 2^24
 }
 
-// OUT.partial, new or resumed: the tiles it already holds are left out of `todo`.
+// OUT.partial: new (its schema and the export's identity written in one go), or a partial of
+// this same export, resumed. Anything else there is refused before a byte of it changes.
 Result<std::unique_ptr<io::Mbtiles>> open_spool(const std::string& path,
-                                                const nlohmann::json& identity,
-                                                const ExportPlan& plan,
-                                                std::vector<TileAddress>& todo) {
-    auto spool = io::Mbtiles::open(path);
+                                                const nlohmann::json& identity) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec) || std::filesystem::file_size(path, ec) == 0) {
+        return io::Mbtiles::create(path, true, {{"textond", identity.dump()}});
+    }
+    auto spool = io::Mbtiles::open(path, true);
     if (!spool) return spool.error();
-    auto keys = spool.value()->keys();
-    if (!keys) return keys.error();
     auto stored = spool.value()->metadata("textond");
-    if (!stored && !keys.value().empty())
+    if (!stored && stored.error().code == ErrorCode::unavailable) return stored.error();
+    if (!stored)
         return make_error(ErrorCode::invalid_argument,
-                          path + " holds tiles of something else: remove it to start over");
-    if (stored && stored.value() != identity.dump())
+                          path + " is not a partial textond export (" + stored.error().message +
+                              "): move it away, or write to another -o");
+    if (stored.value() != identity.dump())
         return make_error(ErrorCode::invalid_argument,
                           path + " is an export with other options (" + stored.value() +
                               "): run that command again to finish it, or remove " + path);
-    if (!stored)
-        if (auto w = spool.value()->set_metadata("textond", identity.dump()); !w) return w.error();
-    std::unordered_set<std::uint64_t> done;
-    for (const auto& k : keys.value()) done.insert(packed(k.z, k.x, k.y));
-    for (const TileAddress& t : plan.tiles())
-        if (!done.count(packed(t.z, t.x, t.y))) todo.push_back(t);
-    return std::move(spool.value());
+    return spool;
 }
 
-// Workers render and encode; the caller's thread stores (SQLite takes one writer). At most
-// four tiles a worker wait to be stored, so memory stays bounded when the disk is slower.
+// The plan's tiles that the spool does not hold yet.
+Result<std::vector<TileAddress>> tiles_to_do(io::Mbtiles& spool, const ExportPlan& plan) {
+    auto keys = spool.keys();
+    if (!keys) return keys.error();
+    std::unordered_set<std::uint64_t> done;
+    for (const auto& k : keys.value()) done.insert(packed(k.z, k.x, k.y));
+    std::vector<TileAddress> todo;
+    for (const TileAddress& t : plan.tiles())
+        if (!done.count(packed(t.z, t.x, t.y))) todo.push_back(t);
+    return todo;
+}
+
+// Workers render and encode; the caller's thread stores (SQLite takes one writer). At most 4
+// tiles a worker and 64 MiB wait to be stored, so a slow disk cannot fill memory.
 class TileQueue {
 public:
     explicit TileQueue(std::size_t capacity) : m_capacity(capacity) {}
     // false once the consumer has stopped
     bool push(Encoded e) {
         std::unique_lock lock(m_mutex);
-        m_not_full.wait(lock, [&] { return m_items.size() < m_capacity || m_stopped; });
+        m_not_full.wait(lock, [&] {
+            return m_items.empty() || (m_items.size() < m_capacity && m_bytes < kMaxBytes) ||
+                   m_stopped;
+        });
         if (m_stopped) return false;
+        m_bytes += e.bytes.size();
         m_items.push_back(std::move(e));
         m_not_empty.notify_one();
         return true;
     }
-    // nullopt once every producer is done and nothing is left
-    std::optional<Encoded> pop() {
+    enum class Popped { tile, idle, finished };
+    // A tile, or idle after `wait` without one, or finished once every producer is done and
+    // nothing is left.
+    Popped pop(Encoded& out, std::chrono::milliseconds wait) {
         std::unique_lock lock(m_mutex);
-        m_not_empty.wait(lock, [&] { return !m_items.empty() || m_producers == 0; });
-        if (m_items.empty()) return std::nullopt;
-        Encoded e = std::move(m_items.front());
+        if (!m_not_empty.wait_for(lock, wait, [&] { return !m_items.empty() || m_producers == 0; }))
+            return Popped::idle;
+        if (m_items.empty()) return Popped::finished;
+        out = std::move(m_items.front());
         m_items.pop_front();
+        m_bytes -= out.bytes.size();
         m_not_full.notify_one();
-        return e;
+        return Popped::tile;
     }
     void add_producer() {
         std::lock_guard lock(m_mutex);
@@ -227,10 +256,11 @@ public:
     }
 
 private:
+    static constexpr std::size_t kMaxBytes = std::size_t{64} << 20;
     std::mutex m_mutex;
     std::condition_variable m_not_full, m_not_empty;
     std::deque<Encoded> m_items;
-    std::size_t m_capacity;
+    std::size_t m_capacity, m_bytes = 0;
     int m_producers = 0;
     bool m_stopped = false;
 };
@@ -263,18 +293,25 @@ void work(const Context& c, const std::vector<TileAddress>& todo, TileQueue& que
     queue.producer_done();
 }
 
-// Stores what the workers make, committing about once a second: a kill loses at most that.
+// Stores what the workers make, committing about once a second (also while renders are slow):
+// a kill loses at most that.
 Result<std::uint64_t> store_tiles(io::Mbtiles& spool, TileQueue& queue, ProgressBar& bar,
                                   std::uint64_t done) {
     using Clock = std::chrono::steady_clock;
     if (auto b = spool.begin(); !b) return b.error();
     auto committed = Clock::now();
     std::size_t pending = 0;
-    while (auto tile = queue.pop()) {
-        if (auto w = spool.put(tile->at.z, tile->at.x, tile->at.y, tile->bytes); !w)
-            return w.error();
-        bar.update(++done);
-        if (++pending >= 256 || Clock::now() - committed > std::chrono::seconds(1)) {
+    Encoded tile;
+    for (;;) {
+        const auto popped = queue.pop(tile, std::chrono::milliseconds(200));
+        if (popped == TileQueue::Popped::finished) break;
+        if (popped == TileQueue::Popped::tile) {
+            if (auto w = spool.put(tile.at.z, tile.at.x, tile.at.y, tile.bytes); !w)
+                return w.error();
+            bar.update(++done);
+            ++pending;
+        }
+        if (pending >= 256 || (pending > 0 && Clock::now() - committed > std::chrono::seconds(1))) {
             if (auto w = spool.commit(); !w) return w.error();
             io::crash_point("export-committed");
             if (auto b = spool.begin(); !b) return b.error();
@@ -292,11 +329,18 @@ Result<std::uint64_t> run_tiles(const Context& c, const std::vector<TileAddress>
     TileQueue queue(4 * static_cast<std::size_t>(c.o.jobs));
     RunState state;
     std::vector<std::thread> workers;
-    for (int i = 0; i < c.o.jobs; ++i) {
-        queue.add_producer();
-        workers.emplace_back([&] { work(c, todo, queue, state); });
+    Result<std::uint64_t> stored = done;
+    try {
+        for (int i = 0; i < c.o.jobs; ++i) {
+            queue.add_producer();
+            workers.emplace_back([&] { work(c, todo, queue, state); });
+        }
+    } catch (const std::system_error& e) { // the system's thread limit
+        queue.producer_done();
+        state.fail({ErrorCode::unavailable,
+                    std::string("cannot start a worker: ") + e.what() + " (try fewer --jobs)"});
     }
-    auto stored = store_tiles(spool, queue, bar, done);
+    if (!state.failed()) stored = store_tiles(spool, queue, bar, done);
     queue.stop();
     for (auto& w : workers) w.join();
     if (!stored) return stored.error();
@@ -365,55 +409,77 @@ Result<bool> finish_pmtiles(std::unique_ptr<io::Mbtiles> spool, const std::strin
     h.min_lon = b[0], h.min_lat = b[1], h.max_lon = b[2], h.max_lat = b[3];
     h.center_lon = (b[0] + b[2]) / 2, h.center_lat = (b[1] + b[3]) / 2;
     auto written = pm::write_archive(output, h, meta.dump(), tiles, [&](std::size_t i) {
+        if (g_interrupted) // the temporary goes; the partial stays for the next run
+            return Result<std::string>(make_error(ErrorCode::cancelled, "interrupted"));
         return spool->get(tiles[i].z, tiles[i].x, tiles[i].y);
     });
     if (!written) return written.error();
     if (auto c = spool->close(); !c) return c.error();
-    std::filesystem::remove(partial);
+    std::error_code ec;
+    std::filesystem::remove(partial, ec); // the archive is whole; a stale partial only costs disk
     return true;
+}
+
+// SIGINT and SIGTERM stop the export cleanly while it lives (on_interrupt).
+struct InterruptHandlers {
+    InterruptHandlers()
+        : old_int(std::signal(SIGINT, on_interrupt)), old_term(std::signal(SIGTERM, on_interrupt)) {
+        g_interrupted = false;
+    }
+    ~InterruptHandlers() {
+        std::signal(SIGINT, old_int);
+        std::signal(SIGTERM, old_term);
+    }
+    InterruptHandlers(const InterruptHandlers&) = delete;
+    InterruptHandlers& operator=(const InterruptHandlers&) = delete;
+    void (*old_int)(int);
+    void (*old_term)(int);
+};
+
+int interrupted(std::uint64_t stored, std::uint64_t total, const std::string& partial) {
+    return fail(130, "interrupted: " + std::to_string(stored) + " of " + std::to_string(total) +
+                         " tiles are in " + partial + "; run the same command again to resume");
 }
 
 int run_export(const Context& c, const ExportPlan& plan) {
     const Options& o = c.o;
     const std::string partial = o.output + ".partial";
     const nlohmann::json identity = export_identity(o, plan, c.id, c.renderer);
-    std::vector<TileAddress> todo;
-    auto spool = open_spool(partial, identity, plan, todo);
+    auto spool = open_spool(partial, identity);
     if (!spool) return fail(1, spool.error().message);
-    const std::uint64_t total = plan.count(), before = total - todo.size();
+    auto todo = tiles_to_do(*spool.value(), plan);
+    if (!todo) return fail(1, todo.error().message);
+    const std::uint64_t total = plan.count(), before = total - todo.value().size();
     if (before > 0)
         spdlog::info("resuming: {} of {} tiles are already in {}", before, total, partial);
     const auto t0 = std::chrono::steady_clock::now();
     ProgressBar bar("export", total, before, o.quiet);
-    g_interrupted = false;
-    auto old_int = std::signal(SIGINT, on_interrupt), old_term = std::signal(SIGTERM, on_interrupt);
-    auto stored = run_tiles(c, todo, *spool.value(), bar, before);
-    std::signal(SIGINT, old_int);
-    std::signal(SIGTERM, old_term);
+    const InterruptHandlers handlers;
+    auto stored = run_tiles(c, todo.value(), *spool.value(), bar, before);
     bar.finish();
     if (!stored)
         return fail(1, stored.error().message + " (tiles done so far are kept in " + partial + ")");
-    if (stored.value() < total)
-        return fail(130, "interrupted: " + std::to_string(stored.value()) + " of " +
-                             std::to_string(total) + " tiles are in " + partial +
-                             "; run the same command again to resume");
+    if (stored.value() < total) return interrupted(stored.value(), total, partial);
     const nlohmann::json meta = archive_metadata(o, plan, c.id, identity);
     auto finished =
         o.archive == "mbtiles"
             ? finish_mbtiles(std::move(spool.value()), partial, o.output, meta)
             : finish_pmtiles(std::move(spool.value()), partial, o.output, meta, o, plan);
+    if (!finished && finished.error().code == ErrorCode::cancelled)
+        return interrupted(total, total, partial);
     if (!finished) return fail(1, finished.error().message);
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::error_code ec;
+    const auto bytes = std::filesystem::file_size(o.output, ec);
     const nlohmann::json summary = {
         {"output", o.output},
         {"format", o.archive},
         {"tiles", total},
         {"resumed_with", before},
-        {"rendered", todo.size()},
-        {"bytes", std::filesystem::file_size(o.output, ec)},
+        {"rendered", todo.value().size()},
+        {"bytes", ec ? 0 : bytes},
         {"seconds", s},
-        {"tiles_per_s", s > 0 ? static_cast<double>(todo.size()) / s : 0.0},
+        {"tiles_per_s", s > 0 ? static_cast<double>(todo.value().size()) / s : 0.0},
         {"backend", c.renderer.tiles_backend()}};
     std::printf("%s\n", summary.dump(2).c_str());
     return 0;
@@ -447,7 +513,8 @@ int export_command(const Argv& argv) {
     const Context c{o.value(), id, render::PreparedTexton::make(std::move(record.value().texton)),
                     *renderer.value()};
     // The first tile, before any file is touched: bad options fail here, in the API's words.
-    if (auto probe = render_tile(c, plan.value().tiles().front()); !probe)
+    const ExportPlan::Zoom& first = plan.value().zooms.front();
+    if (auto probe = render_tile(c, {first.z, first.x0, first.y0}); !probe)
         return fail(probe.error().code == ErrorCode::invalid_argument ? 2 : 1,
                     probe.error().message);
     return run_export(c, plan.value());

@@ -68,6 +68,8 @@ Result<ExportPlan> make_export_plan(const std::string& zooms, const std::string&
     p.max_zoom = static_cast<int>(*hi);
 
     std::vector<std::int64_t> v;
+    if (!bbox.empty() && bbox.back() == ',')
+        return bad("--bbox is X0,Y0,X1,Y1 in texels, not '" + bbox + "'");
     std::stringstream in(bbox);
     for (std::string part; std::getline(in, part, ',');) {
         const auto n = api::parse_i64(part);

@@ -50,17 +50,16 @@ Result<bool> AtomicFile::write(std::string_view bytes) {
     return true;
 }
 
-Result<bool> AtomicFile::commit(std::string_view crash_ext) {
-    const std::string ext(crash_ext);
+Result<bool> AtomicFile::commit(const char* crash_ext) {
     bool ok = ::fchmod(m_fd, 0644) == 0 && ::fsync(m_fd) == 0;
     const int saved = errno;
     ok = (::close(m_fd) == 0) && ok;
     m_fd = -1;
     if (!ok) return failure(saved);
-    if (!ext.empty()) crash_point(ext + "-written");
+    if (crash_ext) crash_point(std::string(crash_ext) + "-written");
     if (std::rename(m_tmp.c_str(), m_path.c_str()) != 0) return failure(errno);
     m_committed = true;
-    if (!ext.empty()) crash_point(ext + "-renamed");
+    if (crash_ext) crash_point(std::string(crash_ext) + "-renamed");
     return true;
 }
 

@@ -19,9 +19,9 @@ public:
 
     // Appends; a full disk is no_space, other failures io.
     Result<bool> write(std::string_view bytes);
-    // fsync, then rename over the target. `crash_ext` names the crash points passed on the way
-    // ("<ext>-written", "<ext>-renamed": crash_point.h).
-    Result<bool> commit(std::string_view crash_ext = "");
+    // fsync, then rename over the target. With `crash_ext`, passes the crash points
+    // "<ext>-written" and "<ext>-renamed" on the way (crash_point.h).
+    Result<bool> commit(const char* crash_ext = nullptr);
     std::uint64_t size() const { return m_size; }
 
 private:

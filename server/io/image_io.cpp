@@ -350,7 +350,8 @@ Result<bool> write_file_atomic(const std::string& path, std::string_view bytes) 
     if (!file) return file.error();
     if (auto w = file.value()->write(bytes); !w) return w.error();
     const fs::path target(path);
-    return file.value()->commit(target.extension().string().substr(target.has_extension() ? 1 : 0));
+    const std::string ext = target.extension().string().substr(target.has_extension() ? 1 : 0);
+    return file.value()->commit(ext.c_str());
 }
 
 namespace {

@@ -37,15 +37,34 @@ CREATE UNIQUE INDEX IF NOT EXISTS tile_index ON tiles (zoom_level, tile_column, 
 
 } // namespace
 
-Result<std::unique_ptr<Mbtiles>> Mbtiles::open(const std::string& path) {
+Result<std::unique_ptr<Mbtiles>> Mbtiles::open_flags(const std::string& path, int flags,
+                                                     bool exclusive) {
     sqlite3* db = nullptr;
-    const int rc =
-        sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+    const int rc = sqlite3_open_v2(path.c_str(), &db, flags, nullptr);
     std::unique_ptr<Mbtiles> m(new Mbtiles(db, path));
     if (rc != SQLITE_OK) return m->failure("cannot open");
-    sqlite3_busy_timeout(db, 5000);
-    if (auto r = m->exec(kSchema); !r) return r.error();
+    sqlite3_busy_timeout(db, 1000);
+    if (exclusive)
+        if (auto r = m->exec("PRAGMA locking_mode = EXCLUSIVE", "locking"); !r) return r.error();
     return m;
+}
+
+Result<std::unique_ptr<Mbtiles>>
+Mbtiles::create(const std::string& path, bool exclusive,
+                const std::vector<std::pair<std::string, std::string>>& metadata) {
+    auto m = open_flags(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, exclusive);
+    if (!m) return m;
+    Mbtiles& db = *m.value();
+    if (auto r = db.begin(); !r) return r.error();
+    if (auto r = db.exec(kSchema, "creating the MBTiles tables"); !r) return r.error();
+    for (const auto& [name, value] : metadata)
+        if (auto r = db.set_metadata(name, value); !r) return r.error();
+    if (auto r = db.commit(); !r) return r.error();
+    return m;
+}
+
+Result<std::unique_ptr<Mbtiles>> Mbtiles::open(const std::string& path, bool exclusive) {
+    return open_flags(path, SQLITE_OPEN_READWRITE, exclusive);
 }
 
 Mbtiles::Mbtiles(sqlite3* db, std::string path) : m_db(db), m_path(std::move(path)) {}
@@ -59,12 +78,14 @@ Error Mbtiles::failure(const std::string& what) const {
     const std::string message =
         m_path + ": " + what + ": " + (m_db ? sqlite3_errmsg(m_db) : "out of memory");
     if (code == SQLITE_FULL) return {ErrorCode::no_space, message};
+    if (code == SQLITE_BUSY || code == SQLITE_LOCKED)
+        return {ErrorCode::unavailable, m_path + ": in use by another process (another export?)"};
     if (code == SQLITE_NOTADB || code == SQLITE_CORRUPT) return {ErrorCode::unprocessable, message};
     return {ErrorCode::io, message};
 }
 
-Result<bool> Mbtiles::exec(const char* sql) {
-    if (sqlite3_exec(m_db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) return failure(sql);
+Result<bool> Mbtiles::exec(const char* sql, const char* what) {
+    if (sqlite3_exec(m_db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) return failure(what);
     return true;
 }
 
@@ -137,10 +158,10 @@ Result<std::vector<Mbtiles::Key>> Mbtiles::keys() const {
 }
 
 Result<bool> Mbtiles::begin() {
-    return exec("BEGIN IMMEDIATE");
+    return exec("BEGIN IMMEDIATE", "starting a transaction");
 }
 Result<bool> Mbtiles::commit() {
-    return exec("COMMIT");
+    return exec("COMMIT", "committing");
 }
 
 Result<bool> Mbtiles::close() {

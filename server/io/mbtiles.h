@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 struct sqlite3;
@@ -16,8 +17,15 @@ namespace textond::io {
 
 class Mbtiles {
 public:
-    // Opens `path`, creating it and the spec's schema when absent.
-    static Result<std::unique_ptr<Mbtiles>> open(const std::string& path);
+    // `exclusive`: the first write locks the database until close, so a second process is told
+    // at once (unavailable, "in use by another process") instead of interleaving its writes.
+    // A new database at `path` (absent, or an empty file) with the spec's schema and `metadata`,
+    // all in one transaction.
+    static Result<std::unique_ptr<Mbtiles>>
+    create(const std::string& path, bool exclusive = false,
+           const std::vector<std::pair<std::string, std::string>>& metadata = {});
+    // An existing database, changed in nothing until written to.
+    static Result<std::unique_ptr<Mbtiles>> open(const std::string& path, bool exclusive = false);
     ~Mbtiles();
     Mbtiles(const Mbtiles&) = delete;
     Mbtiles& operator=(const Mbtiles&) = delete;
@@ -44,7 +52,9 @@ public:
 
 private:
     explicit Mbtiles(sqlite3* db, std::string path);
-    Result<bool> exec(const char* sql);
+    static Result<std::unique_ptr<Mbtiles>> open_flags(const std::string& path, int flags,
+                                                       bool exclusive);
+    Result<bool> exec(const char* sql, const char* what);
     Error failure(const std::string& what) const;
     sqlite3* m_db = nullptr;
     std::string m_path;

@@ -170,6 +170,9 @@ TEST(Export, RefusesBadOptionsInWordsAndAPartialOfOtherOptions) {
         {"--zooms 24 --bbox 0,0,256,256 --map lit", "map=lit"},
         {"--zooms 24 --bbox 0,0,256,256 --mni 0", "mni"},
         {"--zooms 24 --bbox 0,0,4294967296,4294967296", "more than"},
+        {"--zooms 24 --bbox 0,0,256,256,", "--bbox"},
+        {"--zooms 24", "needs --bbox"},
+        {"--bbox 0,0,256,256", "needs --zooms"},
     };
     for (const auto& c : cases) {
         const test::RunResult r =
@@ -191,4 +194,32 @@ TEST(Export, RefusesBadOptionsInWordsAndAPartialOfOtherOptions) {
     EXPECT_NE(r.err.find("other options"), std::string::npos) << r.err;
     EXPECT_TRUE(fs::exists(out + ".partial"));
     fs::remove(out + ".partial");
+
+    // -o in a directory that is not there: said before any work
+    r = test::run("export " + sand_texton() + " --zooms 24 --bbox 0,0,256,256 -o " +
+                  test::temp_path("no-such-dir") + "/a.pmtiles");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("no directory"), std::string::npos) << r.err;
+}
+
+// Someone else's SQLite file where the partial would be is neither taken over nor changed (nor
+// deleted once the archive is written).
+TEST(Export, AForeignFileAtThePartialsPlaceIsLeftAlone) {
+    const std::string out = test::temp_path("foreign.pmtiles"), partial = out + ".partial";
+    fs::remove(out);
+    fs::remove(partial);
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(partial.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE precious (a); INSERT INTO precious VALUES (42);",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+    const std::string before = io::read_file(partial).value();
+    const test::RunResult r =
+        test::run("export " + sand_texton() + " --zooms 24 --bbox 0,0,256,256 -o " + out);
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("is not a partial textond export"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_TRUE(io::read_file(partial).value() == before);
+    fs::remove(partial);
 }

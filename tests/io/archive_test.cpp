@@ -144,7 +144,7 @@ TEST(Mbtiles, StoresXyzTilesInTmsRowsWithTheSpecsSchema) {
     const std::string path = test::temp_path("flip.mbtiles");
     fs::remove(path);
     {
-        auto m = io::Mbtiles::open(path);
+        auto m = io::Mbtiles::create(path);
         ASSERT_TRUE(m.ok()) << m.error().message;
         ASSERT_TRUE(m.value()->begin().ok());
         ASSERT_TRUE(m.value()->put(3, 1, 2, "a").ok());
@@ -188,8 +188,12 @@ TEST(Mbtiles, StoresXyzTilesInTmsRowsWithTheSpecsSchema) {
 TEST(Mbtiles, AFileThatIsNotSqliteIsRefusedInWords) {
     const std::string path = test::temp_path("not.mbtiles");
     std::ofstream(path) << "this is not a database, just words long enough to be read as one";
-    auto m = io::Mbtiles::open(path);
-    ASSERT_FALSE(m.ok());
-    EXPECT_EQ(m.error().code, ErrorCode::unprocessable);
-    EXPECT_NE(m.error().message.find(path), std::string::npos);
+    auto made = io::Mbtiles::create(path);
+    ASSERT_FALSE(made.ok());
+    EXPECT_EQ(made.error().code, ErrorCode::unprocessable);
+    EXPECT_EQ(made.error().message.rfind(path + ": ", 0), 0u) << made.error().message;
+    EXPECT_NE(made.error().message.find("file is not a database"), std::string::npos);
+    auto opened = io::Mbtiles::open(path);
+    ASSERT_TRUE(opened.ok()); // SQLite reads lazily: the first query tells
+    EXPECT_EQ(opened.value()->metadata("name").error().code, ErrorCode::unprocessable);
 }

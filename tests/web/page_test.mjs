@@ -242,7 +242,8 @@ try {
   // A tile archive of this texton (`textond export` of its texton.exr), opened from the page: the
   // pmtiles library reads it in the browser, Leaflet shows its tiles, and each is the service's
   // own tile of that address, byte for byte (the service stores PNGs, as --png-compression 0).
-  const textonExr = join(data, 'texton.exr'), archive = join(data, 'cork.pmtiles');
+  const scratch = mkdtempSync(join(tmpdir(), 'textond-archive-'));
+  const textonExr = join(scratch, 'texton.exr'), archive = join(scratch, 'cork.pmtiles');
   writeFileSync(textonExr, Buffer.from(await (await fetch(`${url}/v1/textons/${id}/texton.exr`)).arrayBuffer()));
   const exported = spawnSync(binary, ['export', textonExr, '--zooms', '22-24', '--bbox', '0,0,1024,768',
                                       '--png-compression', '0', '--backend', 'cpu', '--quiet', '-o', archive]);
@@ -267,6 +268,7 @@ try {
     return out;
   }, id);
   check(same.every(Boolean), `archive tiles equal the service's, byte for byte (${same})`);
+  rmSync(scratch, { recursive: true, force: true });
 
   check(consoleErrors.length === 0, `no console errors (${JSON.stringify(consoleErrors)})`);
 
