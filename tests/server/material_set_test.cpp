@@ -311,15 +311,15 @@ TEST(MaterialSet, MismatchedSizesAndNormalUploadsAreRefusedClearly) {
         small.max_pixels = 256 * 256;
         TestServer limited(small);
         auto lc = limited.client();
-        const core::Image u = load_exemplar("etr_sand01.png");
-        ASSERT_EQ(u.width * u.height, 256 * 256);
+        const core::Image sand = load_exemplar("etr_sand01.png");
+        ASSERT_EQ(sand.width * sand.height, 256 * 256);
         httplib::MultipartFormDataItems one = {
             {"albedo", read_file(exemplar_path("etr_sand01.png")), "a.png", "image/png"},
             {"size", "16", "", ""}};
         auto ok = lc.Post("/v1/textons", one);
         ASSERT_TRUE(ok);
         EXPECT_EQ(ok->status, 201) << ok->body;
-        one.insert(one.begin(), {"height", height_png16(u, u.width), "h.png", "image/png"});
+        one.insert(one.begin(), {"height", height_png16(sand, sand.width), "h.png", "image/png"});
         auto big = lc.Post("/v1/textons", one);
         ASSERT_TRUE(big);
         EXPECT_EQ(big->status, 413) << big->body;

@@ -1,8 +1,8 @@
 // Signed URLs and presets (issue 19; server/http/url_signing.h) over HTTP: with a signing key a
 // good signature gets 200 and a missing one, a tampered path, query, signature or expiry each a
 // 403 with its code; one signature opens a whole tile layer, and a signed TileJSON hands out
-// signed templates; `textond sign` signs as the server checks. With presets, URLs name one and
-// carry nothing else, and get the preset's tile.
+// signed templates; `textond sign` signs as the server checks, and so does POST /v1/sign for the
+// API key's holder. With presets, URLs name one and carry nothing else, and get the preset's tile.
 #include "server/http/url_signing.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
@@ -116,6 +116,71 @@ TEST(SignedUrls, GoodSignaturesPassAndEveryTamperingIsRefused) {
     EXPECT_EQ(cli.out, good + "\n");
     EXPECT_NE(run("sign '" + tile + "'").code, 0) << "no key, no signature";
     EXPECT_NE(run("sign '" + tile + "' --key short").code, 0) << "a key too short to be secret";
+}
+
+// POST /v1/sign: the server signs for the holder of its API key (the page uses it), for nobody
+// when it has no API key, and hands URLs back as they are when it does not sign.
+TEST(SignedUrls, TheServerSignsForItsApiKeyHolderOnly) {
+    auto config = TestServer::default_config();
+    config.url_signing_key = kKey;
+    config.api_key = "the api key";
+    TestServer server(config);
+    auto c = server.client();
+    const httplib::Headers key = {{"Authorization", "Bearer the api key"}};
+    auto up = c.Post("/v1/textons?size=16&iterations=10", key,
+                     read_file(exemplar_path("etr_sand01.png")), "image/png");
+    ASSERT_TRUE(up && up->status == 201);
+    const std::string id = nlohmann::json::parse(up->body).at("id");
+    const std::string tile = "/v1/textons/" + id + "/map/24/3/4.png?seed=2";
+    const std::string body = nlohmann::json{{"urls", {tile}}, {"expires_in", 600}}.dump();
+
+    auto code = [](const httplib::Result& r) {
+        return r ? std::to_string(r->status) + " " +
+                       nlohmann::json::parse(r->body).at("error").at("code").get<std::string>()
+                 : "no answer";
+    };
+    EXPECT_EQ(code(c.Post("/v1/sign", body, "application/json")), "401 unauthorized");
+    EXPECT_EQ(
+        code(c.Post("/v1/sign", {{"Authorization", "Bearer guess"}}, body, "application/json")),
+        "401 unauthorized");
+    const std::int64_t before = now_s();
+    auto r = c.Post("/v1/sign", key, body, "application/json");
+    ASSERT_TRUE(r && r->status == 200) << (r ? r->body : "no answer");
+    const auto j = nlohmann::json::parse(r->body);
+    EXPECT_TRUE(j.at("signed").get<bool>());
+    EXPECT_GE(j.at("exp").get<std::int64_t>(), before + 600);
+    EXPECT_LE(j.at("exp").get<std::int64_t>(), now_s() + 600);
+    const std::string signed_tile = j.at("urls")[0];
+    EXPECT_EQ(signed_tile, sign(tile, j.at("exp").get<std::int64_t>())) << "as `textond sign`";
+    EXPECT_EQ(outcome(c, signed_tile), "200");
+    std::string tampered = signed_tile;
+    tampered.replace(tampered.find("seed=2"), 6, "seed=3");
+    EXPECT_EQ(outcome(c, tampered), "403 signature_invalid");
+
+    for (const std::string& bad :
+         {std::string("not json"), std::string(R"({"urls": []})"),
+          std::string(R"({"urls": ["/v1/a"], "expires_in": 0})"),
+          std::string(R"({"urls": ["/v1/a"], "expires_in": 1.5})"),
+          std::string(R"({"urls": ["/v1/a"], "other": 1})"), std::string(R"({"urls": [7]})"),
+          std::string(R"({"urls": ["no-slash"]})"),
+          nlohmann::json{{"urls", std::vector<std::string>(101, "/v1/a")}}.dump(),
+          nlohmann::json{{"urls", {std::string(5000, 'a')}}}.dump()})
+        EXPECT_EQ(code(c.Post("/v1/sign", key, bad, "application/json")), "400 invalid_body")
+            << bad.substr(0, 60);
+
+    // A signing server without an API key signs for nobody; a server that does not sign hands
+    // the URLs back.
+    auto no_key = TestServer::default_config();
+    no_key.url_signing_key = kKey;
+    TestServer keyless(no_key);
+    auto k = keyless.client();
+    EXPECT_EQ(code(k.Post("/v1/sign", body, "application/json")), "403 signing_unavailable");
+    TestServer plain(TestServer::default_config());
+    auto p = plain.client();
+    r = p.Post("/v1/sign", body, "application/json");
+    ASSERT_TRUE(r && r->status == 200);
+    EXPECT_EQ(nlohmann::json::parse(r->body),
+              (nlohmann::json{{"urls", {tile}}, {"signed", false}}));
 }
 
 TEST(SignedUrls, PresetsAreTheOnlyParameterSets) {
