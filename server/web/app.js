@@ -4,6 +4,7 @@
 const $ = (id) => document.getElementById(id);
 const state = {
   meta: null, map: null, layer: null, tilesLoaded: 0, tileErrors: 0, archiveMap: null, archive: null,
+  signing: false, // the server wants signed image URLs (learnt from its first refusal)
 };
 window.textond = state; // for people poking around, and for the browser test
 
@@ -15,7 +16,9 @@ const advice = {
   payload_too_large: 'That file is too large for this server.',
   exemplar_too_small: 'The photo is too small for this texton size: pick a smaller size.',
   overloaded: 'The server is busy analysing other photos: try again in a few seconds.',
-  unauthorized: 'This server needs an API key to upload.',
+  unauthorized: 'This server needs its API key: enter it under the upload.',
+  signature_missing: 'This server signs its image URLs: enter its API key under the upload to view them.',
+  signing_unavailable: 'This server needs signed image URLs and signs them for nobody: ask its operator for signed links.',
 };
 
 function showError(text) {
@@ -23,20 +26,55 @@ function showError(text) {
   $('error').hidden = !text;
 }
 
+// An Error in plain words, with the API's error code in .code.
 async function apiError(res) {
   try {
-    const body = await res.json();
-    const e = body.error || {};
-    return (advice[e.code] ? advice[e.code] + ' ' : '') + `(${e.message || res.statusText})`;
+    const e = (await res.json()).error || {};
+    const text = (advice[e.code] ? advice[e.code] + ' ' : '') + `(${e.message || res.statusText})`;
+    return Object.assign(new Error(text), { code: e.code });
   } catch {
-    return `The server answered ${res.status} ${res.statusText}.`;
+    return new Error(`The server answered ${res.status} ${res.statusText}.`);
   }
 }
 
 async function getJson(url) {
   const res = await fetch(url);
-  if (!res.ok) throw new Error(await apiError(res));
+  if (!res.ok) throw await apiError(res);
   return res.json();
+}
+
+// The API key (--api-key) for uploads and signatures, kept for this tab only.
+const apiKeyField = $('api-key');
+apiKeyField.value = sessionStorage.getItem('textond-api-key') || '';
+apiKeyField.addEventListener('change', () => sessionStorage.setItem('textond-api-key', apiKeyField.value));
+function authHeaders() {
+  return apiKeyField.value ? { Authorization: `Bearer ${apiKeyField.value}` } : {};
+}
+
+// A server run with --url-signing-key refuses unsigned image URLs. The page never holds that
+// key: once the server says signature_missing, it asks POST /v1/sign (for the API key's holder)
+// to sign its URLs, valid for a day.
+async function signed(urls) {
+  if (!state.signing) return urls;
+  const res = await fetch('/v1/sign', {
+    method: 'POST',
+    headers: { ...authHeaders(), 'Content-Type': 'application/json' },
+    body: JSON.stringify({ urls, expires_in: 86400 }),
+  });
+  if (!res.ok) throw await apiError(res);
+  return (await res.json()).urls;
+}
+
+// A TileJSON (the first image URL the page asks for), learning on the way whether the server
+// signs.
+async function tileJson(url) {
+  try {
+    return await getJson((await signed([url]))[0]);
+  } catch (e) {
+    if (e.code !== 'signature_missing' || state.signing) throw e;
+    state.signing = true;
+    return getJson((await signed([url]))[0]);
+  }
 }
 
 // Seed and MNI: what every noise image takes (the spectrum too).
@@ -78,8 +116,10 @@ async function postTexton(label, url, init) {
   $('progress').value = 0;
   $('progress-text').textContent = `Uploading ${label}...`;
   try {
-    const res = await fetch(url, { method: 'POST', ...init, headers: { ...init.headers, Prefer: 'respond-async' } });
-    if (!res.ok) throw new Error(await apiError(res));
+    const res = await fetch(url, {
+      method: 'POST', ...init, headers: { ...init.headers, ...authHeaders(), Prefer: 'respond-async' },
+    });
+    if (!res.ok) throw await apiError(res);
     let body = await res.json();
     if (res.status === 202) body = await waitForAnalysis(body);
     $('progress-text').textContent = 'Done.';
@@ -160,7 +200,7 @@ async function show(meta) {
 async function refreshNoise() {
   const meta = state.meta;
   if (!meta) return;
-  const tj = await getJson(`${meta.links.tilejson}?${noiseQuery()}`);
+  const tj = await tileJson(`${meta.links.tilejson}?${noiseQuery()}`);
   if (!state.map) {
     state.map = L.map('map', {
       crs: L.CRS.Simple, minZoom: tj.minzoom, maxZoom: tj.maxzoom, attributionControl: false,
@@ -178,11 +218,15 @@ async function refreshNoise() {
   });
   state.layer.addTo(state.map);
   $('tile-url').value = tj.tiles[0];
-  updateDownloads();
+  await updateDownloads();
   const w = Math.min(meta.exemplar.width, 1024), h = Math.min(meta.exemplar.height, 1024);
+  const [synthesis, spectrum] = await signed([
+    `/v1/textons/${meta.id}/region.png?w=${w}&h=${h}&${noiseQuery()}`,
+    `${meta.links.spectrum_png}?${seedQuery()}`,
+  ]);
   $('side-exemplar').src = meta.links.exemplar_png;
-  $('side-synthesis').src = `/v1/textons/${meta.id}/region.png?w=${w}&h=${h}&${noiseQuery()}`;
-  $('spectrum-img').src = `${meta.links.spectrum_png}?${seedQuery()}`;
+  $('side-synthesis').src = synthesis;
+  $('spectrum-img').src = spectrum;
   drawHistograms();
   await showQuality(meta);
 }
@@ -190,7 +234,8 @@ async function refreshNoise() {
 // The server's quality report (GET .../quality.json and its PNG): the verdict and how far each
 // noise's colours are from the photo's.
 async function showQuality(meta) {
-  const q = await getJson(`/v1/textons/${meta.id}/quality.json?${seedQuery()}`);
+  const [report] = await signed([`/v1/textons/${meta.id}/quality.json?${seedQuery()}`]);
+  const q = await getJson(report);
   const w = q.wasserstein;
   $('quality-numbers').textContent =
     `RME ${q.rme.toFixed(3)} · ${q.verdict} · distance of the colours to the photo's ` +
@@ -199,15 +244,17 @@ async function showQuality(meta) {
   $('quality-img').src = q.links.png;
 }
 
-function updateDownloads() {
+async function updateDownloads() {
   const meta = state.meta;
   if (!meta) return;
   const w = $('dl-w').value, h = $('dl-h').value, f = $('dl-format').value;
   const ext = f === 'exr' ? 'exr' : 'png';
   const q = `w=${w}&h=${h}&${noiseQuery()}`;
-  $('dl-region').href = `/v1/textons/${meta.id}/region.${f}?${q}`;
+  const [region, tileable] = await signed([`/v1/textons/${meta.id}/region.${f}?${q}`,
+                                           `/v1/textons/${meta.id}/tileable.${f}?${q}`]);
+  $('dl-region').href = region;
   $('dl-region').download = `textond-${meta.id.slice(0, 8)}-${w}x${h}.${ext}`;
-  $('dl-tileable').href = `/v1/textons/${meta.id}/tileable.${f}?${q}`;
+  $('dl-tileable').href = tileable;
   $('dl-tileable').download = `textond-${meta.id.slice(0, 8)}-tileable-${w}x${h}.${ext}`;
   const mni = new URLSearchParams(noiseQuery()).get('mni');
   $('dl-kit').href = `/v1/textons/${meta.id}/kit.tar${mni ? `?mni=${mni}` : ''}`;
@@ -332,7 +379,7 @@ $('archive-file').addEventListener('change', (e) => {
   if (e.target.files[0]) openArchive(e.target.files[0]).catch((err) => showError(err.message));
 });
 for (const id of ['dl-w', 'dl-h', 'dl-format', 'seed', 'mni'])
-  $(id).addEventListener('input', updateDownloads);
+  $(id).addEventListener('input', () => updateDownloads().catch((e) => showError(e.message)));
 $('copy-url').addEventListener('click', async () => {
   $('tile-url').select();
   try {

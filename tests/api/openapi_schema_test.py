@@ -181,6 +181,13 @@ def main():
         validate_route("POST", "/v1/textons/{id}/surface", 200, b, "surface colours")
         check(s != 200 or len(json.loads(b)["colors"]) == 2, "one colour a point")
 
+        # Signing, on a server that does not sign: the URLs back as they are.
+        s, _, b = request(base, "POST", "/v1/sign",
+                          json.dumps({"urls": [f"/v1/textons/{tids[0]}/tilejson.json"]}).encode(),
+                          {"Content-Type": "application/json"})
+        check(s == 200, f"sign ({s} {b[:200]!r})")
+        validate_route("POST", "/v1/sign", 200, b, "sign")
+
         s, _, b = request(base, "GET", "/readyz")
         validate("Readiness", b, "readyz")
         for path in ("/v1/textons/nope", "/v1/textons/" + "a" * 64, "/nothing"):

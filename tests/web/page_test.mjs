@@ -4,7 +4,7 @@
 // changes the tiles, downloads have the asked size, errors in plain words, the stored list, a
 // material set uploaded from the page and its lit and normal views, and a PMTiles archive written
 // by `textond export` opened on the page (read by the pmtiles library: tiles byte for byte the
-// service's).
+// service's), and a server with an API key and signed URLs used from the page (POST /v1/sign).
 //
 // usage: node page_test.mjs TEXTOND_BINARY EXEMPLAR.png ARTEFACT_DIR
 import { chromium } from 'playwright-core';
@@ -22,9 +22,9 @@ const check = (ok, what) => {
   if (!ok) failures.push(what);
 };
 
-function startServer(data) {
+function startServer(data, extra = []) {
   const proc = spawn(binary, ['serve', '--port', '0', '--data', data, '--backend', 'cpu',
-                              '--log-level', 'warn'], { stdio: ['ignore', 'pipe', 'inherit'] });
+                              '--log-level', 'warn', ...extra], { stdio: ['ignore', 'pipe', 'inherit'] });
   return new Promise((resolve, reject) => {
     const lines = createInterface({ input: proc.stdout });
     lines.once('line', (line) => {
@@ -312,6 +312,48 @@ try {
   check(/not an image/.test(error), `a bad upload is explained (${error})`);
   check(consoleErrors.every((e) => /415/.test(e)), `no other console errors (${JSON.stringify(consoleErrors)})`);
   await page.screenshot({ path: join(artefacts, 'page-end.png'), fullPage: true });
+
+  // A server with an API key and signed image URLs: without the key the page says what to do;
+  // with it the upload goes through and every image URL the page uses is signed by the server
+  // (the page never sees the signing key), and opens.
+  const signedData = mkdtempSync(join(tmpdir(), 'textond-web-signed-'));
+  const signedServer = await startServer(signedData, ['--api-key', 'page-test-key',
+                                                      '--url-signing-key', 'a signing key of some length']);
+  try {
+    const p2 = await browser.newPage({ viewport: { width: 1200, height: 1000 } });
+    const statuses = [];
+    p2.on('response', (r) => { if (/\/(map|region|spectrum|quality)/.test(r.url())) statuses.push([r.status(), r.url()]); });
+    await p2.goto(signedServer.url + '/');
+    await p2.selectOption('#size', '32');
+    await p2.setInputFiles('#file', exemplar);
+    await p2.waitForSelector('#error:not([hidden])', { timeout: 30000 });
+    check(/API key/.test(await p2.textContent('#error')),
+          `without the API key the page says to enter it (${await p2.textContent('#error')})`);
+    await p2.fill('#api-key', 'page-test-key');
+    await p2.dispatchEvent('#api-key', 'change');
+    await p2.setInputFiles('#file', { name: 'cork.png', mimeType: 'image/png', buffer: readFileSync(exemplar) });
+    await p2.waitForFunction(() => window.textond.tilesLoaded >= 4, null, { timeout: 120000 }).catch(() => {});
+    await p2.waitForLoadState('networkidle');
+    const tiles = await p2.locator('#map .leaflet-tile-loaded').evaluateAll((ts) => ts.map((t) => t.src));
+    check(tiles.length >= 4 && tiles.every((u) => /[?&]exp=\d+&sig=[0-9a-f]{64}$/.test(u)),
+          `a signing server's tiles load through signed URLs (${tiles.length}: ${tiles[0]})`);
+    const synthesis = await loadedImageSize(p2, '#side-synthesis');
+    check(synthesis[0] > 0, `the signed synthesis shows (${synthesis})`);
+    await p2.waitForFunction(() => document.getElementById('quality-numbers').textContent !== '', null,
+                             { timeout: 30000 }).catch(() => {});
+    check(/Gaussian 0\.\d{4}/.test(await p2.textContent('#quality-numbers')), 'the signed quality report shows');
+    const download = await p2.getAttribute('#dl-region', 'href');
+    const got = await p2.evaluate(async (u) => (await fetch(u)).status, download);
+    check(/sig=/.test(download) && got === 200, `downloads are signed and open (${got})`);
+    check(statuses.length >= 6 && statuses.every(([st]) => st === 200),
+          `every signed image URL answered 200 (${JSON.stringify(statuses.filter(([st]) => st !== 200).slice(0, 3))})`);
+    check(!(await p2.textContent('#error')) || await p2.locator('#error').isHidden(),
+          `no error shown with the key (${await p2.textContent('#error')})`);
+    await p2.screenshot({ path: join(artefacts, 'page-signed.png'), fullPage: true });
+  } finally {
+    signedServer.proc.kill('SIGTERM');
+    rmSync(signedData, { recursive: true, force: true });
+  }
 } catch (e) {
   failures.push(String(e.stack || e));
   console.log('FAIL', e);
