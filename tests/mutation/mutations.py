@@ -88,6 +88,15 @@ MUTATIONS = [
      "std::cos(el) * std::sin(az), std::sin(el)};",
      "std::cos(el) * std::sin(az), std::cos(el)};",
      ["server_test"]),
+    # tile archives (textond export)
+    ("pmtiles-hilbert-unrotated", "server/io/pmtiles.cpp",
+     "            std::swap(tx, ty);",
+     "",
+     ["io_test"]),
+    ("mbtiles-row-unflipped", "server/io/mbtiles.cpp",
+     "return (std::int64_t{1} << z) - 1 - y;",
+     "return y;",
+     ["io_test", "cli_test"]),
 ]
 
 _saved = {}  # path -> original bytes, while a mutation is applied
