@@ -64,12 +64,6 @@ std::optional<ApiError> int_field(const Query& q, const char* name, std::int64_t
     return std::nullopt;
 }
 
-std::string exact_text(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
-
 // `light_anywhere` (mesh previews): light= needs no map=lit, as every mesh is lit, and strength=
 // needs none either, as a set's mesh shows its relief by default.
 std::optional<ApiError> map_fields(const Query& q, MapChoice& out, bool light_anywhere = false) {
@@ -237,6 +231,12 @@ std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std
 }
 
 } // namespace
+
+std::string exact_text(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
 
 std::optional<ImageFormat> parse_image_format(std::string_view ext) {
     if (ext == "png") return ImageFormat::png;

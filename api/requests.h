@@ -164,6 +164,9 @@ std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, Nois
 // periodic. Unknown fields are refused so that a typo never silently analyses with defaults.
 std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out);
 
+// %.17g: two doubles that differ print differently (cache keys, ETags, URLs, files, metrics).
+std::string exact_text(double v);
+
 // Strict number parsing: the whole string, no overflow, no NaN.
 std::optional<std::int64_t> parse_i64(std::string_view s);
 std::optional<std::uint64_t> parse_u64(std::string_view s);

@@ -260,7 +260,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
                                      (!m_config.presets.empty() && preset != req.params.end()
                                           ? "?preset=" + preset->second
                                           : "?seed=" + std::to_string(noise.seed) +
-                                                "&mni=" + mni_text(noise.mni)))}};
+                                                "&mni=" + api::exact_text(noise.mni)))}};
     send_json(res, 200, report.value().json, "no-cache");
 }
 
@@ -401,7 +401,7 @@ std::pair<std::string, std::string> ImageRoutes::tile_suffix(const httplib::Requ
         return {f.empty() ? "png" : f, "?preset=" + name};
     }
     return {"png", "?seed=" + std::to_string(probe.noise.seed) +
-                       "&mni=" + mni_text(probe.noise.mni) +
+                       "&mni=" + api::exact_text(probe.noise.mni) +
                        (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
                        (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") +
                        probe.noise.map.query()};
@@ -428,7 +428,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
         {"name", "textond " + id.substr(0, 12)},
         {"description", std::string(mix ? "Texture mix " : "Texton noise of texton ") + id +
                             " (seed " + std::to_string(probe.noise.seed) + ", MNI " +
-                            mni_text(probe.noise.mni) + "), an unbounded seamless plane"},
+                            api::exact_text(probe.noise.mni) + "), an unbounded seamless plane"},
         {"version", "1.0.0"},
         {"scheme", "xyz"},
         {"tiles", {base + signed_link(req, prefix + id + "/map/{z}/{x}/{y}." + ext + query)}},

@@ -65,12 +65,6 @@ core::Image side_by_side(const core::Image& a, const core::Image& b) {
 
 } // namespace
 
-std::string mni_text(double mni) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.17g", mni);
-    return buf;
-}
-
 render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
                                    const api::NoiseParams& noise) {
     render::NoiseRequest q;
@@ -139,20 +133,21 @@ std::string ImageService::key(const Job& job) {
            std::to_string(q.x0) + "/" + std::to_string(q.y0) + "/" + std::to_string(q.width) + "x" +
            std::to_string(q.height) + "/p" + std::to_string(q.period[0]) + "x" +
            std::to_string(q.period[1]) + "/o" + std::to_string(job.out_width) + "x" +
-           std::to_string(job.out_height) + "/s" + std::to_string(q.seed) + "/m" + mni_text(q.mni) +
+           std::to_string(job.out_height) + "/s" + std::to_string(q.seed) + "/m" +
+           api::exact_text(q.mni) +
            (q.marginals == render::Marginals::exemplar ? "/exemplar" : "") +
            (job.map.name.empty() ? "" : "/map=" + job.map.name) +
-           (job.map.uses_normals() ? "/strength=" + mni_text(job.map.strength) : "") +
-           (job.map.name == core::kLitMap
-                ? "/light=" + mni_text(job.map.azimuth) + "," + mni_text(job.map.elevation)
-                : "") +
+           (job.map.uses_normals() ? "/strength=" + api::exact_text(job.map.strength) : "") +
+           (job.map.name == core::kLitMap ? "/light=" + api::exact_text(job.map.azimuth) + "," +
+                                                api::exact_text(job.map.elevation)
+                                          : "") +
            (job.quality != api::kDefaultQuality ? "/q" + std::to_string(job.quality) : "") + "." +
            api::extension(job.format);
 }
 
 std::string ImageService::spectrum_key(const std::string& id, const api::NoiseParams& noise) {
-    return "spectrum/" + id + "/s" + std::to_string(noise.seed) + "/m" + mni_text(noise.mni) +
-           ".png";
+    return "spectrum/" + id + "/s" + std::to_string(noise.seed) + "/m" +
+           api::exact_text(noise.mni) + ".png";
 }
 
 std::string ImageService::etag(const std::string& key) const {
@@ -258,7 +253,7 @@ Result<core::Image> ImageService::spectrum(const std::string& id, const api::Noi
 }
 
 std::string ImageService::quality_key(const std::string& id, const api::NoiseParams& noise) {
-    return "quality/" + id + "/s" + std::to_string(noise.seed) + "/m" + mni_text(noise.mni) +
+    return "quality/" + id + "/s" + std::to_string(noise.seed) + "/m" + api::exact_text(noise.mni) +
            ".png";
 }
 

@@ -22,9 +22,6 @@
 
 namespace textond::http {
 
-// %.17g: two MNIs that differ print differently (keys, TileJSON URLs).
-std::string mni_text(double mni);
-
 render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
                                    const api::NoiseParams& noise);
 

@@ -1,16 +1,14 @@
 #include "server/http/metrics.h"
 
+#include "api/requests.h"
+
 #include <cstdio>
 #include <sstream>
 
 namespace textond::http {
 
 namespace {
-std::string num(double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
+using api::exact_text;
 // Label values are route templates, backend names and numbers; escape anyway.
 std::string esc(const std::string& s) {
     std::string out;
@@ -32,12 +30,12 @@ void write_histogram(std::ostream& o, const std::string& name, const std::string
     const std::string sep = labels.empty() ? "" : ",";
     for (std::size_t i = 0; i < le.size(); ++i) {
         cumulative += h.buckets[i];
-        o << name << "_bucket{" << labels << sep << "le=\"" << num(le[i]) << "\"} " << cumulative
-          << "\n";
+        o << name << "_bucket{" << labels << sep << "le=\"" << exact_text(le[i]) << "\"} "
+          << cumulative << "\n";
     }
     o << name << "_bucket{" << labels << sep << "le=\"+Inf\"} " << h.count << "\n";
     const std::string braced = labels.empty() ? "" : "{" + labels + "}";
-    o << name << "_sum" << braced << " " << num(h.sum) << "\n";
+    o << name << "_sum" << braced << " " << exact_text(h.sum) << "\n";
     o << name << "_count" << braced << " " << h.count << "\n";
 }
 } // namespace
@@ -193,7 +191,7 @@ std::string Metrics::prometheus_text() const {
     // Gauges read outside the lock: they take other components' locks.
     for (const auto& [name, g] : gauges)
         o << "# HELP " << name << " " << g.help << "\n# TYPE " << name << " gauge\n"
-          << name << " " << num(g.read()) << "\n";
+          << name << " " << exact_text(g.read()) << "\n";
     return o.str();
 }
 

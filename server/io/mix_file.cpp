@@ -1,5 +1,6 @@
 #include "server/io/mix_file.h"
 
+#include "api/requests.h"
 #include "server/io/image_io.h"
 #include "server/io/sha256.h"
 
@@ -13,12 +14,6 @@ namespace textond::io {
 namespace OIIO = OIIO_NAMESPACE;
 
 namespace {
-
-std::string exact(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
 
 std::string mask_sha256(const core::Image& mask) {
     Sha256 h;
@@ -53,11 +48,12 @@ std::string mix_id(const std::string& u, const std::string& v, int levels,
     h.update(core::kMixVersion).update("\n").update(u).update("\n").update(v).update("\n");
     h.update(std::to_string(levels)).update("\n");
     if (f.kind == core::MixField::Kind::ramp)
-        h.update("ramp " + exact(f.x0) + " " + exact(f.y0) + " " + exact(f.dx) + " " + exact(f.dy) +
-                 " " + exact(f.width));
+        h.update("ramp " + api::exact_text(f.x0) + " " + api::exact_text(f.y0) + " " +
+                 api::exact_text(f.dx) + " " + api::exact_text(f.dy) + " " +
+                 api::exact_text(f.width));
     else
-        h.update("mask " + exact(f.x0) + " " + exact(f.y0) + " " + exact(f.scale) + " " +
-                 mask_sha256(f.mask));
+        h.update("mask " + api::exact_text(f.x0) + " " + api::exact_text(f.y0) + " " +
+                 api::exact_text(f.scale) + " " + mask_sha256(f.mask));
     return h.hex();
 }
 
