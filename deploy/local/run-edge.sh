@@ -21,7 +21,7 @@ mkdir -p "$tmp/cache"
 # nginx workers drop root; they write the tile cache and buffered bodies there.
 chmod 0755 "$tmp"
 chmod 0777 "$tmp/cache"
-sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080;|listen $port;|" \
+sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080 |listen $port |" \
     "$root/deploy/base/nginx/edge.conf" >"$tmp/edge.conf"
 cp "$root/deploy/base/nginx/settings.conf" "$tmp/settings.conf"
 echo "server 127.0.0.1:8081;" >"$tmp/upstream-servers.conf"

@@ -48,7 +48,7 @@ server_pid=$!
 mkdir -p "$tmp/cache"
 chmod 0755 "$tmp"
 chmod 0777 "$tmp/cache"
-sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080;|listen $edge_port;|" \
+sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080 |listen $edge_port |" \
     -e "s|limit_conn textond_conn 256;|limit_conn textond_conn $((CONNECTIONS + 64));|" \
     -e "s|rate=500r/s;|rate=1000000r/s;|" \
     "$root/deploy/base/nginx/edge.conf" >"$tmp/edge.conf"

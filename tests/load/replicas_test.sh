@@ -63,7 +63,7 @@ done
 # a request says X-Edge-Cache: on.
 nginx_port=$(free_port)
 mkdir -p "$tmp/cache" "$tmp/logs"
-sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080;|listen 127.0.0.1:$nginx_port;|" \
+sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080 |listen 127.0.0.1:$nginx_port |" \
     "$root/deploy/base/nginx/edge.conf" >"$tmp/edge.conf"
 for u in "${urls[@]}"; do echo "server ${u#http://};"; done >"$tmp/upstream-servers.conf"
 cat >"$tmp/nginx.conf" <<EOF
