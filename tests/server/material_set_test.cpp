@@ -2,6 +2,7 @@
 // luminance as a 16-bit PNG), the metadata's maps, map tiles, normal tiles stitched into their
 // region, and the refusals.
 #include "server/io/image_io.h"
+#include "server/io/mbtiles.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -9,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <tuple>
 
 namespace textond::test {
@@ -276,6 +278,36 @@ TEST(MaterialSet, MeshPreviewShowsTheReliefAndSurfaceColoursAMap) {
     EXPECT_EQ(code(base + "/surface?map=lit", points, "application/json"), "invalid_parameter 400");
     EXPECT_EQ(code(base + "/surface?map=roughness", points, "application/json"),
               "invalid_parameter 400");
+}
+
+// `textond export` of a set's views (its texton.exr from the server): each archived tile is the
+// server's tile of that view, byte for byte (both store PNGs, --png-compression 0).
+TEST(MaterialSet, ExportedViewsAreTheServersTiles) {
+    TestServer server;
+    auto c = server.client();
+    const std::string base = upload_pebble_set(c);
+    ASSERT_FALSE(base.empty());
+    const std::string texton = temp_path("pebble-set.exr");
+    {
+        auto r = c.Get(base + "/texton.exr");
+        ASSERT_TRUE(r && r->status == 200);
+        ASSERT_TRUE(io::write_file_atomic(texton, r->body).ok());
+    }
+    for (const std::string& view : {std::string("albedo"), std::string("height"),
+                                    std::string("normal"), std::string("lit")}) {
+        const std::string out = temp_path("pebble-" + view + ".mbtiles");
+        std::remove(out.c_str());
+        const RunResult r = run("export " + texton + " --zooms 24 --bbox 256,0,512,256 --map " +
+                                view + " --seed 5 --png-compression 0 --quiet -o " + out);
+        ASSERT_EQ(r.code, 0) << view << ": " << r.err;
+        auto archive = io::Mbtiles::open(out);
+        ASSERT_TRUE(archive.ok()) << archive.error().message;
+        auto archived = archive.value()->get(24, 1, 0);
+        ASSERT_TRUE(archived.ok()) << view << ": " << archived.error().message;
+        auto tile = c.Get(base + "/map/24/1/0.png?seed=5&map=" + view);
+        ASSERT_TRUE(tile && tile->status == 200) << view;
+        EXPECT_TRUE(archived.value() == tile->body) << view << ": not the server's tile";
+    }
 }
 
 TEST(MaterialSet, MismatchedSizesAndNormalUploadsAreRefusedClearly) {
