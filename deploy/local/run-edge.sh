@@ -17,27 +17,7 @@ cleanup() {
     rm -rf "$tmp"
 }
 trap cleanup EXIT INT TERM
-mkdir -p "$tmp/cache"
-# nginx workers drop root; they write the tile cache and buffered bodies there.
-chmod 0755 "$tmp"
-chmod 0777 "$tmp/cache"
-sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080 |listen $port |" \
-    "$root/deploy/base/nginx/edge.conf" >"$tmp/edge.conf"
-cp "$root/deploy/base/nginx/settings.conf" "$tmp/settings.conf"
-echo "server 127.0.0.1:8081;" >"$tmp/upstream-servers.conf"
-cat >"$tmp/nginx.conf" <<CONF
-pid $tmp/nginx.pid;
-error_log stderr warn;
-worker_processes auto;
-events { worker_connections 4096; }
-http {
-    access_log off;
-    client_body_temp_path $tmp/body;
-    proxy_temp_path $tmp/proxy;
-    include $tmp/settings.conf;
-    include $tmp/edge.conf;
-}
-CONF
+ERROR_LOG=stderr "$root/deploy/local/edge-files.sh" "$tmp" "$port" 127.0.0.1:8081
 "$bin" serve --host 127.0.0.1 --port 8081 --public-url "http://127.0.0.1:$port" "$@" &
 pid=$!
 /usr/sbin/nginx -p "$tmp" -c "$tmp/nginx.conf"

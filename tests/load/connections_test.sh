@@ -45,29 +45,10 @@ edge_port=$(free_port)
 "$BIN" serve --host 127.0.0.1 --port "$app_port" --data "$tmp/data" --no-access-log \
     --log-level warn >"$tmp/textond.log" 2>&1 &
 server_pid=$!
-mkdir -p "$tmp/cache"
-chmod 0755 "$tmp"
-chmod 0777 "$tmp/cache"
-sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080 |listen $edge_port |" \
-    -e "s|limit_conn textond_conn 256;|limit_conn textond_conn $((CONNECTIONS + 64));|" \
-    -e "s|rate=500r/s;|rate=1000000r/s;|" \
-    "$root/deploy/base/nginx/edge.conf" >"$tmp/edge.conf"
-cp "$root/deploy/base/nginx/settings.conf" "$tmp/settings.conf"
-echo "server 127.0.0.1:$app_port;" >"$tmp/upstream-servers.conf"
-cat >"$tmp/nginx.conf" <<CONF
-pid $tmp/nginx.pid;
-error_log $tmp/nginx-error.log warn;
-worker_processes auto;
-worker_rlimit_nofile 65536;
-events { worker_connections $((CONNECTIONS * 2 + 1024)); }
-http {
-    access_log off;
-    client_body_temp_path $tmp/body;
-    proxy_temp_path $tmp/proxy;
-    include $tmp/settings.conf;
-    include $tmp/edge.conf;
-}
-CONF
+WORKER_CONNECTIONS=$((CONNECTIONS * 2 + 1024)) "$root/deploy/local/edge-files.sh" "$tmp" "$edge_port" \
+    "127.0.0.1:$app_port"
+sed -i -e "s|limit_conn textond_conn 256;|limit_conn textond_conn $((CONNECTIONS + 64));|" \
+    -e "s|rate=500r/s;|rate=1000000r/s;|" "$tmp/edge.conf"
 /usr/sbin/nginx -p "$tmp" -c "$tmp/nginx.conf"
 edge=http://127.0.0.1:$edge_port
 for _ in $(seq 100); do curl -sf "http://127.0.0.1:$app_port/healthz" >/dev/null && break; sleep 0.1; done

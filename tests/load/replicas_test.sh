@@ -62,22 +62,10 @@ done
 # The edge config as deployed, with local paths, port and replicas; its cache is used only when
 # a request says X-Edge-Cache: on.
 nginx_port=$(free_port)
-mkdir -p "$tmp/cache" "$tmp/logs"
-sed -e "s|/etc/nginx/textond/|$tmp/|; s|/var/cache/nginx/|$tmp/cache/|; s|listen 8080 |listen 127.0.0.1:$nginx_port |" \
-    "$root/deploy/base/nginx/edge.conf" >"$tmp/edge.conf"
-for u in "${urls[@]}"; do echo "server ${u#http://};"; done >"$tmp/upstream-servers.conf"
-cat >"$tmp/nginx.conf" <<EOF
-user $(id -un);
-worker_processes 1;
-pid $tmp/nginx.pid;
-error_log $tmp/logs/error.log warn;
-events { worker_connections 4096; }
-http {
-    access_log off;
-    map \$http_x_edge_cache \$textond_no_edge_cache { default 1; "on" 0; }
-    include $tmp/edge.conf;
-}
-EOF
+mkdir -p "$tmp/logs"
+WORKER_PROCESSES=1 ERROR_LOG=$tmp/logs/error.log "$root/deploy/local/edge-files.sh" "$tmp" \
+    "127.0.0.1:$nginx_port" "${urls[@]#http://}"
+echo 'map $http_x_edge_cache $textond_no_edge_cache { default 1; "on" 0; }' >"$tmp/settings.conf"
 /usr/sbin/nginx -p "$tmp" -c "$tmp/nginx.conf"
 edge=http://127.0.0.1:$nginx_port
 

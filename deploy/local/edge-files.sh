@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# The edge of deploy/base/nginx made local, for run-edge.sh and the load tests: writes into DIR
+# edge.conf (local paths, LISTEN as its address), settings.conf, upstream-servers.conf (one
+# server a HOST:PORT) and an nginx.conf that includes them. Environment: ERROR_LOG (DIR/error.log),
+# WORKER_PROCESSES (auto), WORKER_CONNECTIONS (4096).
+#   deploy/local/edge-files.sh DIR LISTEN HOST:PORT...
+set -euo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+dir=$1 listen=$2
+shift 2
+mkdir -p "$dir/cache"
+# nginx workers drop root; they write the tile cache and buffered bodies there.
+chmod 0755 "$dir"
+chmod 0777 "$dir/cache"
+sed -e "s|/etc/nginx/textond/|$dir/|; s|/var/cache/nginx/|$dir/cache/|; s|listen 8080 |listen $listen |" \
+    "$root/deploy/base/nginx/edge.conf" >"$dir/edge.conf"
+cp "$root/deploy/base/nginx/settings.conf" "$dir/settings.conf"
+for upstream in "$@"; do echo "server $upstream;"; done >"$dir/upstream-servers.conf"
+cat >"$dir/nginx.conf" <<CONF
+pid $dir/nginx.pid;
+error_log ${ERROR_LOG:-$dir/error.log} warn;
+worker_processes ${WORKER_PROCESSES:-auto};
+worker_rlimit_nofile 65536;
+events { worker_connections ${WORKER_CONNECTIONS:-4096}; }
+http {
+    access_log off;
+    client_body_temp_path $dir/body;
+    proxy_temp_path $dir/proxy;
+    include $dir/settings.conf;
+    include $dir/edge.conf;
+}
+CONF
