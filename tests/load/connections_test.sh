@@ -45,10 +45,8 @@ edge_port=$(free_port)
 "$BIN" serve --host 127.0.0.1 --port "$app_port" --data "$tmp/data" --no-access-log \
     --log-level warn >"$tmp/textond.log" 2>&1 &
 server_pid=$!
-WORKER_CONNECTIONS=$((CONNECTIONS * 2 + 1024)) "$root/deploy/local/edge-files.sh" "$tmp" "$edge_port" \
-    "127.0.0.1:$app_port"
-sed -i -e "s|limit_conn textond_conn 256;|limit_conn textond_conn $((CONNECTIONS + 64));|" \
-    -e "s|rate=500r/s;|rate=1000000r/s;|" "$tmp/edge.conf"
+LOAD_TEST=1 WORKER_CONNECTIONS=$((CONNECTIONS * 2 + 1024)) "$root/deploy/local/edge-files.sh" "$tmp" \
+    "$edge_port" "127.0.0.1:$app_port"
 /usr/sbin/nginx -p "$tmp" -c "$tmp/nginx.conf"
 edge=http://127.0.0.1:$edge_port
 for _ in $(seq 100); do curl -sf "http://127.0.0.1:$app_port/healthz" >/dev/null && break; sleep 0.1; done

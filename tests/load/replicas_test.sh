@@ -63,7 +63,7 @@ done
 # a request says X-Edge-Cache: on.
 nginx_port=$(free_port)
 mkdir -p "$tmp/logs"
-WORKER_PROCESSES=1 ERROR_LOG=$tmp/logs/error.log "$root/deploy/local/edge-files.sh" "$tmp" \
+LOAD_TEST=1 WORKER_PROCESSES=1 ERROR_LOG=$tmp/logs/error.log "$root/deploy/local/edge-files.sh" "$tmp" \
     "127.0.0.1:$nginx_port" "${urls[@]#http://}"
 echo 'map $http_x_edge_cache $textond_no_edge_cache { default 1; "on" 0; }' >"$tmp/settings.conf"
 /usr/sbin/nginx -p "$tmp" -c "$tmp/nginx.conf"
