@@ -59,7 +59,8 @@ std::optional<ApiError> int_field(const Query& q, const char* name, std::int64_t
     if (!v || *v < lo || *v > hi)
         return bad("invalid_parameter", std::string(name) + " must be an integer in [" +
                                             std::to_string(lo) + ", " + std::to_string(hi) +
-                                            "], not '" + s->substr(0, 40) + "'");
+                                            "], not '" + s->substr(0, 40) + "'" +
+                                            canonical_hint(*s));
     out = *v;
     return std::nullopt;
 }
@@ -77,7 +78,7 @@ std::optional<ApiError> map_fields(const Query& q, MapChoice& out, bool light_an
         out.name = *s;
     }
     if (const std::string* s = field(q, "strength")) {
-        auto v = parse_finite(*s);
+        auto v = parse_decimal(*s);
         if (!v || !(*v > 0.0) || *v > core::kMaxNormalStrength)
             return bad("invalid_parameter",
                        "strength (texels a height step of 1 spans) must be a number in (0, " +
@@ -89,9 +90,9 @@ std::optional<ApiError> map_fields(const Query& q, MapChoice& out, bool light_an
     }
     if (const std::string* s = field(q, "light")) {
         const auto comma = s->find(',');
-        const auto az = parse_finite(s->substr(0, comma));
+        const auto az = parse_decimal(s->substr(0, comma));
         const auto el =
-            comma == std::string::npos ? std::nullopt : parse_finite(s->substr(comma + 1));
+            comma == std::string::npos ? std::nullopt : parse_decimal(s->substr(comma + 1));
         if (!az || !el || *az < 0.0 || *az > 360.0 || !(*el > 0.0) || *el > 90.0)
             return bad("invalid_parameter",
                        "light must be AZIMUTH,ELEVATION in degrees (azimuth 0..360 counter-"
@@ -109,17 +110,18 @@ std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
     if (const std::string* s = field(q, "seed")) {
         auto v = parse_u64(*s);
         if (!v)
-            return bad("invalid_parameter",
-                       "seed must be an unsigned 64-bit integer, not '" + s->substr(0, 40) + "'");
+            return bad("invalid_parameter", "seed must be an unsigned 64-bit integer, not '" +
+                                                s->substr(0, 40) + "'" + canonical_hint(*s));
         out.seed = *v;
     }
     if (const std::string* s = field(q, "mni")) {
-        auto v = parse_finite(*s);
+        auto v = parse_decimal(*s);
         if (!v || *v < core::noise::kMinMni || *v > core::noise::kMaxMni)
             return bad("invalid_parameter",
                        "mni (mean number of impacts per pixel) must be a number in [" +
                            number_text(core::noise::kMinMni) + ", " +
-                           number_text(core::noise::kMaxMni) + "], not '" + s->substr(0, 40) + "'");
+                           number_text(core::noise::kMaxMni) + "], not '" + s->substr(0, 40) + "'" +
+                           canonical_hint(*s));
         out.mni = *v;
     }
     if (const std::string* s = field(q, "marginals")) {
@@ -147,8 +149,8 @@ std::optional<ApiError> quality_of(const Query& q, ImageFormat f, int& out) {
     if (!s) return std::nullopt;
     auto v = parse_i64(*s);
     if (!v || *v < 1 || *v > 100)
-        return bad("invalid_parameter",
-                   "quality must be an integer in [1, 100], not '" + s->substr(0, 40) + "'");
+        return bad("invalid_parameter", "quality must be an integer in [1, 100], not '" +
+                                            s->substr(0, 40) + "'" + canonical_hint(*s));
     if (f != ImageFormat::webp && f != ImageFormat::avif)
         return bad("invalid_parameter",
                    "quality applies to .webp and .avif (PNG and EXR are lossless)");
@@ -159,8 +161,8 @@ std::optional<ApiError> quality_of(const Query& q, ImageFormat f, int& out) {
 std::optional<ApiError> level_of(std::string_view z, int& out) {
     auto v = parse_i64(z);
     if (!v)
-        return bad("invalid_parameter",
-                   "z must be an integer, not '" + std::string(z.substr(0, 40)) + "'");
+        return bad("invalid_parameter", "z must be an integer, not '" +
+                                            std::string(z.substr(0, 40)) + "'" + canonical_hint(z));
     if (*v < core::noise::kMinLevel || *v > core::noise::kMaxLevel)
         return bad("level_out_of_range", "z (level: 2^z texels per pixel) must be in [" +
                                              std::to_string(core::noise::kMinLevel) + ", " +
@@ -193,8 +195,8 @@ std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
     if (const std::string* s = field(q, "size")) {
         auto v = parse_i64(*s);
         if (!v || (*v != 256 && *v != 512))
-            return bad("invalid_parameter",
-                       "size must be 256 or 512, not '" + s->substr(0, 40) + "'");
+            return bad("invalid_parameter", "size must be 256 or 512, not '" + s->substr(0, 40) +
+                                                "'" + canonical_hint(*s));
         out.size = static_cast<int>(*v);
     }
     return std::nullopt;
@@ -220,7 +222,8 @@ std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std
     if (!tx || !ty)
         return bad("coordinate_out_of_range", "tile indices must be signed 64-bit integers, not '" +
                                                   std::string(x.substr(0, 40)) + "', '" +
-                                                  std::string(y.substr(0, 40)) + "'");
+                                                  std::string(y.substr(0, 40)) + "'" +
+                                                  canonical_hint(parse_i64(x) ? y : x));
     // x * size must not overflow before the plane check sees it.
     const std::int64_t limit = INT64_MAX / out.size - 1;
     if (*tx > limit || *tx < -limit || *ty > limit || *ty < -limit)
@@ -350,20 +353,60 @@ std::optional<ApiError> check_texton_id(std::string_view s) {
                                  (s.size() > 80 ? "...'" : "'"));
 }
 
+bool canonical_number(std::string_view s, bool fraction) {
+    std::size_t i = 0;
+    if (i < s.size() && s[i] == '-') ++i;
+    const std::size_t int_start = i;
+    while (i < s.size() && s[i] >= '0' && s[i] <= '9') ++i;
+    const std::size_t int_digits = i - int_start;
+    if (int_digits == 0 || (int_digits > 1 && s[int_start] == '0')) return false;
+    if (i < s.size() && fraction && s[i] == '.') {
+        const std::size_t frac_start = ++i;
+        while (i < s.size() && s[i] >= '0' && s[i] <= '9') ++i;
+        if (i == frac_start || s[i - 1] == '0') return false;
+    }
+    if (i != s.size()) return false;
+    // "-0" and "-0.0..." are zero's second spelling.
+    return !(s[0] == '-' && s.find_first_not_of("-0.") == std::string_view::npos);
+}
+
+std::string canonical_hint(std::string_view s) {
+    std::string trimmed(s.substr(0, 64));
+    trimmed.erase(0, trimmed.find_first_not_of(" \t"));
+    trimmed.erase(trimmed.find_last_not_of(" \t") + 1);
+    char* end = nullptr;
+    const double v = trimmed.empty() ? NAN : std::strtod(trimmed.c_str(), &end);
+    if (trimmed.empty() || end != trimmed.c_str() + trimmed.size() || !std::isfinite(v)) return "";
+    char buf[40];
+    // The shortest of %.15g..%.17g that reads back as v: 0.1, not 0.10000000000000001.
+    for (int digits = 15; digits <= 17; ++digits) {
+        std::snprintf(buf, sizeof buf, "%.*g", digits, v == 0 ? 0.0 : v);
+        if (std::strtod(buf, nullptr) == v) break;
+    }
+    if (std::string_view(buf).find_first_of("e") != std::string_view::npos) return "";
+    if (std::string_view(buf) == s) return "";
+    return " (one spelling per value: write " + std::string(buf) + ")";
+}
+
 std::optional<std::int64_t> parse_i64(std::string_view s) {
+    if (!canonical_number(s, false)) return std::nullopt;
     std::int64_t v = 0;
-    const char* b = s.data();
-    if (!s.empty() && s[0] == '+') ++b;
-    auto [p, ec] = std::from_chars(b, s.data() + s.size(), v);
-    if (s.empty() || ec != std::errc() || p != s.data() + s.size()) return std::nullopt;
+    auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec != std::errc() || p != s.data() + s.size()) return std::nullopt;
     return v;
 }
 
 std::optional<std::uint64_t> parse_u64(std::string_view s) {
+    if (s.empty() || s[0] == '-' || !canonical_number(s, false)) return std::nullopt;
     std::uint64_t v = 0;
     auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-    if (s.empty() || ec != std::errc() || p != s.data() + s.size()) return std::nullopt;
+    if (ec != std::errc() || p != s.data() + s.size()) return std::nullopt;
     return v;
+}
+
+std::optional<double> parse_decimal(std::string_view s) {
+    if (s.size() > 64 || !canonical_number(s, true)) return std::nullopt;
+    return parse_finite(s);
 }
 
 std::optional<double> parse_finite(std::string_view s) {
@@ -546,7 +589,7 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
     auto number = [&](const char* name, double lo, double hi,
                       double& dst) -> std::optional<ApiError> {
         if (const std::string* s = field(q, name)) {
-            auto v = parse_finite(*s);
+            auto v = parse_decimal(*s);
             if (!v || *v < lo || *v > hi)
                 return bad("invalid_parameter", std::string(name) + " must be a number in [" +
                                                     number_text(lo) + ", " + number_text(hi) + "]");
@@ -574,7 +617,7 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
                 const std::size_t comma = text->find(',', start);
                 if ((k < 2) == (comma == std::string::npos))
                     return bad("invalid_parameter", "eye and target are x,y,z");
-                auto v = parse_finite(text->substr(start, comma - start));
+                auto v = parse_decimal(text->substr(start, comma - start));
                 if (!v) return bad("invalid_parameter", "eye and target are x,y,z numbers");
                 dst[k] = *v;
                 start = comma + 1;

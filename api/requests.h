@@ -168,6 +168,14 @@ std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out
 std::string exact_text(double v);
 
 // Strict number parsing: the whole string, no overflow, no NaN.
+// Numbers in URLs have one spelling each (caches key on the text, so "050", "+50" and "0x32"
+// would be three URLs of one image): an optional '-', no leading zeros, no '+', spaces, hex or
+// exponent, a fraction (where allowed) without trailing zeros, and no "-0".
+bool canonical_number(std::string_view s, bool fraction);
+// " (one spelling per value: write 16)" for a number spelled otherwise ("0x10", " 16"), else "".
+std::string canonical_hint(std::string_view s);
+// A query field's decimal number, canonical (above) and finite.
+std::optional<double> parse_decimal(std::string_view s);
 std::optional<std::int64_t> parse_i64(std::string_view s);
 std::optional<std::uint64_t> parse_u64(std::string_view s);
 std::optional<double> parse_finite(std::string_view s);

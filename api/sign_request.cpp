@@ -1,5 +1,7 @@
 #include "api/sign_request.h"
 
+#include "api/json_body.h"
+
 #include <nlohmann/json.hpp>
 
 namespace textond::api {
@@ -12,6 +14,11 @@ ApiError invalid(const std::string& why) {
 } // namespace
 
 std::optional<ApiError> parse_sign(std::string_view body, SignRequest& out) {
+    // The document is built only once its size is known to be that of such a request.
+    if (auto e = check_json_bounds(body, 2, kMaxSignUrls + 16))
+        return invalid(e->code == "payload_too_large"
+                           ? "at most " + std::to_string(kMaxSignUrls) + " urls a request"
+                           : e->message);
     const auto j = nlohmann::json::parse(body, nullptr, false);
     if (j.is_discarded() || !j.is_object()) return invalid("the body is not a JSON object");
     for (const auto& [k, v] : j.items())

@@ -178,6 +178,14 @@ std::uint64_t packed(int z, std::uint32_t x, std::uint32_t y) {
 Result<std::unique_ptr<io::Mbtiles>> open_spool(const std::string& path,
                                                 const nlohmann::json& identity) {
     std::error_code ec;
+    // A link (even a dangling one) would have the database written wherever it points, outside
+    // the output's directory, and OUT become the link: refused like any foreign file.
+    const auto status = std::filesystem::symlink_status(path, ec);
+    if (!ec && status.type() != std::filesystem::file_type::not_found &&
+        status.type() != std::filesystem::file_type::regular)
+        return make_error(ErrorCode::invalid_argument,
+                          path + " is not a regular file (a link or a directory): move it away, "
+                                 "or write to another -o");
     if (!std::filesystem::exists(path, ec) || std::filesystem::file_size(path, ec) == 0) {
         return io::Mbtiles::create(path, true, {{"textond", identity.dump()}});
     }

@@ -1,5 +1,6 @@
 #include "server/http/admission.h"
 
+#include "api/safe_text.h"
 #include "server/http/connection.h"
 
 #include <algorithm>
@@ -141,6 +142,11 @@ std::optional<api::ApiError> check_framing(const httplib::Request& req, std::siz
             !std::all_of(v.begin(), v.end(), [](unsigned char c) { return std::isdigit(c); }))
             return bad("Content-Length must be one decimal number");
     }
+    // No route but POST reads a body, so a body on GET, HEAD, OPTIONS or DELETE would stay on
+    // the wire and be read as the next request (one client's hidden request answered to another
+    // behind a proxy that pools connections).
+    if (lengths == 1 && req.method != "POST" && req.get_header_value("Content-Length") != "0")
+        return bad("a " + api::printable(req.method, 16) + " request carries no body");
     if (encodings > 1) return bad("more than one Transfer-Encoding header");
     if (encodings == 1) {
         std::string te = req.get_header_value("Transfer-Encoding");

@@ -101,6 +101,10 @@ ssize_t ConnectionStream::read(char* ptr, size_t size) {
         m_len = static_cast<std::size_t>(n);
     }
     const std::size_t n = std::min(size, m_len - m_off);
+    if (m_phase == Phase::body && m_chunked && !check_chunked(m_buf.data() + m_off, n)) {
+        m_failure = Failure::bad_chunk;
+        return -1;
+    }
     std::memcpy(ptr, m_buf.data() + m_off, n);
     m_off += n;
     m_phase_bytes += n;
@@ -127,9 +131,93 @@ void ConnectionStream::get_local_ip_and_port(std::string& ip, int& port) const {
     address_of(m_sock, false, ip, port);
 }
 
+bool ConnectionStream::check_chunked(const char* p, std::size_t n) {
+    const auto hex = [](char c) {
+        return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+        const char c = p[i];
+        switch (m_chunk) {
+        case Chunk::size:
+            if (hex(c) && m_size_digits < 15) {
+                const int d = c <= '9' ? c - '0' : (c | 0x20) - 'a' + 10;
+                m_chunk_left = m_chunk_left * 16 + static_cast<std::uint64_t>(d);
+                ++m_size_digits;
+            } else if (m_size_digits > 0 && (c == ';' || c == ' ' || c == '\t')) {
+                m_chunk = Chunk::ext;
+            } else if (m_size_digits > 0 && c == '\r') {
+                m_chunk = Chunk::size_lf;
+            } else {
+                return false;
+            }
+            break;
+        case Chunk::ext:
+            if (c == '\r')
+                m_chunk = Chunk::size_lf;
+            else if (c == '\n')
+                return false;
+            break;
+        case Chunk::size_lf:
+            if (c != '\n') return false;
+            m_chunk = m_chunk_left == 0 ? Chunk::trailer : Chunk::data;
+            m_line_empty = true;
+            break;
+        case Chunk::data: {
+            const std::uint64_t take = std::min<std::uint64_t>(m_chunk_left, n - i);
+            m_chunk_left -= take;
+            i += static_cast<std::size_t>(take) - 1;
+            if (m_chunk_left == 0) m_chunk = Chunk::data_cr;
+            break;
+        }
+        case Chunk::data_cr:
+            if (c != '\r') return false;
+            m_chunk = Chunk::data_lf;
+            break;
+        case Chunk::data_lf:
+            if (c != '\n') return false;
+            m_chunk = Chunk::size;
+            m_size_digits = 0;
+            break;
+        case Chunk::trailer:
+            if (c == '\n') return false;
+            if (c == '\r')
+                m_chunk = m_line_empty ? Chunk::last_lf : Chunk::trailer_lf;
+            else
+                m_line_empty = false;
+            break;
+        case Chunk::trailer_lf:
+            if (c != '\n') return false;
+            m_chunk = Chunk::trailer;
+            m_line_empty = true;
+            break;
+        case Chunk::last_lf:
+            if (c != '\n') return false;
+            m_chunk = Chunk::done;
+            break;
+        case Chunk::done:
+            return false; // past the body's end: the library never reads here
+        }
+    }
+    return true;
+}
+
+void ConnectionStream::expect_body(std::uint64_t length, bool chunked) {
+    m_expected = chunked ? 0 : length;
+    m_chunked = chunked;
+}
+
+bool ConnectionStream::body_complete() const {
+    return m_chunked ? m_chunk == Chunk::done : m_phase_bytes >= m_expected;
+}
+
 bool ConnectionStream::next_request(milliseconds timeout, const std::function<bool()>& stop) {
     m_phase = Phase::idle;
     m_phase_bytes = 0;
+    m_expected = 0;
+    m_chunked = false;
+    m_chunk = Chunk::size;
+    m_chunk_left = 0;
+    m_size_digits = 0;
     if (m_off == m_len) {
         // In short waits, so that a stopping server does not wait out every idle connection.
         const auto end = Clock::now() + timeout;
@@ -215,7 +303,15 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
         case ConnectionStream::Failure::body_timeout:
             send_connection_error(strm, "body_timeout", "request body did not arrive in time");
             break;
+        case ConnectionStream::Failure::bad_chunk:
+            send_connection_error(strm, "bad_framing",
+                                  "malformed chunked body (each chunk's data must end in CRLF; "
+                                  "lines end in CRLF)");
+            break;
         }
+        // A body the route did not read to its end is still on the wire, and its bytes are no
+        // request: they must never be parsed as the next one (request smuggling).
+        if (!strm.body_complete()) strm.close_after_response();
         if (!ok || closed || strm.must_close() || strm.failure() != ConnectionStream::Failure::none)
             break;
     }

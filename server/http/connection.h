@@ -16,6 +16,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <deque>
 #include <functional>
 #include <mutex>
@@ -37,7 +38,14 @@ struct ConnectionLimits {
 class ConnectionStream final : public httplib::Stream {
 public:
     enum class Phase { idle, head, body };
-    enum class Failure { none, head_too_large, head_timeout, body_too_large, body_timeout };
+    enum class Failure {
+        none,
+        head_too_large,
+        head_timeout,
+        body_too_large,
+        body_timeout,
+        bad_chunk
+    };
 
     ConnectionStream(int sock, const ConnectionLimits& limits);
 
@@ -54,6 +62,13 @@ public:
     bool next_request(std::chrono::milliseconds timeout, const std::function<bool()>& stop);
     // The head has been parsed (pre-routing): from here on bytes count against the body.
     void begin_body();
+    // What the head said of the body: `length` bytes, or chunked. The connection closes after
+    // the response unless the route read the body to its end (a body left unread is not a
+    // request), and chunked framing is checked as it passes (cpp-httplib 0.11 accepts chunk
+    // data not followed by CRLF and bare-LF size lines, and stops early on garbage).
+    void expect_body(std::uint64_t length, bool chunked);
+    // The body the head announced has been read to its last byte (true when there was none).
+    bool body_complete() const;
     // The client closed its side or reset the connection (it will never read the answer).
     bool client_gone() const;
     // Ask for the connection to be closed after the response being written (the request's body
@@ -74,6 +89,26 @@ private:
     Phase m_phase = Phase::idle;
     std::size_t m_phase_bytes = 0;
     std::chrono::steady_clock::time_point m_deadline{};
+    // Chunked framing, checked byte by byte as the library reads it (RFC 9112 section 7.1).
+    enum class Chunk {
+        size,
+        ext,
+        size_lf,
+        data,
+        data_cr,
+        data_lf,
+        trailer,
+        trailer_lf,
+        last_lf,
+        done
+    };
+    bool check_chunked(const char* p, std::size_t n);
+    std::uint64_t m_expected = 0; // body bytes announced by Content-Length
+    bool m_chunked = false;
+    Chunk m_chunk = Chunk::size;
+    std::uint64_t m_chunk_left = 0;
+    int m_size_digits = 0;
+    bool m_line_empty = true;
     Failure m_failure = Failure::none;
     bool m_close = false;
 };

@@ -4,6 +4,7 @@
 
 #include "render/image_buffers.h"
 #include "render/prepared_texton.h"
+#include "server/http/engine_kit.h"
 #include "server/http/http_support.h"
 
 #include <openssl/crypto.h>
@@ -17,6 +18,7 @@ namespace textond::http {
 namespace {
 
 constexpr const char* kImmutable = "public, max-age=31536000, immutable";
+constexpr double kKitWorkS = 0.4;
 
 // Writes the cached bytes straight to the socket: no copy into the response (a warm tile is
 // ~200 kB, and copying it was a fifth of a cache hit's CPU time).
@@ -274,6 +276,49 @@ void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) 
     res.set_content(png.value(), "image/png");
 }
 
+void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
+    set_route("/v1/textons/{id}/kit.tar");
+    const std::string id = req.matches[1].str();
+    if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    auto served = served_query(req, res, "");
+    if (!served) return;
+    api::Query q;
+    // A preset's fields are an image's; of them the kit takes its density.
+    if (const auto mni = served->find("mni"); mni != served->end()) q.emplace(*mni);
+    if (m_config.presets.empty()) q = *served;
+    api::NoiseParams p;
+    if (auto e = api::parse_kit(id, q, p)) return send_error(res, *e);
+    const std::string key = "kit/" + id + "/" + api::exact_text(p.mni);
+    auto cached = m_cache.get(key);
+    m_metrics.tile_cache(cached != nullptr);
+    const auto headers = [&] {
+        res.set_header("Cache-Control", cache_control_for(req));
+        res.set_header("Content-Disposition",
+                       "attachment; filename=\"" + engine_kit_directory(id) + ".tar\"");
+    };
+    if (cached) {
+        headers();
+        return send_cached(res, m_metrics, std::move(cached));
+    }
+    if (!within_rate(req, res)) return;
+    auto record = m_textons.record(id);
+    if (!record) return send_error(res, to_api_error(record.error()));
+    auto exr = m_textons.file_bytes(id);
+    if (!exr) return send_error(res, to_api_error(exr.error()));
+    // Measured: 0.35-0.4 s of one core for a 64 x 64 texton (its tables and reference values).
+    auto slot = m_gate.admit(res, kKitWorkS);
+    if (!slot) return;
+    auto tar = engine_kit_tar(record.value(), exr.value(), p.mni, "");
+    if (!tar) return send_error(res, to_api_error(tar.error()));
+    auto entry = std::make_shared<CachedImage>();
+    entry->body = std::move(tar.value());
+    entry->content_type = "application/x-tar";
+    entry->texton_id = id;
+    m_cache.put(key, entry);
+    headers();
+    send_cached(res, m_metrics, std::move(entry));
+}
+
 std::optional<api::Query> ImageRoutes::served_query(const httplib::Request& req,
                                                     httplib::Response& res,
                                                     std::string_view format) const {
@@ -346,8 +391,9 @@ std::string ImageRoutes::cache_control_for(const httplib::Request& req) const {
     const auto now = std::chrono::duration_cast<std::chrono::seconds>(
                          std::chrono::system_clock::now().time_since_epoch())
                          .count();
-    const std::int64_t left =
-        std::max<std::int64_t>(0, api::parse_i64(exp->second).value_or(0) - now);
+    // At most a year, as immutable images: an exp far in the future is no reason for more.
+    const std::int64_t until = std::max<std::int64_t>(0, api::parse_i64(exp->second).value_or(0));
+    const std::int64_t left = std::clamp<std::int64_t>(until - now, 0, 31'536'000);
     return "public, max-age=" + std::to_string(left);
 }
 
@@ -358,9 +404,17 @@ std::string ImageRoutes::base_url(const httplib::Request& req) const {
         return u;
     }
     std::string host = req.get_header_value("Host");
-    const bool sane = !host.empty() && host.size() < 256 &&
-                      host.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                             "0123456789.-:[]") == std::string::npos;
+    bool sane = !host.empty() && host.size() < 256 &&
+                host.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                       "0123456789.-:[]") == std::string::npos;
+    // A port, if any, is 1..65535 (x:99999999 was echoed into every tile URL).
+    if (const auto colon = host.rfind(':');
+        sane && colon != std::string::npos && host.find(']', colon) == std::string::npos) {
+        const std::string port = host.substr(colon + 1);
+        sane = !port.empty() && port.size() <= 5 &&
+               port.find_first_not_of("0123456789") == std::string::npos && std::stoi(port) >= 1 &&
+               std::stoi(port) <= 65535;
+    }
     if (!sane) host = m_config.host + ":" + std::to_string(m_port);
     return "http://" + host;
 }

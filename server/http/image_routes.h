@@ -35,6 +35,9 @@ public:
     // The texton's quality report: JSON (png = false) or its PNG.
     void quality(const httplib::Request& req, httplib::Response& res, bool png);
     void exemplar(const httplib::Request& req, httplib::Response& res);
+    // The engine kit (tar): signed, preset and rate limited like an image, built under a render
+    // slot and cached like one.
+    void kit(const httplib::Request& req, httplib::Response& res);
     void tilejson(const httplib::Request& req, httplib::Response& res, bool mix);
 
 private:

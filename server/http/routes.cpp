@@ -86,7 +86,7 @@ void Service::install_get_routes() {
     m_http.Get("/v1/textons", call(t, &TextonRoutes::list));
     m_http.Get(R"(/v1/textons/([^/]+))", call(t, &TextonRoutes::get));
     m_http.Get(R"(/v1/textons/([^/]+)/status)", call(t, &TextonRoutes::status));
-    m_http.Get(R"(/v1/textons/([^/]+)/kit\.tar)", call(t, &TextonRoutes::kit));
+    m_http.Get(R"(/v1/textons/([^/]+)/kit\.tar)", call(i, &ImageRoutes::kit));
     m_http.Get(R"(/v1/textons/([^/]+)/texton\.([a-z0-9]+))", call(t, &TextonRoutes::file));
     m_http.Get(R"(/v1/textons/(.*))", &TextonRoutes::fallback);
     m_http.Get(R"(/v1/mixes/([^/]+))", call(m_mix_routes.get(), &MixRoutes::get));

@@ -1,5 +1,6 @@
 #include "server/http/surface_routes.h"
 
+#include "api/json_body.h"
 #include "api/requests.h"
 #include "server/http/http_support.h"
 #include "server/io/image_io.h"
@@ -18,29 +19,8 @@ bool wants_binary(const httplib::Request& req) {
 std::optional<api::ApiError> read_points(const httplib::Request& req, const std::string& body,
                                          std::vector<float>& points, std::vector<float>& normals) {
     const std::string type = req.get_header_value("Content-Type");
-    if (type.find("application/json") != std::string::npos) {
-        try {
-            const auto j = nlohmann::json::parse(body);
-            const auto& p = j.at("points");
-            const auto& n = j.at("normals");
-            if (!p.is_array() || !n.is_array() || p.size() != n.size())
-                return api::ApiError{"invalid_body",
-                                     "points and normals must be arrays of equal length"};
-            if (p.size() > render::kMaxSurfacePoints)
-                return api::ApiError{"payload_too_large", "at most 1000000 points"};
-            for (std::size_t i = 0; i < p.size(); ++i)
-                for (int d = 0; d < 3; ++d) {
-                    points.push_back(p.at(i).at(static_cast<std::size_t>(d)).get<float>());
-                    normals.push_back(n.at(i).at(static_cast<std::size_t>(d)).get<float>());
-                }
-        } catch (const std::exception& e) {
-            return api::ApiError{"invalid_body",
-                                 std::string("expected {\"points\": [[x,y,z],...], \"normals\": "
-                                             "[[x,y,z],...]}: ") +
-                                     e.what()};
-        }
-        return std::nullopt;
-    }
+    if (type.find("application/json") != std::string::npos)
+        return api::parse_surface_json(body, render::kMaxSurfacePoints, points, normals);
     if (body.size() % 24 != 0)
         return api::ApiError{"invalid_body",
                              "a binary body is 6 little-endian float32 a point (x y z nx ny nz), "

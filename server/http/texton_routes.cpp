@@ -5,7 +5,6 @@
 #include "api/requests.h"
 #include "core/texton_analysis.h"
 #include "server/http/connection.h"
-#include "server/http/engine_kit.h"
 #include "server/http/http_support.h"
 #include "server/io/image_io.h"
 #include "server/io/texton_file.h"
@@ -316,23 +315,6 @@ void TextonRoutes::file(Req req, Res res) {
     auto png = io::encode_image_memory(visualise(record.value().texton), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_content(png.value(), "image/png");
-}
-
-void TextonRoutes::kit(Req req, Res res) {
-    set_route("/v1/textons/{id}/kit.tar");
-    const std::string id = req.matches[1].str();
-    api::NoiseParams p;
-    if (auto e = api::parse_kit(id, req.params, p)) return send_error(res, *e);
-    auto record = m_store.record(id);
-    if (!record) return send_error(res, to_api_error(record.error()));
-    auto exr = m_store.file_bytes(id);
-    if (!exr) return send_error(res, to_api_error(exr.error()));
-    auto tar = engine_kit_tar(record.value(), exr.value(), p.mni, "");
-    if (!tar) return send_error(res, to_api_error(tar.error()));
-    res.set_header("Cache-Control", "public, max-age=86400");
-    res.set_header("Content-Disposition",
-                   "attachment; filename=\"" + engine_kit_directory(id) + ".tar\"");
-    res.set_content(tar.value(), "application/x-tar");
 }
 
 void TextonRoutes::remove(Req req, Res res) {

@@ -30,7 +30,6 @@ public:
     void get(Req req, Res res);
     void status(Req req, Res res);
     void file(Req req, Res res);
-    void kit(Req req, Res res);
     void remove(Req req, Res res);
     // Anything else under /v1/textons/: a bad id is a 400 (never a path), a good one a 404.
     static void fallback(Req req, Res res);

@@ -188,8 +188,14 @@ Result<std::string> sign_url(std::string_view key, std::string_view url, std::in
         return make_error(ErrorCode::invalid_argument, "the signing key must have at least " +
                                                            std::to_string(kMinSigningKey) +
                                                            " characters");
-    // Split scheme://host, path and query; drop any sig, keep (or set) exp.
+    // Split scheme://host, path and query; drop any sig, keep (or set) exp. A fragment is the
+    // client's own (never sent to a server): not signed, put back after the signature.
     std::string u(url);
+    std::string fragment;
+    if (const auto hash = u.find('#'); hash != std::string::npos) {
+        fragment = u.substr(hash);
+        u.resize(hash);
+    }
     std::size_t path_at = 0;
     if (const auto scheme = u.find("://"); scheme != std::string::npos) {
         path_at = u.find('/', scheme + 3);
@@ -202,7 +208,6 @@ Result<std::string> sign_url(std::string_view key, std::string_view url, std::in
     const std::string base = u.substr(0, q == std::string::npos ? u.size() : q);
     const std::string path = base.substr(path_at);
     std::string raw_query = q == std::string::npos ? "" : u.substr(q + 1);
-    if (const auto hash = raw_query.find('#'); hash != std::string::npos) raw_query.resize(hash);
     api::Query fields;
     std::vector<std::string> kept; // the query as written, sig and exp dropped
     std::size_t at = 0;
@@ -224,7 +229,7 @@ Result<std::string> sign_url(std::string_view key, std::string_view url, std::in
     }
     std::string out = base + "?";
     for (const auto& item : kept) out += item + "&";
-    return out + "sig=" + url_signature(key, canonical_request(path, fields));
+    return out + "sig=" + url_signature(key, canonical_request(path, fields)) + fragment;
 }
 
 std::optional<api::ApiError> apply_preset(const Presets& presets, const api::Query& query,
@@ -233,6 +238,10 @@ std::optional<api::ApiError> apply_preset(const Presets& presets, const api::Que
     if (name == query.end())
         return api::ApiError{"preset_required",
                              "this server serves named presets only: add preset=NAME"};
+    for (const char* once : {"preset", "sig", "exp"})
+        if (query.count(once) > 1)
+            return api::ApiError{"invalid_parameter",
+                                 "parameter '" + std::string(once) + "' is given more than once"};
     const auto preset = presets.find(name->second);
     if (preset == presets.end())
         return api::ApiError{"unknown_preset",

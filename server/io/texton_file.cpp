@@ -144,6 +144,19 @@ TextonRecord make_set_record(const core::Image& stacked, std::vector<api::MapMet
     return r;
 }
 
+// A set's channels are named after its maps: albedo.R, albedo.G, albedo.B, height.Y, ...
+// OpenEXR stores channels sorted by name, so these names, not the file's order, say which
+// plane is which when the file is read back (ao.Y comes before height.Y on disk).
+namespace {
+std::vector<std::string> set_channel_names(const std::vector<api::MapMeta>& maps) {
+    std::vector<std::string> names;
+    for (const api::MapMeta& m : maps)
+        for (int c = 0; c < m.channels; ++c)
+            names.push_back(m.name + "." + (m.channels == 1 ? "Y" : std::string(1, "RGB"[c])));
+    return names;
+}
+} // namespace
+
 Result<std::string> texton_file_bytes(const TextonRecord& record) {
     // Without provenance: two analyses of one exemplar give one file, byte for byte.
     std::vector<std::pair<std::string, std::string>> attributes = {
@@ -151,12 +164,8 @@ Result<std::string> texton_file_bytes(const TextonRecord& record) {
     if (!record.texton.marginals.empty())
         attributes.emplace_back(kMarginalsAttribute,
                                 marginals_json(record.texton.marginals).dump());
-    // A set's channels are named after its maps: albedo.R, albedo.G, albedo.B, height.Y, ...
-    std::vector<std::string> names;
-    for (const core::TextonMap& m : record.texton.maps)
-        for (int c = 0; c < m.channels; ++c)
-            names.push_back(m.name + "." + (m.channels == 1 ? "Y" : std::string(1, "RGB"[c])));
-    return encode_image_memory(record.texton.alpha, Encoding::exr, attributes, 6, names);
+    return encode_image_memory(record.texton.alpha, Encoding::exr, attributes, 6,
+                               set_channel_names(record.meta.maps));
 }
 
 Result<bool> write_texton_file(const std::string& path, const TextonRecord& record) {
@@ -194,9 +203,27 @@ Result<TextonRecord> read_texton_file(const std::string& path) {
     r.texton.order = m.order;
     r.texton.mean = m.mean;
     r.texton.alpha = core::Image(m.size, m.size, m.channels);
+    // Plane c of the texton is the file's channel source[c] (identity for plain textons).
+    std::vector<int> source(static_cast<std::size_t>(m.channels));
+    for (int c = 0; c < m.channels; ++c) source[static_cast<std::size_t>(c)] = c;
+    if (!m.maps.empty()) {
+        const std::vector<std::string> names = set_channel_names(m.maps);
+        if (names.size() != static_cast<std::size_t>(m.channels))
+            return bad_file(path, "the maps do not add up to the texton's channels");
+        for (int c = 0; c < m.channels; ++c) {
+            const auto& file_names = spec.channelnames;
+            const auto it =
+                std::find(file_names.begin(), file_names.end(), names[static_cast<std::size_t>(c)]);
+            if (it == file_names.end())
+                return bad_file(path, "no channel " + names[static_cast<std::size_t>(c)]);
+            source[static_cast<std::size_t>(c)] = static_cast<int>(it - file_names.begin());
+        }
+    }
     const std::size_t n = r.texton.alpha.plane_size();
     for (std::size_t k = 0; k < n; ++k)
-        for (int c = 0; c < m.channels; ++c) r.texton.alpha.plane(c)[k] = buf[k * m.channels + c];
+        for (int c = 0; c < m.channels; ++c)
+            r.texton.alpha.plane(c)[k] =
+                buf[k * m.channels + static_cast<std::size_t>(source[static_cast<std::size_t>(c)])];
     for (const api::MapMeta& mm : m.maps) r.texton.maps.push_back({mm.name, mm.first, mm.channels});
     if (!r.texton.maps.empty())
         if (auto err = core::validate_maps(r.texton.maps, m.channels))

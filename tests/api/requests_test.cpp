@@ -294,7 +294,16 @@ TEST(Requests, MixAndSurfaceTables) {
 }
 
 TEST(Requests, StrictNumbers) {
-    EXPECT_EQ(parse_i64("+12"), 12);
+    EXPECT_FALSE(parse_i64("+12")) << "one spelling per value";
+    EXPECT_EQ(parse_i64("-12"), -12);
+    EXPECT_EQ(parse_i64("0"), 0);
+    for (const char* other : {"-0", "012", "00", "+0", " 1", "1e2", "1.0"})
+        EXPECT_FALSE(parse_i64(other)) << other;
+    EXPECT_EQ(parse_decimal("0.25"), 0.25);
+    EXPECT_EQ(parse_decimal("-3"), -3.0);
+    for (const char* other :
+         {"0x10", " 16", "16 ", "+16", "016", "16.0", "16.", ".5", "1e1", "-0", "-0.0", "0.50"})
+        EXPECT_FALSE(parse_decimal(other)) << other;
     EXPECT_EQ(parse_i64("-9223372036854775808"), INT64_MIN);
     EXPECT_FALSE(parse_i64("9223372036854775808"));
     EXPECT_FALSE(parse_i64(""));
@@ -307,6 +316,34 @@ TEST(Requests, StrictNumbers) {
     EXPECT_FALSE(parse_finite("nan"));
     EXPECT_FALSE(parse_finite("1e999"));
     EXPECT_FALSE(parse_finite(std::string(65, '1')));
+}
+
+// One image, one URL: every other spelling of a number a URL carries is refused, with the one to
+// use in the message (mni=0x10, quality=050, a tile's +0 were all served under new cache keys).
+TEST(Requests, NumbersInUrlsHaveOneSpellingAndTheMessageNamesIt) {
+    auto message = [](const std::optional<ApiError>& e) { return e ? e->message : "accepted"; };
+    TileRequest t;
+    EXPECT_NE(message(parse_tile(kId, "0", "+0", "0", "png", {}, t)).find("write 0"),
+              std::string::npos);
+    EXPECT_NE(message(parse_tile(kId, "0", "0", "-0", "png", {}, t)).find("write 0"),
+              std::string::npos);
+    EXPECT_NE(message(parse_tile(kId, "007", "0", "0", "png", {}, t)).find("write 7"),
+              std::string::npos);
+    EXPECT_NE(message(parse_tile(kId, "0", "0", "0", "png", {{"mni", "0x10"}}, t)).find("write 16"),
+              std::string::npos);
+    EXPECT_NE(message(parse_tile(kId, "0", "0", "0", "png", {{"mni", " 10"}}, t)).find("write 10"),
+              std::string::npos);
+    EXPECT_NE(
+        message(parse_tile(kId, "0", "0", "0", "webp", {{"quality", "+50"}}, t)).find("write 50"),
+        std::string::npos);
+    EXPECT_NE(
+        message(parse_tile(kId, "0", "0", "0", "webp", {{"quality", "050"}}, t)).find("write 50"),
+        std::string::npos);
+    EXPECT_NE(
+        message(parse_tile(kId, "0", "0", "0", "png", {{"seed", "0042"}}, t)).find("write 42"),
+        std::string::npos);
+    EXPECT_EQ(message(parse_tile(kId, "0", "0", "0", "png", {{"mni", "2.5"}, {"seed", "42"}}, t)),
+              "accepted");
 }
 
 } // namespace

@@ -223,3 +223,22 @@ TEST(Export, AForeignFileAtThePartialsPlaceIsLeftAlone) {
     EXPECT_TRUE(io::read_file(partial).value() == before);
     fs::remove(partial);
 }
+
+// A link at the partial's place, even one to a path that does not exist yet, is refused: the
+// database would be written at its target, outside the output's directory, and OUT become it.
+TEST(Export, ALinkAtThePartialsPlaceIsRefused) {
+    const std::string out = test::temp_path("linked.pmtiles"), partial = out + ".partial";
+    const std::string target = test::temp_path("elsewhere.db");
+    fs::remove(out);
+    fs::remove(partial);
+    fs::remove(target);
+    fs::create_symlink(target, partial);
+    const test::RunResult r =
+        test::run("export " + sand_texton() + " --zooms 24 --bbox 0,0,256,256 -o " + out);
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(target)) << "written through the link";
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_TRUE(fs::is_symlink(partial));
+    fs::remove(partial);
+}

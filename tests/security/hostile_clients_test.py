@@ -301,6 +301,86 @@ class HostileClients(unittest.TestCase):
         answer = self.s.raw(one * 9 + b"GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
         self.assertEqual(answer.count(b"HTTP/1.1 200 OK"), 10)
 
+    # Round 2, item 1: a body the route does not read is never parsed as the next request.
+    HIDDEN = b"GET /v1/openapi.yaml HTTP/1.1\r\nHost: x\r\n\r\n"
+
+    def answers(self, raw):
+        return raw.count(b"HTTP/1.1 ")
+
+    def test_bodies_on_get_head_options_delete_are_never_requests(self):
+        u, _ = self.ids
+        for method, path in (("GET", "/healthz"), ("HEAD", "/healthz"), ("OPTIONS", "/healthz"),
+                             ("DELETE", "/v1/textons/" + "0" * 64),
+                             ("GET", f"/v1/textons/{u}/tiles/0/0/0.png")):
+            head = f"{method} {path} HTTP/1.1\r\nHost: x\r\n".encode()
+            for framing, body in ((b"Content-Length: %d\r\n" % len(self.HIDDEN), self.HIDDEN),
+                                  (b"Transfer-Encoding: chunked\r\n",
+                                   b"%x\r\n" % len(self.HIDDEN) + self.HIDDEN + b"\r\n0\r\n\r\n")):
+                answer = self.s.raw(head + framing + b"\r\n" + body)
+                self.assertEqual(self.answers(answer), 1, (method, framing, answer[:400]))
+                self.assertEqual(status_of(answer), 400, (method, answer[:300]))
+                self.assertNotIn(b"openapi:", answer, (method, framing))
+        # Content-Length: 0 on a GET is no body: served, and the connection stays usable.
+        zero = b"GET /healthz HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n"
+        self.assertEqual(self.answers(self.s.raw(zero + b"GET /healthz HTTP/1.1\r\nHost: x\r\n"
+                                                 b"Connection: close\r\n\r\n")), 2)
+
+    def test_chunked_framing_is_strict(self):
+        after = b"GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+        head = b"POST /v1/textons HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n"
+        for body in (b"10\r\n" + b"a" * 16 + b"XX0\r\n\r\n",  # no CRLF after the data
+                     b"10\n" + b"a" * 16 + b"\r\n0\r\n\r\n",  # bare LF after the size
+                     b"10\r\n" + b"a" * 16 + b"\n0\r\n\r\n",  # bare LF after the data
+                     b"0\r\n\n",  # bare LF ending the trailers
+                     b"zz\r\n" + b"a" * 16 + b"\r\n0\r\n\r\n"):
+            answer = self.s.raw(head + body + after)
+            self.assertEqual(self.answers(answer), 1, (body, answer[:400]))
+            self.assertEqual(status_of(answer), 400, (body, answer[:300]))
+        # Well-framed chunks (with an extension) are read, and the next request
+        # on the connection is served.
+        good = b"3;x=y\r\nabc\r\n0\r\n\r\n"
+        answer = self.s.raw(head + good + after)
+        self.assertEqual(self.answers(answer), 2, answer[:600])
+        self.assertEqual(status_of(answer), 415)  # "abc" is no image
+        self.assertIn(b"HTTP/1.1 200 OK", answer)
+
+    def test_a_request_the_library_cannot_parse_closes_the_connection(self):
+        # One header line over cpp-httplib's 8 KiB line limit: 400, then nothing more is read.
+        bad = b"GET /healthz HTTP/1.1\r\nHost: x\r\nX-Long: " + b"a" * 9000 + b"\r\n\r\n"
+        answer = self.s.raw(bad + b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n" * 3)
+        self.assertEqual(self.answers(answer), 1, answer[:600])
+        self.assertEqual(status_of(answer), 400)
+
+    def test_a_body_left_unread_closes_the_connection(self):
+        # A POST refused before its body is read: the body (holding a request) is not served.
+        u, _ = self.ids
+        for path in (f"/v1/textons/{u}/mesh.png?w=99999", "/v1/textons?size=3"):
+            req = (f"POST {path} HTTP/1.1\r\nHost: x\r\nContent-Type: image/png\r\n"
+                   f"Content-Length: {len(self.HIDDEN)}\r\n\r\n").encode()
+            answer = self.s.raw(req + self.HIDDEN)
+            self.assertEqual(self.answers(answer), 1, (path, answer[:400]))
+            self.assertNotIn(b"openapi:", answer)
+
+    # Round 2, item 3: deeply nested or huge JSON bodies are refused before a tree is built.
+    def test_nested_json_bodies_are_refused_without_memory(self):
+        u, _ = self.ids
+        deep = b"[" * (3 * MIB) + b"]" * (3 * MIB)
+        wide = b'{"a":' * (MIB // 2) + b"1" + b"}" * (MIB // 2)
+        many = b'{"urls": [' + b",".join([b'"/v1/x"'] * 400000) + b"]}"
+        for path, body in (("/v1/sign", deep), ("/v1/sign", wide), ("/v1/sign", many),
+                           (f"/v1/textons/{u}/surface", deep), (f"/v1/textons/{u}/surface", wide),
+                           (f"/v1/textons/{u}/surface",
+                            b'{"points": [[1,2,3,4]], "normals": [[0,0,1,0]]}'),
+                           (f"/v1/textons/{u}/surface",
+                            b'{"points": [[1,2,3]], "normals": [[0,0,1]], "extra": 1}')):
+            with PeakRss(self.s.proc.pid) as m:
+                st, _, data = self.post(path, body, {"Content-Type": "application/json"})
+            self.assertIn(st, (400, 401, 413), (path, data[:200]))
+            if st != 401:
+                self.assertIn(error_code(data), ("invalid_body", "payload_too_large"), data[:200])
+            # The body itself is held (up to a few copies in the library); no tree of it.
+            self.assertLess(m.peak - m.base, 4 * len(body) + 16 * MIB, (path, len(body)))
+
     # 4. Slow clients: with 16 kept threads, 128 slow connections must not stop new clients.
     def test_slow_clients_do_not_block_new_ones(self):
         stop = threading.Event()

@@ -140,5 +140,24 @@ TEST(Concurrency, BatchedGlTilesAreTheCpusBytes) {
     EXPECT_EQ(alone->body, r.Get(path(kClients + 1).c_str())->body);
 }
 
+// The admission estimate is the work's: pixels x MNI x taps. A region of 1024 x 1024 at order 1
+// costs about 1.3 s of CPU at MNI 200 and 0.03 s at MNI 5; with a budget of 1 s the first is
+// refused before it runs (413), the second served. Without the MNI factor both would pass.
+TEST(Concurrency, AdmissionCountsTheDensityOfImpulses) {
+    auto config = TestServer::default_config();
+    config.max_request_cpu_s = 1.0;
+    TestServer server(config);
+    auto c = server.client();
+    const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=10&order=1");
+    const std::string region = "/v1/textons/" + id + "/region.png?w=1024&h=1024&mni=";
+    auto dense = c.Get(region + "200");
+    ASSERT_TRUE(dense);
+    EXPECT_EQ(dense->status, 413) << dense->body.substr(0, 200);
+    EXPECT_NE(dense->body.find("work_too_large"), std::string::npos) << dense->body;
+    auto sparse = c.Get(region + "5");
+    ASSERT_TRUE(sparse);
+    EXPECT_EQ(sparse->status, 200) << sparse->body.substr(0, 200);
+}
+
 } // namespace
 } // namespace textond::test

@@ -11,7 +11,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
 #include <tuple>
+#include <vector>
 
 namespace textond::test {
 namespace {
@@ -236,7 +239,7 @@ TEST(MaterialSet, MeshPreviewShowsTheReliefAndSurfaceColoursAMap) {
     const core::Image lit = mesh("", &backend);
     EXPECT_EQ(backend, "cpu");
     const core::Image flat = mesh("&map=albedo");
-    const core::Image faint = mesh("&strength=1e-6");
+    const core::Image faint = mesh("&strength=0.000001");
     const core::Image moved = mesh("&light=200,30");
     // The decoder drops alpha; the background is black and the mesh never is (albedo x >= 0.35).
     auto on = [](const core::Image& im, int x, int y) {
@@ -307,6 +310,64 @@ TEST(MaterialSet, ExportedViewsAreTheServersTiles) {
         auto tile = c.Get(base + "/map/24/1/0.png?seed=5&map=" + view);
         ASSERT_TRUE(tile && tile->status == 200) << view;
         EXPECT_TRUE(archived.value() == tile->body) << view << ": not the server's tile";
+    }
+}
+
+// A one-channel map of the photo's luminance L through f, as a 16-bit PNG, and its mean.
+template <typename F> std::pair<std::string, double> luminance_map(const core::Image& u, F f) {
+    core::Image m(u.width, u.height, 1);
+    double sum = 0;
+    for (int y = 0; y < u.height; ++y)
+        for (int x = 0; x < u.width; ++x) {
+            const float l = (u.at(0, x, y) + u.at(1, x, y) + u.at(2, x, y)) / 3.0f;
+            m.at(0, x, y) = f(l);
+            sum += m.at(0, x, y);
+        }
+    return {io::encode_image_memory(m, io::Encoding::png16).value(),
+            sum / static_cast<double>(m.plane_size())};
+}
+
+// Every documented map (albedo, height, roughness, ao, metallic) in any part order: 201, and
+// each map's tiles have that map's mean. The texton file stores channels sorted by name, so a
+// set whose maps were not in alphabetical order failed its own checksum on reading (500).
+TEST(MaterialSet, EveryMapInAnyPartOrderIsStoredAndServedAsItself) {
+    TestServer server;
+    auto c = server.client();
+    const core::Image u = load_exemplar("etr_pebbles04.png");
+    const std::string albedo = read_file(exemplar_path("etr_pebbles04.png"));
+    const auto height = luminance_map(u, [](float l) { return l; });
+    const auto ao = luminance_map(u, [](float l) { return 0.8f + 0.05f * l; });
+    const auto metallic = luminance_map(u, [](float l) { return 0.05f + 0.1f * l; });
+    const auto roughness = luminance_map(u, [](float l) { return 0.28f + 0.05f * l; });
+    const std::map<std::string, std::pair<std::string, double>> maps = {
+        {"height", height}, {"ao", ao}, {"metallic", metallic}, {"roughness", roughness}};
+    const std::vector<std::vector<std::string>> orders = {
+        {"metallic", "ao", "height", "albedo"},
+        {"ao", "albedo"},
+        {"albedo", "ao", "metallic"},
+        {"roughness", "metallic", "albedo", "height", "ao"}};
+    for (const auto& order : orders) {
+        httplib::MultipartFormDataItems form = {{"size", "16", "", ""},
+                                                {"iterations", "10", "", ""}};
+        for (const std::string& name : order)
+            form.push_back({name, name == "albedo" ? albedo : maps.at(name).first, name + ".png",
+                            "image/png"});
+        auto up = c.Post("/v1/textons", form);
+        ASSERT_TRUE(up);
+        ASSERT_EQ(up->status, 201) << ::testing::PrintToString(order) << ": " << up->body;
+        const json meta = json::parse(up->body);
+        EXPECT_EQ(meta.at("maps").size(), order.size());
+        const std::string base = "/v1/textons/" + meta.at("id").get<std::string>();
+        for (const std::string& name : order) {
+            if (name == "albedo") continue;
+            const core::Image t = decoded(c.Get(base + "/tiles/0/0/0.exr?seed=3&map=" + name));
+            ASSERT_EQ(t.channels, 1) << name;
+            double sum = 0;
+            for (float v : t.data) sum += v;
+            // The maps' means are 0.15 apart or more; a tile's mean is within a few 0.01.
+            EXPECT_NEAR(sum / static_cast<double>(t.data.size()), maps.at(name).second, 0.06)
+                << name << " in " << ::testing::PrintToString(order);
+        }
     }
 }
 

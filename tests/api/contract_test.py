@@ -1,0 +1,366 @@
+#!/usr/bin/python3
+"""Contract test: every operation of api/openapi.yaml, with requests generated from the document
+itself, against a real `textond serve`. For each operation: every path-parameter value the
+document names (every format), then each optional parameter present alone with each of its
+values (every enum value; minimum, default, examples and small maxima of numbers; both booleans),
+every documented request body type, and for POST /v1/textons every documented multipart part:
+the exemplar alone and material sets of every non-empty subset of the maps in three part orders.
+
+Each answer must be documented for its operation (status listed), never 5xx, of a documented
+content type, and a JSON answer must validate against the schema its status documents.
+
+usage: contract_test.py TEXTOND_BINARY EXEMPLAR_DIR OPENAPI_YAML
+Prints a line per operation and "N passed, M failed" (N, M: operations); exits non-zero on any
+failure. Uses Debian's python3-yaml and python3-jsonschema.
+"""
+import http.client
+import io
+import itertools
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import uuid
+import zlib
+
+import jsonschema
+import yaml
+
+MAPS = ["albedo", "height", "roughness", "ao", "metallic"]
+# Numbers whose maximum is a cost, not a value to try (16384 x 16384 regions).
+COSTLY = {"w", "h", "width", "height", "limit"}
+
+
+def png_grey(width, height, seed):
+    """A small 8-bit grey PNG of a smooth pattern (no image library: zlib and struct)."""
+    rows = b""
+    for y in range(height):
+        rows += b"\0" + bytes(((x * 7 + y * 13 + seed * 31 + (x * y) % 17) * 5) % 256
+                              for x in range(width))
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+def multipart(parts):
+    """parts: [(name, bytes or str, filename or None)] in order."""
+    boundary = uuid.uuid4().hex
+    out = io.BytesIO()
+    for name, data, filename in parts:
+        out.write(f"--{boundary}\r\nContent-Disposition: form-data; name=\"{name}\"".encode())
+        if filename:
+            out.write(f"; filename=\"{filename}\"\r\nContent-Type: image/png".encode())
+        out.write(b"\r\n\r\n")
+        out.write(data if isinstance(data, bytes) else data.encode())
+        out.write(b"\r\n")
+    out.write(f"--{boundary}--\r\n".encode())
+    return out.getvalue(), {"Content-Type": f"multipart/form-data; boundary={boundary}"}
+
+
+class Contract:
+    def __init__(self, spec, base_port):
+        self.spec = spec
+        self.port = base_port
+        self.conn = None
+        self.failures = {}  # operation -> [messages]
+        self.sent = {}  # operation -> count
+
+    # --- the document ---
+    def resolve(self, node):
+        while isinstance(node, dict) and "$ref" in node:
+            target = self.spec
+            for part in node["$ref"].lstrip("#/").split("/"):
+                target = target[part]
+            node = target
+        return node
+
+    def parameters(self, path, method):
+        ops = self.spec["paths"][path]
+        params = [self.resolve(p) for p in ops.get("parameters", [])]
+        params += [self.resolve(p) for p in ops[method].get("parameters", [])]
+        return params
+
+    def values(self, param):
+        s = self.resolve(param.get("schema", {}))
+        if "enum" in s:
+            return list(s["enum"])
+        t = s.get("type")
+        if t == "boolean":
+            return [True, False]
+        vals = []
+        for k in ("minimum", "default"):
+            if k in s:
+                vals.append(s[k])
+        vals += s.get("examples", [])
+        if "example" in s:
+            vals.append(s["example"])
+        if "maximum" in s and param["name"] not in COSTLY:
+            vals.append(s["maximum"])
+        if t in ("integer", "number") and not vals:
+            vals = [0]
+        out = []
+        for v in vals:
+            if v not in out:
+                out.append(v)
+        return out
+
+    # --- the wire ---
+    def send(self, method, target, body=None, headers=None):
+        for attempt in range(2):
+            try:
+                if self.conn is None:
+                    self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=120)
+                self.conn.request(method, target, body=body, headers=headers or {})
+                r = self.conn.getresponse()
+                data = r.read()
+                if r.getheader("Connection", "").lower() == "close":
+                    self.conn.close()
+                    self.conn = None
+                return r.status, {k.lower(): v for k, v in r.getheaders()}, data
+            except (http.client.HTTPException, OSError):
+                if self.conn:
+                    self.conn.close()
+                self.conn = None
+                if attempt:
+                    raise
+        raise AssertionError("unreachable")
+
+    def fail(self, op, message):
+        self.failures.setdefault(op, []).append(message)
+        print(f"FAIL {op}: {message}", file=sys.stderr)
+
+    def check(self, path, method, target, status, headers, body):
+        op = f"{method.upper()} {path}"
+        self.sent[op] = self.sent.get(op, 0) + 1
+        what = f"{method.upper()} {target[:160]} -> {status}"
+        if status >= 500:
+            self.fail(op, f"{what}: {body[:200]!r}")
+            return
+        responses = self.spec["paths"][path][method]["responses"]
+        answer = responses.get(str(status), responses.get("default"))
+        if answer is None:
+            self.fail(op, f"{what}: status not documented ({sorted(responses)}) {body[:200]!r}")
+            return
+        answer = self.resolve(answer)
+        content = answer.get("content")
+        if not content or status == 304 or method == "head":
+            return
+        ctype = headers.get("content-type", "").split(";")[0].strip()
+        documented = [c for c in content
+                      if c == ctype or (c.endswith("/*") and ctype.startswith(c[:-1]))]
+        if not documented:
+            self.fail(op, f"{what}: content type {ctype!r} not documented ({list(content)})")
+            return
+        schema = content[documented[0]].get("schema")
+        if ctype == "application/json" and schema:
+            full = dict(self.resolve(schema))
+            full["components"] = self.spec["components"]
+            try:
+                jsonschema.Draft202012Validator(
+                    full, format_checker=jsonschema.FormatChecker()).validate(json.loads(body))
+            except (jsonschema.ValidationError, json.JSONDecodeError) as e:
+                self.fail(op, f"{what}: schema: {str(e).splitlines()[0]}")
+
+    def exchange(self, path, method, target, body=None, headers=None):
+        status, h, data = self.send(method.upper(), target, body, headers)
+        self.check(path, method, target, status, h, data)
+        return status, h, data
+
+
+def query_text(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float) and v.is_integer():
+        return str(int(v))
+    return str(v)
+
+
+def main():
+    binary, exemplar_dir, spec_path = sys.argv[1:4]
+    with open(spec_path, encoding="utf-8") as f:
+        spec = yaml.safe_load(f)
+    data = tempfile.mkdtemp(prefix="textond-contract-")
+    proc = subprocess.Popen([binary, "serve", "--port", "0", "--data", data, "--backend", "cpu",
+                             "--log-level", "warn"], stdout=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        port = int(line.strip().rstrip("/").rsplit(":", 1)[1])
+        c = Contract(spec, port)
+        ok = run(c, spec, exemplar_dir)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+        shutil.rmtree(data, ignore_errors=True)
+    ops = [f"{m.upper()} {p}" for p, o in spec["paths"].items() for m in o
+           if m in ("get", "post", "delete", "put", "patch")]
+    failed = 0
+    for op in ops:
+        if op not in c.sent:
+            c.fail(op, "no request was sent")
+        bad = c.failures.get(op, [])
+        failed += bool(bad)
+        print(f"{'FAIL' if bad else 'ok  '} {op}: {c.sent.get(op, 0)} requests"
+              + (f", {len(bad)} failures" if bad else ""))
+    if proc.returncode != 0:
+        print(f"FAIL: server exit status {proc.returncode}")
+        failed += 1
+    print(f"{len(ops) - failed} passed, {failed} failed")
+    return 1 if failed or not ok else 0
+
+
+def run(c, spec, exemplar_dir):
+    with open(os.path.join(exemplar_dir, "etr_sand01.png"), "rb") as f:
+        sand = f.read()
+    with open(os.path.join(exemplar_dir, "etr_pebbles04.png"), "rb") as f:
+        pebbles = f.read()
+    analysis = "size=16&iterations=5"
+
+    def upload(body, headers, query=analysis):
+        st, _, b = c.exchange("/v1/textons", "post", "/v1/textons?" + query, body, headers)
+        return json.loads(b)["id"] if st in (200, 201) else None
+
+    plain = upload(sand, {"Content-Type": "image/png"})
+    other = upload(pebbles, {"Content-Type": "image/png"})
+    if not plain or not other:
+        print("FAIL: the exemplars did not upload", file=sys.stderr)
+        return False
+
+    # Multipart: the exemplar alone, then every non-empty subset of the maps in three orders
+    # (given, reversed, rotated): 201 or 200, and each map served.
+    body, headers = multipart([("exemplar", sand, "e.png"), ("size", "16", None),
+                               ("iterations", "5", None)])
+    c.exchange("/v1/textons", "post", "/v1/textons", body, headers)
+    images = {"albedo": pebbles}
+    for i, name in enumerate(MAPS[1:]):
+        images[name] = png_grey(256, 256, i)
+    full_set = None
+    for n in range(1, len(MAPS) + 1):
+        for subset in itertools.combinations(MAPS, n):
+            orders = {subset, tuple(reversed(subset)), subset[1:] + subset[:1]}
+            for order in sorted(orders):
+                parts = [(m, images[m], m + ".png") for m in order]
+                parts += [("size", "16", None), ("iterations", "5", None)]
+                body, headers = multipart(parts)
+                st, _, b = c.exchange("/v1/textons", "post", "/v1/textons", body, headers)
+                if st not in (200, 201):
+                    c.fail("POST /v1/textons", f"material set {order}: {st} {b[:200]!r}")
+                    continue
+                sid = json.loads(b)["id"]
+                for m in order:
+                    target = f"/v1/textons/{sid}/tiles/0/0/0.png?map={m}"
+                    st, _, b = c.exchange("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", "get",
+                                          target)
+                    if st != 200:
+                        c.fail("GET /v1/textons/{id}/tiles/{z}/{x}/{y}.{format}",
+                               f"set {order}, map {m}: {st} {b[:200]!r}")
+                if len(order) == len(MAPS):
+                    full_set = sid
+    # Mixes: a ramp (no body) and a mask.
+    st, _, b = c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3")
+    mix = json.loads(b)["id"] if st in (200, 201) else None
+    c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3",
+               png_grey(32, 32, 9), {"Content-Type": "image/png"})
+    c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3&scale=2",
+               png_grey(32, 32, 9), {"Content-Type": "application/octet-stream"})
+
+    bodies = {
+        "application/json": json.dumps({"points": [[0, 0, 0], [10.5, -3, 2]],
+                                        "normals": [[0, 0, 1], [0, 1, 0]]}).encode(),
+        "application/octet-stream": struct.pack("<12f", 0, 0, 0, 0, 0, 1, 10.5, -3, 2, 0, 1, 0),
+        "model/obj": b"v -1 -1 0\nv 1 -1 0\nv 0 1 0.5\nvn 0 0 1\nf 1//1 2//1 3//1\n",
+        "image/png": png_grey(32, 32, 3),
+        "image/*": sand,
+        "multipart/form-data": None,  # above
+    }
+    path_values = {"z": [0, -1, 3], "x": [0, -3, 4000000000], "y": [0, 7]}
+    for path, ops in spec["paths"].items():
+        for method, op in ops.items():
+            if method not in ("get", "post", "delete"):
+                continue
+            if method == "delete":
+                continue  # last, on a texton of its own
+            params = c.parameters(path, method)
+            ids = [mix] if path.startswith("/v1/mixes/") else [plain, full_set]
+            path_params = [p for p in params if p["in"] == "path" and p["name"] != "id"]
+            optional = [p for p in params if p["in"] in ("query", "header")
+                        and not p.get("required")]
+            if path == "/v1/mixes":
+                required = {"u": plain, "v": other, "levels": 3}
+            else:
+                required = {p["name"]: c.values(p)[0] for p in params
+                            if p["in"] == "query" and p.get("required")}
+            if path == "/v1/textons" and method == "post":
+                continue  # the uploads above
+            content = list(op.get("requestBody", {}).get("content", {}).keys()) or [None]
+            for tid in ids:
+                # Every combination of the path's own values (format, z, x, y) once.
+                choices = [[(p["name"], v) for v in (c.values(p) if p["name"] not in path_values
+                                                     else path_values[p["name"]])]
+                           for p in path_params]
+                combos = list(itertools.product(*choices)) or [()]
+                first = combos[0]
+                for combo in combos:
+                    send_variant(c, path, method, tid, dict(combo), dict(required), None, content)
+                for p in optional:
+                    for v in c.values(p):
+                        send_variant(c, path, method, tid, dict(first), dict(required), (p, v),
+                                     content)
+    # Bodies: every documented content type of every operation with a body.
+    for path, ops in spec["paths"].items():
+        for method, op in ops.items():
+            if method != "post" or path in ("/v1/textons", "/v1/mixes"):
+                continue
+            for ctype in op.get("requestBody", {}).get("content", {}):
+                body = bodies.get(ctype)
+                if path == "/v1/sign":
+                    body = json.dumps({"urls": [f"/v1/textons/{plain}/tilejson.json"],
+                                       "expires_in": 60}).encode()
+                target = path.replace("{id}", plain)
+                c.exchange(path, method, target, body, {"Content-Type": ctype})
+    # DELETE last: a texton of its own, then the same id again (404).
+    doomed = upload(sand, {"Content-Type": "image/png"}, "size=16&iterations=5&seed=99")
+    for _ in range(2):
+        c.exchange("/v1/textons/{id}", "delete", f"/v1/textons/{doomed}")
+    return True
+
+
+def send_variant(c, path, method, tid, path_args, query, extra, content):
+    headers = {}
+    if extra:
+        p, v = extra
+        if p["in"] == "header":
+            headers[p["name"]] = query_text(v)
+        else:
+            query[p["name"]] = v
+    target = path.replace("{id}", tid or "0" * 64)
+    for k, v in path_args.items():
+        target = target.replace("{" + k + "}", query_text(v))
+    if query:
+        target += "?" + "&".join(f"{k}={query_text(v)}" for k, v in query.items())
+    ctype = content[0]
+    body = None
+    if method == "post":
+        body = {
+            "application/json": json.dumps({"points": [[0, 0, 0]], "normals": [[0, 0, 1]]}).encode(),
+            "model/obj": b"v -1 -1 0\nv 1 -1 0\nv 0 1 0.5\nf 1 2 3\n",
+            "application/octet-stream": b"",
+            "image/png": None,
+        }.get(ctype, b"")
+        if path == "/v1/sign":
+            body = json.dumps({"urls": [target]}).encode()
+        if body is not None:
+            headers["Content-Type"] = ctype
+        else:
+            body = b""
+            headers["Content-Length"] = "0"
+    c.exchange(path, method, target, body, headers)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
