@@ -332,8 +332,8 @@ const char* extension(ImageFormat f) {
 std::string MapChoice::query() const {
     if (name.empty()) return "";
     std::string q = "&map=" + name;
-    if (uses_normals()) q += "&strength=" + exact_text(strength);
-    if (name == core::kLitMap) q += "&light=" + exact_text(azimuth) + "," + exact_text(elevation);
+    if (uses_normals()) q += "&strength=" + query_text(strength);
+    if (name == core::kLitMap) q += "&light=" + query_text(azimuth) + "," + query_text(elevation);
     return q;
 }
 
@@ -370,6 +370,22 @@ bool canonical_number(std::string_view s, bool fraction) {
     return !(s[0] == '-' && s.find_first_not_of("-0.") == std::string_view::npos);
 }
 
+std::string query_text(double v) {
+    if (v == 0) return "0";
+    if (std::isfinite(v) && std::fabs(v) < 1e15 && v == std::trunc(v)) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.0f", v);
+        return buf;
+    }
+    // The fewest decimals that read back as v, written without an exponent.
+    char buf[400];
+    for (int decimals = 1; decimals <= 340; ++decimals) {
+        std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+        if (std::strtod(buf, nullptr) == v) break;
+    }
+    return buf;
+}
+
 std::string canonical_hint(std::string_view s) {
     std::string trimmed(s.substr(0, 64));
     trimmed.erase(0, trimmed.find_first_not_of(" \t"));
@@ -377,15 +393,9 @@ std::string canonical_hint(std::string_view s) {
     char* end = nullptr;
     const double v = trimmed.empty() ? NAN : std::strtod(trimmed.c_str(), &end);
     if (trimmed.empty() || end != trimmed.c_str() + trimmed.size() || !std::isfinite(v)) return "";
-    char buf[40];
-    // The shortest of %.15g..%.17g that reads back as v: 0.1, not 0.10000000000000001.
-    for (int digits = 15; digits <= 17; ++digits) {
-        std::snprintf(buf, sizeof buf, "%.*g", digits, v == 0 ? 0.0 : v);
-        if (std::strtod(buf, nullptr) == v) break;
-    }
-    if (std::string_view(buf).find_first_of("e") != std::string_view::npos) return "";
-    if (std::string_view(buf) == s) return "";
-    return " (one spelling per value: write " + std::string(buf) + ")";
+    const std::string canonical = query_text(v);
+    if (canonical == s || canonical.size() > 40) return "";
+    return " (one spelling per value: write " + canonical + ")";
 }
 
 std::optional<std::int64_t> parse_i64(std::string_view s) {
@@ -406,7 +416,10 @@ std::optional<std::uint64_t> parse_u64(std::string_view s) {
 
 std::optional<double> parse_decimal(std::string_view s) {
     if (s.size() > 64 || !canonical_number(s, true)) return std::nullopt;
-    return parse_finite(s);
+    const auto v = parse_finite(s);
+    // 30.00000000000000001 is 30: one value, one spelling.
+    if (!v || query_text(*v) != s) return std::nullopt;
+    return v;
 }
 
 std::optional<double> parse_finite(std::string_view s) {
@@ -488,6 +501,13 @@ std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 8, limits.max_tileable_side, w)) return e;
     if (auto e = int_field(q, "h", 8, limits.max_tileable_side, h)) return e;
+    // Held to a region's pixels: the memory bound counts one largest region a render slot (a
+    // 4096 x 4096 AVIF took 1.5 times that).
+    if (w * h > limits.max_region_pixels)
+        return bad("region_too_large", "a tileable texture has at most " +
+                                           std::to_string(limits.max_region_pixels) +
+                                           " pixels (the server's --max-region-pixels), not " +
+                                           std::to_string(w) + " x " + std::to_string(h));
     out.width = static_cast<int>(w);
     out.height = static_cast<int>(h);
     return std::nullopt;

@@ -174,6 +174,9 @@ std::string exact_text(double v);
 bool canonical_number(std::string_view s, bool fraction);
 // " (one spelling per value: write 16)" for a number spelled otherwise ("0x10", " 16"), else "".
 std::string canonical_hint(std::string_view s);
+// The canonical spelling of a number in a URL: "30", "1.1", "0.000001" (the fewest decimals
+// that read back as v, no exponent). What the server writes into the URLs it hands out.
+std::string query_text(double v);
 // A query field's decimal number, canonical (above) and finite.
 std::optional<double> parse_decimal(std::string_view s);
 std::optional<std::int64_t> parse_i64(std::string_view s);

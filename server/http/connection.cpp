@@ -1,6 +1,7 @@
 #include "server/http/connection.h"
 
 #include "server/http/errors.h"
+#include "server/http/http_support.h"
 
 #include <netdb.h>
 #include <poll.h>
@@ -115,11 +116,18 @@ ssize_t ConnectionStream::write(const char* ptr, size_t size) {
     // After a limit tripped, the library's own answer (a 400 for a head it could not finish)
     // is swallowed; the connection loop sends the precise one (431, 408, 413).
     if (m_failure != Failure::none) return -1;
-    if (!wait(POLLOUT, m_limits.write_timeout)) return -1;
+    if (!wait(POLLOUT, m_limits.write_timeout)) {
+        m_write_failed = true;
+        return -1;
+    }
     ssize_t n;
     do {
         n = ::send(m_sock, ptr, size, MSG_NOSIGNAL);
     } while (n < 0 && errno == EINTR);
+    if (n > 0)
+        m_written += static_cast<std::size_t>(n);
+    else
+        m_write_failed = true;
     return n;
 }
 
@@ -214,6 +222,8 @@ bool ConnectionStream::next_request(milliseconds timeout, const std::function<bo
     m_phase = Phase::idle;
     m_phase_bytes = 0;
     m_expected = 0;
+    m_written = 0;
+    m_write_failed = false;
     m_chunked = false;
     m_chunk = Chunk::size;
     m_chunk_left = 0;
@@ -258,22 +268,23 @@ ConnectionScope::~ConnectionScope() {
     t_connection = nullptr;
 }
 
-void send_connection_error(ConnectionStream& strm, const char* code, const char* message) {
+std::pair<int, std::size_t> send_connection_error(ConnectionStream& strm, const char* code,
+                                                  const char* message, const std::string& id) {
     const int status = http_status(code);
     const char* reason = status == 408   ? "Request Timeout"
                          : status == 413 ? "Content Too Large"
                          : status == 431 ? "Request Header Fields Too Large"
                                          : "Bad Request";
-    const std::string body =
-        std::string(R"({"error": {"code": ")") + code + R"(", "message": ")" + message + "\"}}";
+    const std::string body = std::string(R"({"error": {"code": ")") + code + R"(", "message": ")" +
+                             message + R"("}, "request_id": ")" + id + "\"}";
     const std::string head =
         "HTTP/1.1 " + std::to_string(status) + " " + reason +
         "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) +
-        "\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n";
+        "\r\nCache-Control: no-store\r\nX-Request-Id: " + id + "\r\nConnection: close\r\n\r\n";
     const std::string all = head + body;
     // Straight to the socket, once, without waiting: the client is misbehaving already.
-    [[maybe_unused]] const ssize_t n =
-        ::send(strm.socket(), all.data(), all.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    const ssize_t n = ::send(strm.socket(), all.data(), all.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    return {status, n > 0 ? static_cast<std::size_t>(n) : 0};
 }
 
 bool HttpServer::process_and_close_socket(socket_t sock) {
@@ -285,27 +296,28 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
         if (!strm.next_request(limits.keep_alive_timeout, stopping)) break;
         bool closed = false;
         ok = process_request(strm, left == 1, closed, nullptr);
+        const auto canned = [&](const char* code, const char* message) {
+            const std::string id = fresh_request_id();
+            const auto [status, bytes] = send_connection_error(strm, code, message, id);
+            if (on_connection_error) on_connection_error(status, bytes, id);
+        };
         switch (strm.failure()) {
         case ConnectionStream::Failure::none:
             break;
         case ConnectionStream::Failure::head_too_large:
-            send_connection_error(strm, "header_too_large",
-                                  "request line and headers are over the server's limit");
+            canned("header_too_large", "request line and headers are over the server's limit");
             break;
         case ConnectionStream::Failure::head_timeout:
-            send_connection_error(strm, "header_timeout",
-                                  "request line and headers did not arrive in time");
+            canned("header_timeout", "request line and headers did not arrive in time");
             break;
         case ConnectionStream::Failure::body_too_large:
-            send_connection_error(strm, "payload_too_large",
-                                  "request body is over the upload limit");
+            canned("payload_too_large", "request body is over the upload limit");
             break;
         case ConnectionStream::Failure::body_timeout:
-            send_connection_error(strm, "body_timeout", "request body did not arrive in time");
+            canned("body_timeout", "request body did not arrive in time");
             break;
         case ConnectionStream::Failure::bad_chunk:
-            send_connection_error(strm, "bad_framing",
-                                  "malformed chunked body (each chunk's data must end in CRLF; "
+            canned("bad_framing", "malformed chunked body (each chunk's data must end in CRLF; "
                                   "lines end in CRLF)");
             break;
         }

@@ -21,6 +21,7 @@
 #include <functional>
 #include <mutex>
 #include <string>
+#include <utility>
 
 namespace textond::http {
 
@@ -76,6 +77,9 @@ public:
     void close_after_response() { m_close = true; }
     bool must_close() const { return m_close; }
     Failure failure() const { return m_failure; }
+    // Bytes of this request's answer the client took, and whether it stopped taking them.
+    std::size_t written() const { return m_written; }
+    bool write_failed() const { return m_write_failed; }
     const ConnectionLimits& limits() const { return m_limits; }
 
 private:
@@ -111,6 +115,8 @@ private:
     bool m_line_empty = true;
     Failure m_failure = Failure::none;
     bool m_close = false;
+    std::size_t m_written = 0;
+    bool m_write_failed = false;
 };
 
 // The connection the calling thread is serving (null outside a request): the routes use it to
@@ -126,8 +132,10 @@ public:
 };
 
 // A canned answer for a request the library could not be given (head too large or too slow):
-// status line, a JSON body and Connection: close, written straight to the socket.
-void send_connection_error(ConnectionStream& strm, const char* code, const char* message);
+// status line, a JSON body with the request id and Connection: close, written straight to the
+// socket. Returns its status and the bytes the socket took.
+std::pair<int, std::size_t> send_connection_error(ConnectionStream& strm, const char* code,
+                                                  const char* message, const std::string& id);
 
 // Connection threads: `core` kept, more started on demand up to `max` so that clients that hold
 // a thread without sending (slowloris) do not stop new clients from being served; extra threads
@@ -160,6 +168,9 @@ class HttpServer : public httplib::Server {
 public:
     socket_t listening_socket() const { return svr_sock_; }
     ConnectionLimits limits; // set before listening
+    // The access log and metrics of a request answered by the connection loop itself (408, 413,
+    // 431, a broken chunked body): status, bytes sent, request id.
+    std::function<void(int, std::size_t, const std::string&)> on_connection_error;
 
 private:
     bool process_and_close_socket(socket_t sock) override;

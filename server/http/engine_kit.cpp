@@ -1,5 +1,6 @@
 #include "server/http/engine_kit.h"
 
+#include "api/requests.h"
 #include "core/grid_poisson.h"
 #include "core/material_set.h"
 #include "render/gl/glsl_sources.h"
@@ -203,9 +204,8 @@ nlohmann::json kit_params(const io::TextonRecord& record, double mni, const std:
         {"seed_rule",
          "any unsigned 64-bit seed; cell (cx, cy) draws from cell_key(seed, cx, cy) "
          "(NOISE_SPEC.md section 2): the kit with seed S equals the server's tiles with ?seed=S"},
-        {"tile_template",
-         base_url + "/v1/textons/" + id +
-             "/tiles/{z}/{x}/{y}.exr?seed={seed}&mni=" + nlohmann::json(mni).dump()}};
+        {"tile_template", base_url + "/v1/textons/" + id +
+                              "/tiles/{z}/{x}/{y}.exr?seed={seed}&mni=" + api::query_text(mni)}};
 }
 
 // A set's maps: their layout in the parameters and each map's coefficients as a 16-bit PNG with
@@ -255,7 +255,7 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
     std::string readme = kReadme;
     replace_all(readme, "%ID%", id);
     replace_all(readme, "%BASE%", base_url);
-    replace_all(readme, "%MNI%", nlohmann::json(mni).dump());
+    replace_all(readme, "%MNI%", api::query_text(mni));
 
     const std::string dir = engine_kit_directory(id) + "/";
     std::vector<io::TarEntry> marginals;

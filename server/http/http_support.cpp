@@ -25,6 +25,8 @@ bool sane_request_id(const std::string& s) {
     return true;
 }
 
+} // namespace
+
 std::string fresh_request_id() {
     // A per-process random prefix and a counter: unique, cheap, and sortable within a process.
     static const std::uint32_t prefix = std::random_device{}();
@@ -34,7 +36,6 @@ std::string fresh_request_id() {
                   static_cast<unsigned long long>(counter.fetch_add(1) + 1));
     return buf;
 }
-} // namespace
 
 void begin_request(const httplib::Request& req) {
     RequestContext& ctx = current_request();
@@ -43,6 +44,7 @@ void begin_request(const httplib::Request& req) {
     ctx.route = "unmatched";
     ctx.start = std::chrono::steady_clock::now();
     ctx.active = true;
+    ctx.request = const_cast<httplib::Request*>(&req);
 }
 
 void set_route(const char* route_template) {
@@ -55,7 +57,11 @@ void send_error(httplib::Response& res, const api::ApiError& e, int status) noex
     // valid UTF-8, capped), and should anything still throw, a fixed body goes out.
     try {
         RequestContext& ctx = current_request();
-        if (!ctx.active) begin_request(httplib::Request{});
+        if (!ctx.active) {
+            begin_request(httplib::Request{});
+            ctx.request = nullptr;
+        }
+        if (ctx.request) ctx.request->ranges.clear(); // an error is answered whole
         const nlohmann::json body = {
             {"error",
              {{"code", api::printable(e.code, 64)}, {"message", api::printable(e.message, 1024)}}},

@@ -22,8 +22,14 @@ struct RequestContext {
     std::chrono::steady_clock::time_point start;
     double handler_ms = 0; // until the response is ready, before it is written
     bool active = false;
+    // The request being served. cpp-httplib 0.11 applies a Range header to every routed answer,
+    // errors included (a 404's JSON sliced into multipart/byteranges); an error clears its
+    // ranges. The library's Request is its own local, not const, so the cast is well defined.
+    httplib::Request* request = nullptr;
 };
 RequestContext& current_request();
+// A new request id: a per-process random prefix and a counter.
+std::string fresh_request_id();
 // Starts a context: the client's X-Request-Id when it is sane, else a fresh one.
 void begin_request(const httplib::Request& req);
 void set_route(const char* route_template);

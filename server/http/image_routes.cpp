@@ -22,9 +22,30 @@ constexpr double kKitWorkS = 0.4;
 
 // Writes the cached bytes straight to the socket: no copy into the response (a warm tile is
 // ~200 kB, and copying it was a fifth of a cache hit's CPU time).
+// cpp-httplib 0.11 hands a content provider the Range's offsets unclamped (bytes=0-99999999 of a
+// 100 kB tile read past its end): ranges are made to fit the body here, suffix and open ranges
+// resolved, and a Range that selects nothing is answered whole (RFC 9110 lets a server ignore
+// Range). The library's Request is its own local; see RequestContext::request.
+void fit_ranges(std::size_t size) {
+    httplib::Request* req = current_request().request;
+    if (!req || req->ranges.empty()) return;
+    const auto n = static_cast<ssize_t>(size);
+    for (auto& [first, last] : req->ranges) {
+        if (first < 0 && last < 0) return req->ranges.clear();
+        if (first < 0) { // the last `last` bytes
+            first = std::max<ssize_t>(0, n - last);
+            last = n - 1;
+        } else if (last < 0 || last >= n) {
+            last = n - 1;
+        }
+        if (first >= n || first > last) return req->ranges.clear();
+    }
+}
+
 void send_cached(httplib::Response& res, Metrics& metrics, std::shared_ptr<const CachedImage> image,
                  std::shared_ptr<BudgetLease> lease = {}) {
     const std::size_t size = image->body.size();
+    fit_ranges(size);
     const std::string type = image->content_type;
     // The lease (bytes of the transfer budget) goes when cpp-httplib drops the provider, after
     // the last byte was written.
@@ -33,7 +54,9 @@ void send_cached(httplib::Response& res, Metrics& metrics, std::shared_ptr<const
         [image = std::move(image), lease = std::move(lease), &metrics,
          t0 = std::chrono::steady_clock::now()](std::size_t offset, std::size_t length,
                                                 httplib::DataSink& sink) {
-            const bool ok = sink.write(image->body.data() + offset, length);
+            if (offset > image->body.size()) return false;
+            const bool ok = sink.write(image->body.data() + offset,
+                                       std::min(length, image->body.size() - offset));
             if (ok && offset + length == image->body.size())
                 metrics.stage(
                     "send",
@@ -262,7 +285,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
                                      (!m_config.presets.empty() && preset != req.params.end()
                                           ? "?preset=" + preset->second
                                           : "?seed=" + std::to_string(noise.seed) +
-                                                "&mni=" + api::exact_text(noise.mni)))}};
+                                                "&mni=" + api::query_text(noise.mni)))}};
     send_json(res, 200, report.value().json, "no-cache");
 }
 
@@ -455,7 +478,7 @@ std::pair<std::string, std::string> ImageRoutes::tile_suffix(const httplib::Requ
         return {f.empty() ? "png" : f, "?preset=" + name};
     }
     return {"png", "?seed=" + std::to_string(probe.noise.seed) +
-                       "&mni=" + api::exact_text(probe.noise.mni) +
+                       "&mni=" + api::query_text(probe.noise.mni) +
                        (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
                        (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") +
                        probe.noise.map.query()};
@@ -482,7 +505,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
         {"name", "textond " + id.substr(0, 12)},
         {"description", std::string(mix ? "Texture mix " : "Texton noise of texton ") + id +
                             " (seed " + std::to_string(probe.noise.seed) + ", MNI " +
-                            api::exact_text(probe.noise.mni) + "), an unbounded seamless plane"},
+                            api::query_text(probe.noise.mni) + "), an unbounded seamless plane"},
         {"version", "1.0.0"},
         {"scheme", "xyz"},
         {"tiles", {base + signed_link(req, prefix + id + "/map/{z}/{x}/{y}." + ext + query)}},

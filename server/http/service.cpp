@@ -203,6 +203,22 @@ void configure(HttpServer& http, const ServeConfig& c) {
     limits.keep_alive_max = c.keep_alive_max;
 }
 
+// Ranges are for resuming and seeking, not for sending one image many times over (500 copies of
+// a whole tile in one answer): at most kMaxRanges, and several only when none overlaps and each
+// has both ends (a suffix or open range overlaps whatever follows it).
+constexpr std::size_t kMaxRanges = 16;
+bool ranges_allowed(const httplib::Ranges& ranges) {
+    if (ranges.size() > kMaxRanges) return false;
+    if (ranges.size() < 2) return true;
+    auto sorted = ranges;
+    for (const auto& [first, last] : sorted)
+        if (first < 0 || last < 0) return false;
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 1; i < sorted.size(); ++i)
+        if (sorted[i].first <= sorted[i - 1].second) return false;
+    return true;
+}
+
 // Every answer: no MIME sniffing, no referrer leaving with a signed URL, and the page (which
 // holds an API key field) neither framed by another site nor running any script but its own.
 void apply_security_headers(httplib::Response& res) {
@@ -219,12 +235,12 @@ httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
                                                    httplib::Response& res) {
     if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
     api::ApiError e{"http_error", "HTTP error " + std::to_string(res.status)};
-    if (res.status == 400) {
-        // The library could not parse the head (a line over its limit, a broken request line):
-        // where this request ends is unknown, so nothing after it is read as a request.
-        e = {"bad_request", "malformed HTTP request"};
+    // An error the library raised before our pre-routing saw the request (a head it could not
+    // parse, a URI over its limit, a Range it could not read): nobody checked its framing or
+    // read its body, so nothing after it on the connection is read as a request.
+    if (!current_request().active || res.status == 400)
         if (ConnectionStream* conn = current_connection()) conn->close_after_response();
-    }
+    if (res.status == 400) e = {"bad_request", "malformed HTTP request"};
     if (res.status == 404) e = {"not_found", "no such endpoint"};
     if (res.status == 413) e = {"payload_too_large", "request body is over the upload limit"};
     if (res.status == 414) e = {"uri_too_long", "request URI is too long"};
@@ -273,6 +289,8 @@ httplib::Server::HandlerResponse Service::pre_route(const httplib::Request& req,
                                              std::to_string(m_config.max_upload_bytes) + " bytes"});
         return httplib::Server::HandlerResponse::Handled;
     }
+    // Ranges past the limit are ignored, as nginx does past max_ranges: the whole answer, once.
+    if (!ranges_allowed(req.ranges)) current_request().request->ranges.clear();
     if (conn)
         conn->expect_body(
             req.has_header("Content-Length")
@@ -306,23 +324,49 @@ void Service::install_hooks() {
         res.set_header("X-Request-Id", ctx.id);
         apply_cors(m_cors_any, m_cors_origins, req, res);
         apply_security_headers(res);
+        // The connection closes after this answer: say so, so that a pooling proxy does not
+        // send its next request down a socket about to close.
+        if (const ConnectionStream* conn = current_connection();
+            conn && (conn->must_close() || !conn->body_complete())) {
+            res.headers.erase("Keep-Alive");
+            res.headers.erase("Connection");
+            res.set_header("Connection", "close");
+        }
     });
     // Errors raised before or outside a route (404, 413 from the body limit, 414...) get the
     // same JSON body as ours; bodies a route already wrote are left alone.
     m_http.set_error_handler(httplib::Server::HandlerWithResponse(answer_http_error));
     m_http.set_exception_handler(answer_exception);
+    // Answers the connection loop sent itself (the library's request was cut short): logged
+    // there, with their real status, and not here as the library's 400.
+    m_http.on_connection_error = [this](int status, std::size_t bytes, const std::string& id) {
+        m_metrics.request("connection", "-", status, 0.0);
+        if (m_config.access_log)
+            spdlog::info("{} - - {} {}B (answered by the connection: the request was cut short)",
+                         id, status, bytes);
+        current_request().active = false;
+        current_request().request = nullptr;
+    };
     m_http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+        const ConnectionStream* conn = current_connection();
+        if (conn && conn->failure() != ConnectionStream::Failure::none) return;
         RequestContext& ctx = current_request();
         const double seconds =
             ctx.active ? std::chrono::duration<double>(std::chrono::steady_clock::now() - ctx.start)
                              .count()
                        : 0.0;
         m_metrics.request(ctx.route, req.method, res.status, seconds);
+        // A client that stopped reading is logged as such, with what it took of the answer.
+        const bool left = conn && conn->write_failed();
         if (m_config.access_log)
-            spdlog::info("{} {} {} {} {}B {:.2f}ms (handler {:.2f}ms)", ctx.id,
+            spdlog::info("{} {} {} {} {}B {:.2f}ms (handler {:.2f}ms){}", ctx.id,
                          api::printable(req.method, 16), api::printable(req.path, 256), res.status,
-                         res.get_header_value("Content-Length"), seconds * 1000.0, ctx.handler_ms);
+                         res.get_header_value("Content-Length"), seconds * 1000.0, ctx.handler_ms,
+                         left ? " client left after " + std::to_string(conn->written()) +
+                                    "B of the answer"
+                              : std::string());
         ctx.active = false;
+        ctx.request = nullptr;
     });
 }
 

@@ -69,8 +69,10 @@ Result<Presets> parse_presets(std::string_view text) {
             std::string v;
             if (value.is_string())
                 v = value.get<std::string>();
+            else if (value.is_number_integer())
+                v = value.dump(); // as written: seeds are 64-bit
             else if (value.is_number())
-                v = value.dump();
+                v = api::query_text(value.get<double>()); // 30.0 is mni=30 in a URL
             std::string what = "preset '" + name + "'";
             if (!value.is_string() && !value.is_number())
                 return make_error(

@@ -247,17 +247,20 @@ async function showQuality(meta) {
 async function updateDownloads() {
   const meta = state.meta;
   if (!meta) return;
-  const w = $('dl-w').value, h = $('dl-h').value, f = $('dl-format').value;
+  // Whole numbers as the API spells them ("0512" and "512.0" are other URLs, refused).
+  const side = (id) => Math.min(4096, Math.max(8, Math.round(Number($(id).value)) || 512));
+  const w = side('dl-w'), h = side('dl-h'), f = $('dl-format').value;
   const ext = f === 'exr' ? 'exr' : 'png';
   const q = `w=${w}&h=${h}&${noiseQuery()}`;
-  const [region, tileable] = await signed([`/v1/textons/${meta.id}/region.${f}?${q}`,
-                                           `/v1/textons/${meta.id}/tileable.${f}?${q}`]);
+  const mni = new URLSearchParams(noiseQuery()).get('mni');
+  const [region, tileable, kit] = await signed([`/v1/textons/${meta.id}/region.${f}?${q}`,
+                                                `/v1/textons/${meta.id}/tileable.${f}?${q}`,
+                                                `/v1/textons/${meta.id}/kit.tar${mni ? `?mni=${mni}` : ''}`]);
   $('dl-region').href = region;
   $('dl-region').download = `textond-${meta.id.slice(0, 8)}-${w}x${h}.${ext}`;
   $('dl-tileable').href = tileable;
   $('dl-tileable').download = `textond-${meta.id.slice(0, 8)}-tileable-${w}x${h}.${ext}`;
-  const mni = new URLSearchParams(noiseQuery()).get('mni');
-  $('dl-kit').href = `/v1/textons/${meta.id}/kit.tar${mni ? `?mni=${mni}` : ''}`;
+  $('dl-kit').href = kit;
   $('dl-kit').download = `textond-kit-${meta.id.slice(0, 12)}.tar`;
 }
 

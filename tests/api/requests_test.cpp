@@ -318,6 +318,17 @@ TEST(Requests, StrictNumbers) {
     EXPECT_FALSE(parse_finite(std::string(65, '1')));
 }
 
+// A tileable texture is held to a region's pixels, whatever its sides allow.
+TEST(Requests, TileableTexturesHaveARegionsPixelsAtMost) {
+    Limits limits; // 4096 a side, 8388608 pixels
+    TileableRequest t;
+    EXPECT_FALSE(parse_tileable(kId, "png", {{"w", "4096"}, {"h", "2048"}}, limits, t));
+    const auto e = parse_tileable(kId, "png", {{"w", "4096"}, {"h", "2056"}}, limits, t);
+    ASSERT_TRUE(e);
+    EXPECT_EQ(e->code, "region_too_large");
+    EXPECT_NE(e->message.find("8388608"), std::string::npos) << e->message;
+}
+
 // One image, one URL: every other spelling of a number a URL carries is refused, with the one to
 // use in the message (mni=0x10, quality=050, a tile's +0 were all served under new cache keys).
 TEST(Requests, NumbersInUrlsHaveOneSpellingAndTheMessageNamesIt) {
@@ -344,6 +355,18 @@ TEST(Requests, NumbersInUrlsHaveOneSpellingAndTheMessageNamesIt) {
         std::string::npos);
     EXPECT_EQ(message(parse_tile(kId, "0", "0", "0", "png", {{"mni", "2.5"}, {"seed", "42"}}, t)),
               "accepted");
+    EXPECT_NE(message(parse_tile(kId, "0", "0", "0", "png", {{"mni", "30.00000000000000001"}}, t))
+                  .find("write 30"),
+              std::string::npos)
+        << "the same double as 30";
+    // What the server writes into URLs reads back as the same number and is accepted.
+    for (double v : {1.1, 30.0, 0.000001, 199.99, 1.0 / 3.0}) {
+        const std::string text = query_text(v);
+        EXPECT_EQ(parse_decimal(text), v) << text;
+        EXPECT_EQ(text.find('e'), std::string::npos) << text;
+    }
+    EXPECT_EQ(query_text(30.0), "30");
+    EXPECT_EQ(query_text(1.1), "1.1");
 }
 
 } // namespace

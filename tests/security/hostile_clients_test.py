@@ -11,6 +11,7 @@ import json
 import os
 import shutil
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -344,6 +345,18 @@ class HostileClients(unittest.TestCase):
         self.assertEqual(status_of(answer), 415)  # "abc" is no image
         self.assertIn(b"HTTP/1.1 200 OK", answer)
 
+    def test_errors_the_library_raises_close_the_connection(self):
+        # 416 (a Range it cannot read) and 414 (a URI over its limit) come before our checks: the
+        # body (a request) must not be served, and the answer says the connection closes.
+        for head in (b"GET /healthz HTTP/1.1\r\nHost: x\r\nRange: garbage\r\n",
+                     b"GET /" + b"a" * 9000 + b" HTTP/1.1\r\nHost: x\r\n",
+                     b"POST /zzz HTTP/1.1\r\nHost: x\r\n"):
+            answer = self.s.raw(head + b"Content-Length: %d\r\n\r\n" % len(self.HIDDEN) + self.HIDDEN)
+            self.assertEqual(self.answers(answer), 1, answer[:300])
+            self.assertNotIn(b"openapi:", answer)
+            self.assertIn(b"Connection: close", answer.split(b"\r\n\r\n")[0], answer[:400])
+            self.assertNotIn(b"Keep-Alive", answer.split(b"\r\n\r\n")[0])
+
     def test_a_request_the_library_cannot_parse_closes_the_connection(self):
         # One header line over cpp-httplib's 8 KiB line limit: 400, then nothing more is read.
         bad = b"GET /healthz HTTP/1.1\r\nHost: x\r\nX-Long: " + b"a" * 9000 + b"\r\n\r\n"
@@ -360,6 +373,72 @@ class HostileClients(unittest.TestCase):
             answer = self.s.raw(req + self.HIDDEN)
             self.assertEqual(self.answers(answer), 1, (path, answer[:400]))
             self.assertNotIn(b"openapi:", answer)
+
+    # Round 2, item 9: answers of the connection loop carry a request id and are logged with
+    # their own status; a client that left is logged as having left.
+    def log_lines_with(self, needle, timeout=5):
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            with open(os.path.join(self.dir, "server.log")) as f:
+                lines = [l for l in f if needle in l]
+            if lines:
+                return lines
+            time.sleep(0.1)
+        return []
+
+    def test_connection_errors_carry_an_id_and_are_logged_as_sent(self):
+        answer = self.s.raw(b"GET /healthz HTTP/1.1\r\nHost: x\r\n", timeout=10)  # never ends
+        self.assertEqual(status_of(answer), 408, answer[:300])
+        head, body = answer.split(b"\r\n\r\n", 1)
+        rid = json.loads(body)["request_id"]
+        self.assertIn(b"X-Request-Id: " + rid.encode(), head)
+        lines = self.log_lines_with(rid)
+        self.assertTrue(lines and " 408 " in lines[0], lines)
+        self.assertFalse(any(" 400 " in l for l in lines), lines)
+        # A large answer the client never reads: logged with what it took.
+        u, _ = self.ids
+        rid = "left-" + str(time.time_ns())
+        sock = socket.create_connection(("127.0.0.1", self.s.port))
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        sock.sendall(f"GET /v1/textons/{u}/region.exr?w=2048&h=2048&seed=11 HTTP/1.1\r\n"
+                     f"Host: x\r\nX-Request-Id: {rid}\r\n\r\n".encode())
+        sock.recv(1024)  # the answer has started
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        sock.close()  # reset: the rest of 48 MB never arrives
+        lines = self.log_lines_with(rid, timeout=40)
+        self.assertTrue(lines and "client left after" in lines[0], lines)
+
+    # Round 2, item 7: ranges cannot multiply an answer (500 x a whole tile was 99 MB).
+    def test_ranges_are_capped_and_never_overlap(self):
+        u, _ = self.ids
+        tile = f"/v1/textons/{u}/tiles/0/0/0.png?seed=21"
+        st, _, whole = self.get(tile)
+        self.assertEqual(st, 200)
+        n = len(whole)
+        for ranges in (",".join([f"0-{n - 1}"] * 500), ",".join(f"{i}-{i}" for i in range(20)),
+                       "0-99,50-149", "0-9,-5", "100-,0-9"):
+            st, _, body = self.get(tile, headers={"Range": "bytes=" + ranges})
+            self.assertEqual((st, len(body)), (200, n), ranges[:40])  # ignored: the whole, once
+        st, _, body = self.get(tile, headers={"Range": "bytes=10-19"})
+        self.assertEqual((st, body), (206, whole[10:20]))
+        st, _, body = self.get(tile, headers={"Range": "bytes=0-9,100-109"})
+        self.assertEqual(st, 206)
+        self.assertLess(len(body), 1000)
+        self.assertIn(whole[100:110], body)
+        # Ranges past the end are fitted to the image (the provider read past it before), one
+        # past the end altogether gets the whole image, a suffix its last bytes.
+        for path in (tile, f"/v1/textons/{u}/kit.tar?mni=33"):
+            st, h, full = self.get(path)
+            st, h, body = self.get(path, headers={"Range": "bytes=100-99999999"})
+            self.assertEqual((st, body, h["Content-Length"]), (206, full[100:], str(len(full) - 100)))
+            st, h, body = self.get(path, headers={"Range": "bytes=99999999-"})
+            self.assertEqual((st, body), (200, full))
+            st, h, body = self.get(path, headers={"Range": "bytes=-100"})
+            self.assertEqual((st, body), (206, full[-100:]))
+        # An error is answered whole, never sliced into byte ranges.
+        st, h, body = self.get(f"/v1/textons/{'0' * 64}/tiles/0/0/0.png",
+                               headers={"Range": "bytes=0-9,20-29"})
+        self.assertEqual((st, error_code(body)), (404, "not_found"))
 
     # Round 2, item 3: deeply nested or huge JSON bodies are refused before a tree is built.
     def test_nested_json_bodies_are_refused_without_memory(self):
@@ -454,6 +533,24 @@ class HostileClients(unittest.TestCase):
         self.assertLess(m.peak - m.base, self.bound(largest),
                         f"peak {(m.peak - m.base) / MIB:.0f} MiB")
         print(f"  regions: peak +{(m.peak - m.base) / MIB:.0f} MiB, bound "
+              f"{self.bound(largest) / MIB:.0f} MiB", file=sys.stderr)
+
+    # Round 2, item 6: tileable textures are held to a region's pixels, and the largest ones in
+    # lossy formats (the encoders' own buffers) stay within the bound.
+    def test_concurrent_largest_tileable_textures_stay_within_the_bound(self):
+        u = self.ids[0]
+        st, _, body = self.get(f"/v1/textons/{u}/tileable.png?w=4096&h=4096")
+        self.assertEqual((st, error_code(body)), (400, "region_too_large"))
+        fmts = ["webp", "avif", "webp", "avif"]
+        with PeakRss(self.s.proc.pid) as m:
+            sts = self.concurrent(4, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/tileable.{fmts[i]}?w=4096&h=2048&quality=100&seed={i}",
+                timeout=300)[0])
+        self.assertEqual(sts, [200] * 4)
+        largest = 4096 * 2048 * 3 * 4 * 2.5
+        self.assertLess(m.peak - m.base, self.bound(largest),
+                        f"peak {(m.peak - m.base) / MIB:.0f} MiB")
+        print(f"  tileable: peak +{(m.peak - m.base) / MIB:.0f} MiB, bound "
               f"{self.bound(largest) / MIB:.0f} MiB", file=sys.stderr)
 
     def test_concurrent_large_surface_bodies_stay_within_the_bound(self):

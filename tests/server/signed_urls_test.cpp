@@ -217,6 +217,8 @@ TEST(SignedUrls, PresetsAreTheOnlyParameterSets) {
     ASSERT_TRUE(tj && tj->status == 200);
     const std::string tmpl = nlohmann::json::parse(tj->body).at("tiles")[0];
     EXPECT_NE(tmpl.find("/map/{z}/{x}/{y}.webp?preset=web-256"), std::string::npos) << tmpl;
+    // A preset's 30.0 is mni=30 (the canonical spelling), not a refusal at start.
+    EXPECT_TRUE(http::parse_presets(R"({"x": {"format": "png", "mni": 30.0}})").ok());
     // Bad preset files are refused clearly.
     EXPECT_FALSE(http::parse_presets(R"({"a b": {}})").ok());
     EXPECT_FALSE(http::parse_presets(R"({"x": {"sig": "1"}})").ok());
