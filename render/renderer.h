@@ -47,6 +47,9 @@ public:
                                      std::string* used = nullptr, const Relief& relief = {});
 
     const std::string& tiles_backend() const { return m_tiles_name; }
+    // How much more CPU the work takes here than the CPU path's admission estimate says: 1, or
+    // llvmpipe's measured factor when GL runs in software (OSMesa, or EGL without a GPU).
+    double work_factor() const;
     // Whether all noise (tiles and frames) goes through a GL batcher, and what it did: batches
     // and windows in them.
     bool all_batched() const; // tiles and frames

@@ -25,7 +25,10 @@ namespace {
 
 // A pass's output: 2^22 words, 64 tiles of 256^2 at 8 bits (one word a pixel), half that at 16
 // bits, a third as floats. Larger windows are cut into pieces of at most kPieceSide wide.
+// A software renderer (llvmpipe) takes 2^18 words a pass: a pass is where a render can stop (a
+// client gone, a deadline), and at MNI 200 one 2^22-word pass took llvmpipe 20 s.
 constexpr std::size_t kPassWords = std::size_t{1} << 22;
+constexpr std::size_t kSoftwarePassWords = std::size_t{1} << 18;
 constexpr int kPieceSide = 2048;
 constexpr std::size_t kMaxCachedTables = 32;
 
@@ -371,6 +374,10 @@ void copy_out(const Piece& p, Precision precision, const std::uint32_t* words) {
 
 } // namespace
 
+std::size_t GlBackend::pass_words() const {
+    return m_software ? kSoftwarePassWords : kPassWords;
+}
+
 double GlBackend::render_batch(const std::vector<Work*>& batch) {
     // Cut the windows into pieces; sort them by precision (one program a pass) and table (one
     // dispatch a run), keeping each window's pieces in order.
@@ -384,7 +391,7 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
         work->image = take_image(win.width, win.height, win.channels); // every pixel is written
         const int pw = std::min(win.width, kPieceSide);
         const int ph = std::max(
-            1, std::min(win.height, static_cast<int>(kPassWords / words_per_pixel(win.precision) /
+            1, std::min(win.height, static_cast<int>(pass_words() / words_per_pixel(win.precision) /
                                                      static_cast<std::size_t>(pw))));
         const void* key = win.mix_tables.empty() ? static_cast<const void*>(win.table.get())
                                                  : static_cast<const void*>(work);
@@ -403,7 +410,7 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
     for (const Piece& p : pieces) {
         const Precision prec = p.work->window->precision;
         const std::size_t n = static_cast<std::size_t>(p.w) * p.h;
-        const std::size_t cap = kPassWords / static_cast<std::size_t>(words_per_pixel(prec));
+        const std::size_t cap = pass_words() / static_cast<std::size_t>(words_per_pixel(prec));
         if (passes.empty() || passes.back().precision != prec || passes.back().pixels + n > cap)
             passes.push_back({prec, 0, {}});
         Pass& pass = passes.back();

@@ -119,6 +119,7 @@ private:
     std::string m_renderer;
     std::string m_version;
     bool m_software = false;
+    std::size_t pass_words() const; // output words a pass: fewer on a software renderer
     int m_subpixel_bits = 4;
     std::mutex m_mutex;         // the context: one batch (or surface, mesh, probe call) at a time
     std::string m_noise_source; // lib + eval + comp, compiled per output precision

@@ -25,6 +25,14 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
            surface_work_s(static_cast<std::size_t>(pixels), mni, order);
 }
 
+double analysis_work_s(std::int64_t channel_pixels, int iterations) {
+    return static_cast<double>(channel_pixels) * (iterations + 8) * 20e-9;
+}
+
+std::size_t analysis_bytes(std::int64_t channel_pixels) {
+    return static_cast<std::size_t>(channel_pixels) * 40;
+}
+
 RenderSlots::Admit RenderSlots::acquire(std::chrono::milliseconds max_wait,
                                         const std::function<bool()>& gone) {
     std::unique_lock lock(m_mutex);

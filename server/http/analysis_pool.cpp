@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <exception>
 
 namespace textond::http {
@@ -40,6 +41,40 @@ const Result<AnalysisOutcome>& AnalysisJob::wait() const {
     return *m_result;
 }
 
+const Result<AnalysisOutcome>* AnalysisJob::wait_for(std::chrono::milliseconds timeout) const {
+    std::unique_lock lock(m_mutex);
+    if (!m_cv.wait_for(lock, timeout, [&] { return m_result.has_value(); })) return nullptr;
+    return &*m_result;
+}
+
+void AnalysisPool::attach(const std::shared_ptr<AnalysisJob>& job, bool polls) {
+    std::lock_guard lock(job->m_mutex);
+    if (polls)
+        job->m_kept = true;
+    else
+        ++job->m_waiters;
+}
+
+void AnalysisPool::leave(const std::shared_ptr<AnalysisJob>& job) {
+    {
+        std::lock_guard lock(m_mutex);
+        std::lock_guard job_lock(job->m_mutex);
+        if (--job->m_waiters > 0 || job->m_kept || job->m_state != AnalysisJob::State::queued)
+            return;
+        const auto it = std::find_if(m_queue.begin(), m_queue.end(),
+                                     [&](const auto& queued) { return queued.first == job; });
+        if (it == m_queue.end()) return;
+        m_queue.erase(it);
+        m_in_flight.erase(job->id());
+        job->m_state = AnalysisJob::State::failed;
+        job->m_result = make_error(ErrorCode::unavailable,
+                                   "the analysis was dropped before it started: its client left");
+        ++m_dropped;
+    }
+    job->m_cv.notify_all();
+    spdlog::info("analysis {} dropped from the queue: its client left", job->id());
+}
+
 AnalysisPool::AnalysisPool(int workers, int queue_capacity)
     : m_capacity(static_cast<std::size_t>(queue_capacity < 0 ? 0 : queue_capacity)) {
     for (int i = 0; i < (workers < 1 ? 1 : workers); ++i)
@@ -74,6 +109,11 @@ std::shared_ptr<AnalysisJob> AnalysisPool::find(const std::string& id) const {
 int AnalysisPool::queued() const {
     std::lock_guard lock(m_mutex);
     return static_cast<int>(m_queue.size());
+}
+
+int AnalysisPool::dropped() const {
+    std::lock_guard lock(m_mutex);
+    return m_dropped;
 }
 
 int AnalysisPool::running() const {

@@ -6,6 +6,7 @@
 #include "core/result.h"
 #include "core/texton_analysis.h"
 
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <functional>
@@ -34,6 +35,8 @@ public:
     std::pair<int, int> progress() const; // projections done, total
     // Blocks until the job has finished.
     const Result<AnalysisOutcome>& wait() const;
+    // Waits at most `timeout`; the result once finished, else null.
+    const Result<AnalysisOutcome>* wait_for(std::chrono::milliseconds timeout) const;
 
 private:
     friend class AnalysisPool;
@@ -41,6 +44,8 @@ private:
     mutable std::mutex m_mutex;
     mutable std::condition_variable m_cv;
     State m_state = State::queued;
+    int m_waiters = 0;   // clients waiting on the connection for the answer
+    bool m_kept = false; // a client that polls its status will come back for it
     int m_done = 0, m_total = 0;
     std::optional<Result<AnalysisOutcome>> m_result;
 };
@@ -61,11 +66,18 @@ public:
         bool joined = false;              // an identical upload was already in flight
     };
     Submitted submit(const std::string& id, Work work);
+    // A client waits for `job` (on its connection, or by polling its status when `polls`).
+    void attach(const std::shared_ptr<AnalysisJob>& job, bool polls);
+    // A waiting client left. When no client waits for a job that has not started, it is dropped
+    // from the queue (failed: nobody would read its answer, and it would hold a worker for
+    // nothing); a job already running finishes and is stored.
+    void leave(const std::shared_ptr<AnalysisJob>& job);
     // A job in flight or recently finished (status queries), or null.
     std::shared_ptr<AnalysisJob> find(const std::string& id) const;
 
     int queued() const;
     int running() const;
+    int dropped() const; // queued jobs dropped because every client left
     int workers() const { return static_cast<int>(m_threads.size()); }
     // Finishes the running jobs, fails the queued ones, joins the workers.
     void shutdown();
@@ -80,6 +92,7 @@ private:
     std::map<std::string, std::shared_ptr<AnalysisJob>> m_in_flight;
     std::deque<std::shared_ptr<AnalysisJob>> m_recent; // finished, for status queries
     int m_running = 0;
+    int m_dropped = 0;
     bool m_stopping = false;
     std::vector<std::thread> m_threads;
 };

@@ -25,6 +25,7 @@ Gate::Gate(const ServeConfig& config, Metrics& metrics)
       m_bodies(config.body_budget_bytes) {}
 
 bool Gate::within_budget(httplib::Response& res, double work_s) {
+    work_s *= m_work_factor;
     if (!(work_s <= m_config.max_request_cpu_s)) {
         char buf[200];
         std::snprintf(buf, sizeof buf,

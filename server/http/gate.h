@@ -27,6 +27,10 @@ public:
     // 429 when no slot frees within --queue-timeout-ms, 408 when the client left meanwhile.
     std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
     bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
+    // Estimates are the CPU path's (server/http/admission.h); a backend that does the same
+    // work slower (llvmpipe) multiplies them, so admission counts what will really run.
+    void set_work_factor(double factor) { m_work_factor = factor > 0 ? factor : 1.0; }
+    double work_factor() const { return m_work_factor; }
     // A decoder slot (masks), waiting like admit().
     std::optional<SlotGuard> admit_decode(httplib::Response& res);
     // The answer for work not admitted: 408 when the client left, else 429 with `busy`.
@@ -58,6 +62,7 @@ private:
     // so that many simultaneous large uploads cannot exhaust memory.
     RenderSlots m_decode_slots;
     BodyBudget m_bodies; // request bodies held in memory, all requests together
+    double m_work_factor = 1.0;
 };
 
 } // namespace textond::http

@@ -107,6 +107,7 @@ std::optional<Error> Service::open_parts() {
     auto renderer = render::Renderer::make(m_config.backend, options);
     if (!renderer) return renderer.error();
     m_renderer = std::move(renderer.value());
+    m_gate.set_work_factor(m_renderer->work_factor());
     // Tiles on a GL backend: a slot mostly waits for its batch, so one per core would never fill
     // one. Enough more to gather a whole batch while the cores encode the last.
     // Only when frames go there too: CPU frames and fallbacks would take the extra slots.
@@ -122,7 +123,7 @@ void Service::make_services() {
     limits.formats = m_config.formats;
     m_textons = std::make_unique<TextonService>(
         *m_store, *m_pool, m_metrics, m_gate.decode_slots(), std::move(limits),
-        std::chrono::milliseconds(m_config.queue_timeout_ms));
+        std::chrono::milliseconds(m_config.queue_timeout_ms), m_config.max_request_cpu_s);
     m_mix_service = std::make_unique<MixService>(*m_store, *m_mixes, *m_pool);
     m_images = std::make_unique<ImageService>(*m_store, *m_mixes, *m_renderer, m_metrics,
                                               m_config.png_compression);

@@ -220,6 +220,8 @@ void TextonRoutes::send_refused(Res res, const TextonService::Refused& r) {
         return send_error(res, {"exemplar_too_small", err.message});
     case Stage::size:
         return send_error(res, {"map_size_mismatch", err.message});
+    case Stage::work:
+        return send_error(res, {"work_too_large", err.message});
     case Stage::lookup:
         break;
     }
@@ -233,7 +235,9 @@ void TextonRoutes::send_ingested(Req req, Res res, const TextonService::Ingested
     const std::string& id = in.id;
     const std::string status_url = "/v1/textons/" + id + "/status";
     // RFC 7240: a client that prefers not to wait gets 202 and polls the status URL.
-    if (req.get_header_value("Prefer").find("respond-async") != std::string::npos) {
+    const bool polls = req.get_header_value("Prefer").find("respond-async") != std::string::npos;
+    m_pool.attach(submitted.job, polls);
+    if (polls) {
         res.set_header("Location", status_url);
         res.set_header("Preference-Applied", "respond-async");
         const auto [done, total] = submitted.job->progress();
@@ -243,7 +247,17 @@ void TextonRoutes::send_ingested(Req req, Res res, const TextonService::Ingested
                           {"progress", {{"done", done}, {"total", total}}},
                           {"links", {{"status", status_url}, {"self", "/v1/textons/" + id}}}});
     }
-    const Result<AnalysisOutcome>& outcome = submitted.job->wait();
+    // Waiting on the connection: a client that hangs up before its analysis starts takes it out
+    // of the queue (unless another client waits for the same texton).
+    const ConnectionStream* conn = current_connection();
+    const Result<AnalysisOutcome>* done = nullptr;
+    while (!(done = submitted.job->wait_for(std::chrono::milliseconds(100))))
+        if (conn && conn->client_gone()) {
+            m_pool.leave(submitted.job);
+            return send_error(res, {"client_gone", "the client left before its analysis ended"});
+        }
+    m_pool.leave(submitted.job); // answered: no longer waiting
+    const Result<AnalysisOutcome>& outcome = *done;
     if (!outcome) {
         const Error& err = outcome.error();
         return send_error(

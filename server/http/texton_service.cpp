@@ -2,15 +2,29 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cstdio>
 #include <memory>
 
 namespace textond::http {
 
 TextonService::TextonService(TextonStore& store, AnalysisPool& pool, Metrics& metrics,
                              RenderSlots& decode_slots, io::DecodeLimits limits,
-                             std::chrono::milliseconds decode_wait)
+                             std::chrono::milliseconds decode_wait, double max_work_s)
     : m_store(store), m_pool(pool), m_metrics(metrics), m_decode_slots(decode_slots),
-      m_limits(std::move(limits)), m_decode_wait(decode_wait) {}
+      m_limits(std::move(limits)), m_decode_wait(decode_wait), m_max_work_s(max_work_s) {}
+
+std::optional<TextonService::Refused>
+TextonService::over_budget(const core::Image& u, const core::AnalysisParams& p) const {
+    const auto channel_pixels = static_cast<std::int64_t>(u.plane_size()) * u.channels;
+    const double work = analysis_work_s(channel_pixels, p.iterations);
+    if (m_max_work_s <= 0 || work <= m_max_work_s) return std::nullopt;
+    char text[160];
+    std::snprintf(text, sizeof text,
+                  "the analysis of a %dx%dx%d exemplar at %d iterations would take about %.0f s "
+                  "of CPU, over this server's %.0f s: send a smaller exemplar or fewer iterations",
+                  u.width, u.height, u.channels, p.iterations, work, m_max_work_s);
+    return Refused{Refused::Stage::work, make_error(ErrorCode::too_large, text)};
+}
 
 Result<io::TextonRecord> TextonService::analyse(const core::Image& exemplar,
                                                 const core::AnalysisParams& params,
@@ -47,6 +61,7 @@ TextonService::ingest(std::string_view bytes, const core::AnalysisParams& params
     } else if (meta.error().code != ErrorCode::not_found) {
         return Refused{Stage::lookup, meta.error()};
     }
+    if (auto refused = over_budget(u, params)) return *refused;
     auto shared = std::make_shared<const core::Image>(std::move(image.value()));
     out.submitted = submit(out.id, shared, [shared, params](const core::ProgressFn& progress) {
         return analyse(*shared, params, progress);
@@ -146,6 +161,7 @@ TextonService::ingest_set(const std::vector<MapUpload>& maps, const core::Analys
     } else if (known.error().code != ErrorCode::not_found) {
         return Refused{Stage::lookup, known.error()};
     }
+    if (auto refused = over_budget(stacked, params)) return *refused;
     auto shown = std::make_shared<const core::Image>(
         core::channel_planes(stacked, meta[0].first, meta[0].channels));
     auto u = std::make_shared<const core::Image>(std::move(stacked));

@@ -25,9 +25,10 @@ namespace textond::http {
 
 class TextonService {
 public:
+    // `max_work_s`: the CPU an analysis may cost (analysis_work_s), 0 for no bound.
     TextonService(TextonStore& store, AnalysisPool& pool, Metrics& metrics,
                   RenderSlots& decode_slots, io::DecodeLimits limits,
-                  std::chrono::milliseconds decode_wait);
+                  std::chrono::milliseconds decode_wait, double max_work_s = 0);
 
     // Exemplar and parameters to the stored form of a texton: coefficients, RME, id, timings
     // (SOT paper section 3 through core::analyze_texton). What the pool runs for an upload and
@@ -49,6 +50,7 @@ public:
             check,  // the parameters do not fit the exemplar (too small for the support)
             lookup, // the store could not say whether the texton exists (shared store down)
             size,   // a material set's maps disagree in size, or have too many channels
+            work,   // the analysis would cost more CPU than --max-request-cpu-s
         } stage;
         Error error;
         RenderSlots::Admit admit = RenderSlots::Admit::granted;
@@ -79,6 +81,8 @@ private:
     AnalysisPool::Submitted submit(const std::string& id,
                                    const std::shared_ptr<const core::Image>& shown,
                                    const Analyse& analyse);
+    // The refusal of an analysis over the CPU bound, if it is.
+    std::optional<Refused> over_budget(const core::Image& u, const core::AnalysisParams& p) const;
     std::optional<Refused> decode_maps(const std::vector<MapUpload>& maps, core::Image& stacked,
                                        std::vector<api::MapMeta>& meta,
                                        const std::function<bool()>& gone);
@@ -89,6 +93,7 @@ private:
     RenderSlots& m_decode_slots;
     const io::DecodeLimits m_limits;
     const std::chrono::milliseconds m_decode_wait;
+    const double m_max_work_s; // 0: no bound
 };
 
 } // namespace textond::http

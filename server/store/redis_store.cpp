@@ -268,6 +268,22 @@ Result<bool> RedisStore::put(const std::string& id, const std::string& file,
 }
 
 Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
+    // The values' sizes first: a value past what a texton can hold (100 MB in `file` once cost
+    // every request 100 MB, and its slow read called the whole store down) is refused unread,
+    // as damaged, and the store stays up.
+    auto sizes = pipeline({{"HSTRLEN", texton_key(id), "file"},
+                           {"HSTRLEN", texton_key(id), "exemplar"},
+                           {"HSTRLEN", texton_key(id), "meta"}});
+    if (!sizes) return sizes.error();
+    const long long caps[3] = {kMaxFileBytes, kMaxExemplarBytes, kMaxMetaBytes};
+    const char* names[3] = {"file", "exemplar", "meta"};
+    for (std::size_t i = 0; i < 3; ++i)
+        if (sizes.value()[i]->integer() > caps[i])
+            return make_error(ErrorCode::io, "texton " + id + " in the shared store has a " +
+                                                 names[i] + " of " +
+                                                 std::to_string(sizes.value()[i]->integer()) +
+                                                 " bytes, more than a texton holds (" +
+                                                 std::to_string(caps[i]) + "); it is not read");
     auto r =
         command({"HMGET", texton_key(id), "file", "sha256", "exemplar", "exemplar_sha256", "meta"});
     if (!r) return r.error();

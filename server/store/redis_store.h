@@ -58,6 +58,12 @@ public:
     };
     // Both checked against their sha256; nullopt when absent.
     Result<std::optional<Texton>> get(const std::string& id);
+    // What a stored texton's values can hold: its file (256 x 256 x 8 float32 coefficients and
+    // metadata, 2.1 MB at most, with room), its exemplar as PNG (--max-pixels of 16-bit RGB,
+    // compressed at worst not at all) and its metadata. A larger value is never read.
+    static constexpr long long kMaxFileBytes = 8LL << 20;
+    static constexpr long long kMaxExemplarBytes = 112LL << 20;
+    static constexpr long long kMaxMetaBytes = 1LL << 20;
     // Present, deleted (tombstone) or neither (unknown: a copy held only locally).
     enum class Presence { present, deleted, unknown };
     Result<Presence> presence(const std::string& id);

@@ -79,7 +79,7 @@ TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
     const std::string readme = read_file((kit.dir / "README.md").string());
     EXPECT_NE(readme.find("# textond engine kit: texton " + id), std::string::npos);
     // Relative to the server, so that one kit is the same bytes behind any host name.
-    EXPECT_NE(readme.find("`/v1/textons/" + id + "/tiles/0/X/Y.exr?seed=S&mni=30.0`"),
+    EXPECT_NE(readme.find("`/v1/textons/" + id + "/tiles/0/X/Y.exr?seed=S&mni=30`"),
               std::string::npos)
         << readme;
     EXPECT_EQ(readme.find('%'), std::string::npos) << "a placeholder left in the README";

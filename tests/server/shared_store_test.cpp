@@ -13,6 +13,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <thread>
 
@@ -48,6 +49,14 @@ template <class F> bool eventually(F check, double seconds) {
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
     return check();
+}
+
+// Resident memory of a process, MB (/proc/PID/status).
+double rss_mb(int pid) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    for (std::string line; std::getline(in, line);)
+        if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    return -1;
 }
 
 double metric(const ServerProcess& s, const std::string& series) {
@@ -246,6 +255,30 @@ TEST(SharedStore, ADamagedValueInRedisIsNeverServed) {
     }
     // a, which holds good copies, keeps serving them.
     EXPECT_EQ(status_of(a, "/v1/textons/" + id1 + "/tiles/0/0/0.png"), 200);
+}
+
+// A value larger than any texton's (100 MB in `file`) is refused unread: b's memory does not grow
+// by it on each request, and the store stays up for every other texton.
+TEST(SharedStore, AHugeValueInRedisIsRefusedUnreadAndTheStoreStaysUp) {
+    RedisProcess redis(fresh_dir("shared-h-redis"));
+    ServerProcess a(fresh_dir("shared-h-1"), replica_args(redis));
+    ServerProcess b(fresh_dir("shared-h-2"), replica_args(redis));
+    auto ca = a.client();
+    const std::string id1 = upload(ca, "etr_sand01.png", "?size=32");
+    const std::string id2 = upload(ca, "etr_pave02.png", "?size=32");
+    const std::string huge(100u << 20, 'x');
+    redis.cli({"-x", "HSET", texton_key(id1), "file"}, huge);
+    const double before = rss_mb(b.pid());
+    for (int i = 0; i < 4; ++i) {
+        auto meta = get(b, "/v1/textons/" + id1);
+        ASSERT_TRUE(meta);
+        EXPECT_EQ(meta->status, 500);
+        EXPECT_NE(meta->body.find("not read"), std::string::npos) << meta->body;
+    }
+    EXPECT_LT(rss_mb(b.pid()) - before, 50.0) << "the value was read";
+    // The store is up: the other texton reaches b, and readiness is not degraded.
+    EXPECT_EQ(status_of(b, "/v1/textons/" + id2 + "/tiles/0/0/0.png"), 200);
+    EXPECT_EQ(metric(b, "textond_shared_store_up"), 1.0);
 }
 
 TEST(SharedStore, DeletesReachEveryReplicaAndAFlushedRedisIsRefilled) {
