@@ -28,6 +28,10 @@ struct RequestContext {
     httplib::Request* request = nullptr;
 };
 RequestContext& current_request();
+// Cache-Control of what a DELETE takes away and that is not content-addressed noise (the
+// exemplar, the texton's files): a minute in any cache, the edge's included. Noise images are
+// immutable and stay in caches until they expire (README "Run at scale").
+inline constexpr const char* kDeletableFor = "public, max-age=60";
 // A new request id: a per-process random prefix and a counter.
 std::string fresh_request_id();
 // Starts a context: the client's X-Request-Id when it is sane, else a fresh one.

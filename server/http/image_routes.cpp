@@ -295,7 +295,7 @@ void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) 
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
     auto png = m_textons.exemplar_png(id);
     if (!png) return send_error(res, to_api_error(png.error()));
-    res.set_header("Cache-Control", "public, max-age=86400");
+    res.set_header("Cache-Control", kDeletableFor);
     res.set_content(png.value(), "image/png");
 }
 
@@ -525,7 +525,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
            base + signed_link(req, prefix + id + "/tiles/{level}/{x}/{y}." + ext + query)}}}};
     // The absolute URLs come from the Host header unless --public-url is set.
     if (m_config.public_url.empty()) res.set_header("Vary", "Host");
-    send_json(res, 200, j, "public, max-age=60");
+    send_json(res, 200, j, "no-cache"); // gone with its texton, at the edge too
 }
 
 } // namespace textond::http

@@ -275,7 +275,8 @@ void TextonRoutes::get(Req req, Res res) {
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
     auto meta = m_store.find(id);
     if (!meta) return send_error(res, to_api_error(meta.error()));
-    send_json(res, 200, texton_json(meta.value()), "public, max-age=60");
+    // Not kept by caches (the edge's included): after a DELETE the metadata is gone at once.
+    send_json(res, 200, texton_json(meta.value()), "no-cache");
 }
 
 void TextonRoutes::status(Req req, Res res) {
@@ -312,13 +313,13 @@ void TextonRoutes::file(Req req, Res res) {
     if (ext == "exr") {
         auto bytes = m_store.file_bytes(id);
         if (!bytes) return send_error(res, to_api_error(bytes.error()));
-        res.set_header("Cache-Control", "public, max-age=86400");
+        res.set_header("Cache-Control", kDeletableFor);
         res.set_header("Content-Disposition", "inline; filename=\"" + id.substr(0, 12) + ".exr\"");
         return res.set_content(bytes.value(), "image/x-exr");
     }
     auto record = m_store.record(id);
     if (!record) return send_error(res, to_api_error(record.error()));
-    res.set_header("Cache-Control", "public, max-age=86400");
+    res.set_header("Cache-Control", kDeletableFor);
     if (ext == "texton") {
         res.set_header("Content-Disposition",
                        "attachment; filename=\"" + id.substr(0, 12) + ".texton\"");

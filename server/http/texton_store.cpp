@@ -1,5 +1,7 @@
 #include "server/http/texton_store.h"
 
+#include "api/safe_text.h"
+
 #include "server/http/http_support.h"
 #include "server/io/image_io.h"
 
@@ -202,12 +204,26 @@ Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after,
     if (!m_shared) return m_local->list(after, limit);
     auto metas = m_shared->list_meta(after, limit);
     if (!metas) return metas.error();
+    // A verified local copy's metadata wins over what Redis says; Redis metadata naming another
+    // id than its key's is not listed (the key is the content address, the JSON is just text).
     std::vector<api::TextonMeta> out;
-    for (const auto& text : metas.value()) try {
-            out.push_back(nlohmann::json::parse(text).get<api::TextonMeta>());
-        } catch (const std::exception& e) {
-            spdlog::error("store: unreadable metadata in the shared store: {}", e.what());
+    for (const auto& [id, text] : metas.value()) {
+        if (auto held = m_local->meta(id)) {
+            out.push_back(std::move(*held));
+            continue;
         }
+        try {
+            auto meta = nlohmann::json::parse(text).get<api::TextonMeta>();
+            if (meta.id != id) {
+                spdlog::error("store: the shared store's metadata of {} names {}; not listed", id,
+                              api::printable(meta.id, 80));
+                continue;
+            }
+            out.push_back(std::move(meta));
+        } catch (const std::exception& e) {
+            spdlog::error("store: unreadable metadata of {} in the shared store: {}", id, e.what());
+        }
+    }
     return out;
 }
 

@@ -324,21 +324,28 @@ Result<bool> RedisStore::remove(const std::string& id) {
     return r.value()->integer() == 1;
 }
 
-Result<std::vector<std::string>> RedisStore::list_meta(const std::string& after, int limit) {
+Result<std::vector<std::pair<std::string, std::string>>>
+RedisStore::list_meta(const std::string& after, int limit) {
     auto ids = command({"ZRANGEBYLEX", ids_key(), after.empty() ? "-" : "(" + after, "+", "LIMIT",
                         "0", std::to_string(limit)});
     if (!ids) return ids.error();
     const redisReply* a = ids.value()->r;
+    std::vector<std::string> listed;
     std::vector<std::vector<std::string>> gets;
     for (std::size_t i = 0; a->type == REDIS_REPLY_ARRAY && i < a->elements; ++i)
-        if (auto id = Reply::string(a->element[i]))
+        if (auto id = Reply::string(a->element[i])) {
+            listed.push_back(*id);
             gets.push_back({"HGET", texton_key(*id), "meta"});
-    std::vector<std::string> out;
+        }
+    std::vector<std::pair<std::string, std::string>> out;
     if (gets.empty()) return out;
     auto metas = pipeline(gets);
     if (!metas) return metas.error();
-    for (const auto& m : metas.value())
-        if (auto s = Reply::string(m->r)) out.push_back(std::move(*s)); // deleted meanwhile: skip
+    for (std::size_t i = 0; i < metas.value().size(); ++i) {
+        auto s = Reply::string(metas.value()[i]->r);
+        if (s && static_cast<long long>(s->size()) <= kMaxMetaBytes) // deleted meanwhile: skip
+            out.emplace_back(listed[i], std::move(*s));
+    }
     return out;
 }
 

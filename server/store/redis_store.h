@@ -70,7 +70,10 @@ public:
     // False when it was not there.
     Result<bool> remove(const std::string& id);
     // Metadata JSON of the ids after `after` (exclusive), ascending, at most `limit`.
-    Result<std::vector<std::string>> list_meta(const std::string& after, int limit);
+    // (id, metadata JSON) of the ids after `after`, as stored: the id is the key's, the JSON
+    // whatever the value holds (the caller checks that they agree).
+    Result<std::vector<std::pair<std::string, std::string>>> list_meta(const std::string& after,
+                                                                       int limit);
     Result<std::uint64_t> count();
     Result<bool> ping();
 

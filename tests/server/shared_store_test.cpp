@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <set>
 #include <thread>
 
 namespace textond::test {
@@ -255,6 +256,35 @@ TEST(SharedStore, ADamagedValueInRedisIsNeverServed) {
     }
     // a, which holds good copies, keeps serving them.
     EXPECT_EQ(status_of(a, "/v1/textons/" + id1 + "/tiles/0/0/0.png"), 200);
+}
+
+// Redis metadata is text: A's replaced by JSON naming C with a made-up RME. The replica holding a
+// verified copy of A lists A as it is; one without lists neither A's forgery nor C twice.
+TEST(SharedStore, TheListDoesNotTrustMetadataThatNamesAnotherId) {
+    RedisProcess redis(fresh_dir("shared-l-redis"));
+    ServerProcess a(fresh_dir("shared-l-1"), replica_args(redis));
+    ServerProcess b(fresh_dir("shared-l-2"), replica_args(redis));
+    auto ca = a.client();
+    const std::string ida = upload(ca, "etr_sand01.png", "?size=32");
+    const std::string idc = upload(ca, "etr_pave02.png", "?size=32");
+    const double rme_a = json::parse(get(a, "/v1/textons/" + ida)->body).at("rme");
+    json forged = json::parse(redis.cli({"HGET", texton_key(idc), "meta"}));
+    forged["rme"] = 0.0001;
+    redis.cli({"-x", "HSET", texton_key(ida), "meta"}, forged.dump());
+    auto ids_of = [](const ServerProcess& s) {
+        std::multiset<std::string> ids;
+        const json list = json::parse(get(s, "/v1/textons")->body);
+        for (const auto& item : list.at("items")) ids.insert(item.at("id").get<std::string>());
+        return ids;
+    };
+    EXPECT_EQ(ids_of(a), (std::multiset<std::string>{ida, idc}));
+    const json listed = json::parse(get(a, "/v1/textons")->body);
+    for (const auto& item : listed.at("items")) {
+        if (item.at("id") == ida) {
+            EXPECT_EQ(item.at("rme").get<double>(), rme_a);
+        }
+    }
+    EXPECT_EQ(ids_of(b).count(idc), 1u) << "C listed twice";
 }
 
 // A value larger than any texton's (100 MB in `file`) is refused unread: b's memory does not grow
