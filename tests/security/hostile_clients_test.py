@@ -326,6 +326,52 @@ class HostileClients(unittest.TestCase):
         self.assertEqual(self.answers(self.s.raw(zero + b"GET /healthz HTTP/1.1\r\nHost: x\r\n"
                                                  b"Connection: close\r\n\r\n")), 2)
 
+    def test_framing_property_n_requests_give_at_most_n_answers(self):
+        # Seeded random streams of complete requests, some framed to hide a request in a body:
+        # never more answers than requests sent; all answered when every one is well framed.
+        import random
+        rng = random.Random(20261125)
+        u, _ = self.ids
+
+        def one(kind):
+            hidden = b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n"
+            if kind == "get":
+                return b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n", True
+            if kind == "tile":
+                return (f"GET /v1/textons/{u}/tiles/0/{rng.randrange(-9, 9)}/0.png HTTP/1.1\r\n"
+                        f"Host: x\r\n\r\n").encode(), True
+            if kind == "post":
+                body = b"{\"urls\": [\"/v1/x\"]}"
+                return (b"POST /v1/sign HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                        b"Content-Length: %d\r\n\r\n" % len(body) + body), True
+            if kind == "chunked":
+                body = b"{\"urls\": [\"/v1/x\"]}"
+                return (b"POST /v1/sign HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                        b"Transfer-Encoding: chunked\r\n\r\n%x\r\n" % len(body) + body +
+                        b"\r\n0\r\n\r\n"), True
+            method = rng.choice([b"GET", b"HEAD", b"OPTIONS", b"DELETE"])
+            if kind == "cl-body":
+                return (method + b" /healthz HTTP/1.1\r\nHost: x\r\nContent-Length: %d\r\n\r\n"
+                        % len(hidden) + hidden), False
+            if kind == "bad-chunk":
+                return (b"POST /v1/sign HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n"
+                        b"%x\r\n" % len(hidden) + hidden + b"XX0\r\n\r\n" + hidden), False
+            return (b"POST /v1/sign HTTP/1.1\r\nHost: x\r\nContent-Length: 3\r\n"
+                    b"Content-Length: 3\r\n\r\nabc" + hidden), False
+
+        kinds = ["get", "tile", "post", "chunked", "cl-body", "bad-chunk", "two-lengths"]
+        for trial in range(40):
+            n = rng.randrange(1, 8)
+            picked = [rng.choice(kinds[:4] if trial % 2 else kinds) for _ in range(n)]
+            parts = [one(k) for k in picked]
+            stream = b"".join(p for p, _ in parts)
+            answer = self.s.raw(stream + b"GET /healthz HTTP/1.1\r\nHost: x\r\n"
+                                b"Connection: close\r\n\r\n")
+            got = self.answers(answer)
+            self.assertLessEqual(got, n + 1, (picked, answer[:300]))
+            if all(ok for _, ok in parts):
+                self.assertEqual(got, n + 1, (picked, answer[:300]))
+
     def test_chunked_framing_is_strict(self):
         after = b"GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
         head = b"POST /v1/textons HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n"
