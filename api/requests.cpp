@@ -372,7 +372,7 @@ bool canonical_number(std::string_view s, bool fraction) {
 
 std::string query_text(double v) {
     if (v == 0) return "0";
-    if (std::isfinite(v) && std::fabs(v) < 1e15 && v == std::trunc(v)) {
+    if (std::isfinite(v) && std::fabs(v) < 1e21 && v == std::trunc(v)) {
         char buf[32];
         std::snprintf(buf, sizeof buf, "%.0f", v);
         return buf;

@@ -29,10 +29,6 @@ double analysis_work_s(std::int64_t channel_pixels, int iterations) {
     return static_cast<double>(channel_pixels) * (iterations + 8) * 20e-9;
 }
 
-std::size_t analysis_bytes(std::int64_t channel_pixels) {
-    return static_cast<std::size_t>(channel_pixels) * 40;
-}
-
 RenderSlots::Admit RenderSlots::acquire(std::chrono::milliseconds max_wait,
                                         const std::function<bool()>& gone) {
     std::unique_lock lock(m_mutex);

@@ -37,7 +37,6 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
 // RGB at 50 iterations: 59 s of CPU and 1.7 GB measured). The upload is refused (413
 // work_too_large) before it is queued when over --max-request-cpu-s.
 double analysis_work_s(std::int64_t channel_pixels, int iterations);
-std::size_t analysis_bytes(std::int64_t channel_pixels);
 
 // First come, first served slots, waking exactly the next waiter (a shared condition variable
 // woke every waiter on each release, and that storm preempted the renders: tail latency x10).

@@ -24,8 +24,8 @@ Gate::Gate(const ServeConfig& config, Metrics& metrics)
       m_decode_slots(cores(), static_cast<std::size_t>(config.render_queue)),
       m_bodies(config.body_budget_bytes) {}
 
-bool Gate::within_budget(httplib::Response& res, double work_s) {
-    work_s *= m_work_factor;
+bool Gate::within_budget(httplib::Response& res, double work_s, double cpu_share) {
+    work_s *= cpu_share + (1.0 - cpu_share) * m_work_factor;
     if (!(work_s <= m_config.max_request_cpu_s)) {
         char buf[200];
         std::snprintf(buf, sizeof buf,
@@ -49,8 +49,8 @@ void Gate::refuse(httplib::Response& res, RenderSlots::Admit why, const char* bu
     send_error(res, {"overloaded", busy});
 }
 
-std::optional<SlotGuard> Gate::admit(httplib::Response& res, double work_s) {
-    if (!within_budget(res, work_s)) return std::nullopt;
+std::optional<SlotGuard> Gate::admit(httplib::Response& res, double work_s, double cpu_share) {
+    if (!within_budget(res, work_s, cpu_share)) return std::nullopt;
     ConnectionStream* conn = current_connection();
     const auto gone = [conn] { return conn && conn->client_gone(); };
     const auto why =

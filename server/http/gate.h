@@ -25,8 +25,11 @@ public:
 
     // A render slot for work estimated at `work_s` CPU seconds: 413 over --max-request-cpu-s,
     // 429 when no slot frees within --queue-timeout-ms, 408 when the client left meanwhile.
-    std::optional<SlotGuard> admit(httplib::Response& res, double work_s);
-    bool within_budget(httplib::Response& res, double work_s); // 413 sent when not
+    // `cpu_share`: the part of the work that runs on the CPU whatever the backend (normal maps,
+    // the kit); the rest is multiplied by the backend's work factor.
+    std::optional<SlotGuard> admit(httplib::Response& res, double work_s, double cpu_share = 0);
+    bool within_budget(httplib::Response& res, double work_s,
+                       double cpu_share = 0); // 413 sent when not
     // Estimates are the CPU path's (server/http/admission.h); a backend that does the same
     // work slower (llvmpipe) multiplies them, so admission counts what will really run.
     void set_work_factor(double factor) { m_work_factor = factor > 0 ? factor : 1.0; }

@@ -79,9 +79,27 @@ void send_error(httplib::Response& res, const api::ApiError& e, int status) noex
     }
 }
 
+void fit_ranges(std::size_t size) {
+    httplib::Request* req = current_request().request;
+    if (!req || req->ranges.empty()) return;
+    const auto n = static_cast<ssize_t>(size);
+    for (auto& [first, last] : req->ranges) {
+        if (first < 0 && last < 0) return req->ranges.clear();
+        if (first < 0) { // the last `last` bytes
+            first = std::max<ssize_t>(0, n - last);
+            last = n - 1;
+        } else if (last < 0 || last >= n) {
+            last = n - 1;
+        }
+        if (first >= n || first > last) return req->ranges.clear();
+    }
+}
+
 void send_json(httplib::Response& res, int status, const nlohmann::json& body,
                const char* cache_control) {
     res.status = status;
+    // A JSON answer is always whole (cpp-httplib would slice it under a 200).
+    if (httplib::Request* req = current_request().request) req->ranges.clear();
     if (cache_control) res.set_header("Cache-Control", cache_control);
     // replace: a string that came from a client and is not UTF-8 becomes U+FFFD, never a throw.
     res.set_content(body.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n",

@@ -32,6 +32,11 @@ RequestContext& current_request();
 // exemplar, the texton's files): a minute in any cache, the edge's included. Noise images are
 // immutable and stay in caches until they expire (README "Run at scale").
 inline constexpr const char* kDeletableFor = "public, max-age=60";
+// cpp-httplib 0.11 applies a Range to a body without fitting it (bytes=0-99999999 of a 100 kB
+// body read past its end from a content provider, and named a false Content-Range otherwise):
+// the request's ranges are made to fit `size` here, suffix and open ranges resolved, and a Range
+// that selects nothing is dropped, the whole answered (RFC 9110 lets a server ignore Range).
+void fit_ranges(std::size_t size);
 // A new request id: a per-process random prefix and a counter.
 std::string fresh_request_id();
 // Starts a context: the client's X-Request-Id when it is sane, else a fresh one.

@@ -22,26 +22,6 @@ constexpr double kKitWorkS = 0.4;
 
 // Writes the cached bytes straight to the socket: no copy into the response (a warm tile is
 // ~200 kB, and copying it was a fifth of a cache hit's CPU time).
-// cpp-httplib 0.11 hands a content provider the Range's offsets unclamped (bytes=0-99999999 of a
-// 100 kB tile read past its end): ranges are made to fit the body here, suffix and open ranges
-// resolved, and a Range that selects nothing is answered whole (RFC 9110 lets a server ignore
-// Range). The library's Request is its own local; see RequestContext::request.
-void fit_ranges(std::size_t size) {
-    httplib::Request* req = current_request().request;
-    if (!req || req->ranges.empty()) return;
-    const auto n = static_cast<ssize_t>(size);
-    for (auto& [first, last] : req->ranges) {
-        if (first < 0 && last < 0) return req->ranges.clear();
-        if (first < 0) { // the last `last` bytes
-            first = std::max<ssize_t>(0, n - last);
-            last = n - 1;
-        } else if (last < 0 || last >= n) {
-            last = n - 1;
-        }
-        if (first >= n || first > last) return req->ranges.clear();
-    }
-}
-
 void send_cached(httplib::Response& res, Metrics& metrics, std::shared_ptr<const CachedImage> image,
                  std::shared_ptr<BudgetLease> lease = {}) {
     const std::size_t size = image->body.size();
@@ -88,7 +68,7 @@ ImageRoutes::ImageRoutes(const ServeConfig& config, ImageService& images, Texton
 void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& res,
                                const std::string& id, const std::string& key,
                                api::ImageFormat format, const Produce& produce, bool mix,
-                               std::int64_t pixels, double mni, int quality) {
+                               std::int64_t pixels, double mni, int quality, double cpu_share) {
     auto order = m_images.order(id, mix);
     if (!order) return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
@@ -120,7 +100,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         if (!lease) return;
     }
     auto entry = produce_in_slot(res, id, format, quality, produce,
-                                 noise_work_s(pixels, mni, order.value()));
+                                 noise_work_s(pixels, mni, order.value()), cpu_share);
     if (!entry) return;
     entry->etag = etag;
     m_cache.put(key, entry);
@@ -130,16 +110,15 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
 
 // Render, resample and encode in one slot: the float image and its encoding (230 MB for the
 // largest region) exist only while a slot is held.
-std::shared_ptr<CachedImage> ImageRoutes::produce_in_slot(httplib::Response& res,
-                                                          const std::string& id,
-                                                          api::ImageFormat format, int quality,
-                                                          const Produce& produce, double work_s) {
+std::shared_ptr<CachedImage>
+ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api::ImageFormat format,
+                             int quality, const Produce& produce, double work_s, double cpu_share) {
     using Clock = std::chrono::steady_clock;
     auto seconds = [](Clock::time_point a, Clock::time_point b) {
         return std::chrono::duration<double>(b - a).count();
     };
     const auto t0 = Clock::now();
-    auto slot = m_gate.admit(res, work_s);
+    auto slot = m_gate.admit(res, work_s, cpu_share);
     if (!slot) return nullptr;
     const auto t1 = Clock::now();
     m_metrics.stage("queue", seconds(t0, t1));
@@ -171,10 +150,14 @@ void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
     const std::int64_t passes = job.map.name == core::kLitMap      ? 3
                                 : job.map.name == core::kNormalMap ? 2
                                                                    : 1;
+    // Normals are made on the CPU whatever the backend (the lit view's albedo is rendered).
+    const double cpu_share = job.map.name == core::kLitMap      ? 2.0 / 3.0
+                             : job.map.name == core::kNormalMap ? 1.0
+                                                                : 0.0;
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
         [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, job.mix,
-        job.pixels() * passes, job.request.mni, job.quality);
+        job.pixels() * passes, job.request.mni, job.quality, cpu_share);
 }
 
 ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool mix) {
@@ -296,6 +279,7 @@ void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) 
     auto png = m_textons.exemplar_png(id);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_header("Cache-Control", kDeletableFor);
+    fit_ranges(png.value().size());
     res.set_content(png.value(), "image/png");
 }
 
@@ -315,7 +299,8 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
     const auto headers = [&] {
-        res.set_header("Cache-Control", cache_control_for(req));
+        // It holds texton.exr: gone from caches a minute after a DELETE, like that file.
+        res.set_header("Cache-Control", kDeletableFor);
         res.set_header("Content-Disposition",
                        "attachment; filename=\"" + engine_kit_directory(id) + ".tar\"");
     };
@@ -329,7 +314,7 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
     auto exr = m_textons.file_bytes(id);
     if (!exr) return send_error(res, to_api_error(exr.error()));
     // Measured: 0.35-0.4 s of one core for a 64 x 64 texton (its tables and reference values).
-    auto slot = m_gate.admit(res, kKitWorkS);
+    auto slot = m_gate.admit(res, kKitWorkS, 1.0); // all on the CPU
     if (!slot) return;
     auto tar = engine_kit_tar(record.value(), exr.value(), p.mni, "");
     if (!tar) return send_error(res, to_api_error(tar.error()));

@@ -46,13 +46,14 @@ private:
     // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format, const Produce& produce,
-                      bool mix, std::int64_t pixels, double mni,
-                      int quality = api::kDefaultQuality);
+                      bool mix, std::int64_t pixels, double mni, int quality = api::kDefaultQuality,
+                      double cpu_share = 0);
     // The image's bytes, produced and encoded under a render slot; null when the answer (429,
     // 413, 503, an error) was sent instead.
     std::shared_ptr<CachedImage> produce_in_slot(httplib::Response& res, const std::string& id,
                                                  api::ImageFormat format, int quality,
-                                                 const Produce& produce, double work_s);
+                                                 const Produce& produce, double work_s,
+                                                 double cpu_share = 0);
     std::string base_url(const httplib::Request& req) const;
     std::optional<api::ApiError> tilejson_refusal(const std::string& id,
                                                   const api::TileRequest& probe, bool mix);

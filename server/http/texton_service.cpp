@@ -13,6 +13,17 @@ TextonService::TextonService(TextonStore& store, AnalysisPool& pool, Metrics& me
     : m_store(store), m_pool(pool), m_metrics(metrics), m_decode_slots(decode_slots),
       m_limits(std::move(limits)), m_decode_wait(decode_wait), m_max_work_s(max_work_s) {}
 
+// A shared store that refused its last write (full, read-only) would refuse this texton too:
+// answered before the analysis is spent.
+std::optional<TextonService::Refused> TextonService::store_refuses_writes() const {
+    const store::RedisStore* shared = m_store.shared();
+    if (!shared) return std::nullopt;
+    const std::string why = shared->write_refusal();
+    if (why.empty()) return std::nullopt;
+    return Refused{Refused::Stage::lookup,
+                   make_error(ErrorCode::unavailable, "the shared store refuses writes: " + why)};
+}
+
 std::optional<TextonService::Refused>
 TextonService::over_budget(const core::Image& u, const core::AnalysisParams& p) const {
     const auto channel_pixels = static_cast<std::int64_t>(u.plane_size()) * u.channels;
@@ -61,6 +72,7 @@ TextonService::ingest(std::string_view bytes, const core::AnalysisParams& params
     } else if (meta.error().code != ErrorCode::not_found) {
         return Refused{Stage::lookup, meta.error()};
     }
+    if (auto refused = store_refuses_writes()) return *refused;
     if (auto refused = over_budget(u, params)) return *refused;
     auto shared = std::make_shared<const core::Image>(std::move(image.value()));
     out.submitted = submit(out.id, shared, [shared, params](const core::ProgressFn& progress) {
@@ -161,6 +173,7 @@ TextonService::ingest_set(const std::vector<MapUpload>& maps, const core::Analys
     } else if (known.error().code != ErrorCode::not_found) {
         return Refused{Stage::lookup, known.error()};
     }
+    if (auto refused = store_refuses_writes()) return *refused;
     if (auto refused = over_budget(stacked, params)) return *refused;
     auto shown = std::make_shared<const core::Image>(
         core::channel_planes(stacked, meta[0].first, meta[0].channels));

@@ -81,6 +81,7 @@ private:
     AnalysisPool::Submitted submit(const std::string& id,
                                    const std::shared_ptr<const core::Image>& shown,
                                    const Analyse& analyse);
+    std::optional<Refused> store_refuses_writes() const;
     // The refusal of an analysis over the CPU bound, if it is.
     std::optional<Refused> over_budget(const core::Image& u, const core::AnalysisParams& p) const;
     std::optional<Refused> decode_maps(const std::vector<MapUpload>& maps, core::Image& stacked,

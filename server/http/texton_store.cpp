@@ -13,7 +13,48 @@ TextonStore::TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t pre
                          std::unique_ptr<store::RedisStore> shared,
                          std::chrono::milliseconds recheck)
     : m_local(std::move(local)), m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache),
-      m_shared(std::move(shared)), m_recheck(recheck) {}
+      m_shared(std::move(shared)), m_recheck(recheck) {
+    if (m_shared) m_sweeper = std::thread([this] { sweep_loop(); });
+}
+
+TextonStore::~TextonStore() {
+    {
+        std::lock_guard lock(m_sweep_mutex);
+        m_stopping = true;
+    }
+    m_sweep_cv.notify_all();
+    if (m_sweeper.joinable()) m_sweeper.join();
+}
+
+void TextonStore::sweep_loop() {
+    std::unique_lock lock(m_sweep_mutex);
+    while (!m_sweep_cv.wait_for(lock, m_recheck, [this] { return m_stopping; })) {
+        lock.unlock();
+        sweep();
+        lock.lock();
+    }
+}
+
+void TextonStore::sweep() {
+    std::string after;
+    for (;;) {
+        const std::vector<api::TextonMeta> page = m_local->list(after, 256);
+        if (page.empty()) return;
+        for (const api::TextonMeta& meta : page) {
+            {
+                std::lock_guard lock(m_sweep_mutex);
+                if (m_stopping) return;
+            }
+            {
+                std::lock_guard lock(m_mutex);
+                m_checked[meta.id] = std::chrono::steady_clock::now();
+            }
+            if (!m_shared->presence(meta.id)) return; // down: try again next round
+            (void)recheck(meta.id, meta);
+        }
+        after = page.back().id;
+    }
+}
 
 Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_dir,
                                                        std::size_t prepared_cache,
@@ -58,6 +99,15 @@ Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonM
     if (!presence) return local; // the shared store is down: serve what we hold
     switch (presence.value()) {
     case store::RedisStore::Presence::present:
+        // A damaged or replaced entry is rewritten from this verified copy.
+        if (auto file = m_local->file(id)) {
+            auto exemplar = m_local->exemplar(id);
+            const nlohmann::json meta = local;
+            auto fixed = m_shared->repair_if_differs(id, file.value(), meta.dump(),
+                                                     exemplar ? exemplar.value() : "");
+            if (fixed && fixed.value())
+                spdlog::warn("store: texton {} was damaged in the shared store; repaired", id);
+        }
         return local;
     case store::RedisStore::Presence::deleted:
         (void)m_local->erase(id, true); // never served here again, even if its file stays

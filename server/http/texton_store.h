@@ -17,6 +17,7 @@
 #include "server/store/redis_store.h"
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <list>
 #include <map>
@@ -24,6 +25,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace textond::http {
@@ -35,6 +37,9 @@ public:
     open(const std::string& data_dir, std::size_t prepared_cache = 64,
          std::unique_ptr<store::RedisStore> shared = nullptr,
          std::chrono::milliseconds recheck = std::chrono::seconds(30));
+    ~TextonStore();
+    TextonStore(const TextonStore&) = delete;
+    TextonStore& operator=(const TextonStore&) = delete;
 
     // The texton's metadata: local, else fetched from the shared store. not_found, or
     // unavailable when only the (unreachable) shared store could tell.
@@ -68,6 +73,11 @@ private:
     Result<api::TextonMeta> recheck(const std::string& id, api::TextonMeta local);
     // Drops what this object remembers of a texton the directory no longer holds.
     void forget(const std::string& id);
+    // Every --store-recheck-s, every held texton is rechecked against the shared store: written
+    // back when missing there (a flushed Redis: all of them, not only those asked for), dropped
+    // when deleted there.
+    void sweep_loop();
+    void sweep();
 
     const std::unique_ptr<TextonDirectory> m_local;
     const std::size_t m_prepared_capacity;
@@ -77,6 +87,10 @@ private:
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked; // against m_shared
     // Most recently used first.
     std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;
+    std::mutex m_sweep_mutex;
+    std::condition_variable m_sweep_cv;
+    bool m_stopping = false;
+    std::thread m_sweeper; // with a shared store only
 };
 
 } // namespace textond::http

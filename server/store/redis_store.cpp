@@ -258,13 +258,54 @@ RedisStore::command(const std::vector<std::string>& argv) {
     return r.value()[0];
 }
 
+std::string RedisStore::write_refusal() const {
+    std::lock_guard lock(m_mutex);
+    if (m_write_refusal.empty() ||
+        std::chrono::steady_clock::now() > m_write_refused_at + std::chrono::minutes(1))
+        return "";
+    return m_write_refusal;
+}
+
 Result<bool> RedisStore::put(const std::string& id, const std::string& file,
                              const std::string& meta_json, const std::string& exemplar_png) {
     auto r =
         command({"EVAL", kPutScript, "3", texton_key(id), ids_key(), tombstone_key(id), file,
                  io::sha256_hex(file), meta_json, exemplar_png, io::sha256_hex(exemplar_png), id});
-    if (!r) return r.error();
+    const auto refused = [&](const std::string& why) {
+        std::lock_guard lock(m_mutex);
+        m_write_refusal = why;
+        m_write_refused_at = std::chrono::steady_clock::now();
+    };
+    if (!r) {
+        if (m_up.value_or(false)) refused(r.error().message); // up, yet refusing (OOM, READONLY)
+        return r.error();
+    }
+    // The script answers 0 or 1; anything else is no Redis we know (one answering +OK to all).
+    if (r.value()->r->type != REDIS_REPLY_INTEGER) {
+        refused("the store answered the write with something else than 0 or 1");
+        return unavailable("the shared store answered a write strangely: not a Redis?");
+    }
+    {
+        std::lock_guard lock(m_mutex);
+        m_write_refusal.clear();
+    }
     return r.value()->integer() == 1;
+}
+
+Result<bool> RedisStore::repair_if_differs(const std::string& id, const std::string& file,
+                                           const std::string& meta_json,
+                                           const std::string& exemplar_png) {
+    const std::string sha = io::sha256_hex(file);
+    auto r = pipeline({{"HSTRLEN", texton_key(id), "file"}, {"HGET", texton_key(id), "sha256"}});
+    if (!r) return r.error();
+    const auto stored_sha = Reply::string(r.value()[1]->r);
+    if (r.value()[0]->integer() == static_cast<long long>(file.size()) && stored_sha &&
+        *stored_sha == sha)
+        return false;
+    auto w = command({"HSET", texton_key(id), "file", file, "sha256", sha, "meta", meta_json,
+                      "exemplar", exemplar_png, "exemplar_sha256", io::sha256_hex(exemplar_png)});
+    if (!w) return w.error();
+    return true;
 }
 
 Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
@@ -358,6 +399,12 @@ Result<std::uint64_t> RedisStore::count() {
 Result<bool> RedisStore::ping() {
     auto r = command({"PING"});
     if (!r) return r.error();
+    const redisReply* p = r.value()->r;
+    if (p->type != REDIS_REPLY_STATUS || std::string(p->str, p->len) != "PONG")
+        return make_error(ErrorCode::unavailable, "the shared store does not answer PING with "
+                                                  "PONG: not a Redis?");
+    if (std::string why = write_refusal(); !why.empty())
+        return make_error(ErrorCode::unavailable, "the shared store refuses writes: " + why);
     return true;
 }
 

@@ -47,6 +47,14 @@ public:
 
     // "redis://host:port/db" (no password), for logs and /readyz.
     std::string describe() const;
+    // Why the store refused its last write, within the last minute (Redis full: OOM with
+    // noeviction; READONLY...): uploads answer 503 before their analysis and /readyz says
+    // degraded. Empty when writes go through.
+    std::string write_refusal() const;
+    // The store holds a texton's values, but not this verified copy's (a damaged or replaced
+    // entry, told by the file's length or checksum field): they are rewritten from it.
+    Result<bool> repair_if_differs(const std::string& id, const std::string& file,
+                                   const std::string& meta_json, const std::string& exemplar_png);
 
     // True when this call stored it, false when it was there already. Clears a tombstone.
     Result<bool> put(const std::string& id, const std::string& file, const std::string& meta_json,
@@ -98,6 +106,8 @@ private:
     std::chrono::steady_clock::time_point m_retry_at{};
     std::optional<bool> m_up; // as the last command found it; unset before the first
     std::string m_last_error = "not connected yet";
+    std::string m_write_refusal;
+    std::chrono::steady_clock::time_point m_write_refused_at{};
 };
 
 } // namespace textond::store

@@ -481,6 +481,15 @@ class HostileClients(unittest.TestCase):
             self.assertEqual((st, body), (200, full))
             st, h, body = self.get(path, headers={"Range": "bytes=-100"})
             self.assertEqual((st, body), (206, full[-100:]))
+        # A JSON answer is always whole; a file's Content-Range names what is sent.
+        st, h, body = self.get(f"/v1/textons/{u}", headers={"Range": "bytes=0-49"})
+        self.assertEqual(st, 200)
+        self.assertEqual(json.loads(body)["id"], u)
+        st, h, full = self.get(f"/v1/textons/{u}/exemplar.png")
+        st, h, body = self.get(f"/v1/textons/{u}/exemplar.png",
+                               headers={"Range": "bytes=10-99999999"})
+        self.assertEqual((st, body, h.get("Content-Range")),
+                         (206, full[10:], f"bytes 10-{len(full) - 1}/{len(full)}"))
         # An error is answered whole, never sliced into byte ranges.
         st, h, body = self.get(f"/v1/textons/{'0' * 64}/tiles/0/0/0.png",
                                headers={"Range": "bytes=0-9,20-29"})
@@ -579,6 +588,9 @@ class HostileClients(unittest.TestCase):
             st, _, _ = s.request("GET", f"/v1/textons/{u}/tiles/0/5/5.png", timeout=60)
             self.assertEqual(st, 200)
             self.assertLess(time.monotonic() - t0, 3.5, "abandoned renders held the slots")
+            # Work done on the CPU whatever the backend (the kit) is not charged llvmpipe's factor.
+            st, h, _ = s.request("GET", f"/v1/textons/{u}/kit.tar?mni=200")
+            self.assertEqual((st, h.get("Cache-Control")), (200, "public, max-age=60"))
         finally:
             s.stop()
             shutil.rmtree(data, ignore_errors=True)

@@ -231,7 +231,9 @@ TEST(SharedStore, RedisDownCostsUploadsNotCachedTilesAndComingBackNeedsNoRestart
 
 TEST(SharedStore, ADamagedValueInRedisIsNeverServed) {
     RedisProcess redis(fresh_dir("shared-d-redis"));
-    ServerProcess a(fresh_dir("shared-d-1"), replica_args(redis));
+    // a rechecks (and would repair the entries from its copies) only every ten minutes here.
+    ServerProcess a(fresh_dir("shared-d-1"), {"--store", redis.url(), "--store-recheck-s", "600",
+                                              "--store-timeout-ms", "500"});
     const std::string dir_b = fresh_dir("shared-d-2");
     ServerProcess b(dir_b, replica_args(redis));
     auto ca = a.client();
@@ -287,15 +289,55 @@ TEST(SharedStore, TheListDoesNotTrustMetadataThatNamesAnotherId) {
     EXPECT_EQ(ids_of(b).count(idc), 1u) << "C listed twice";
 }
 
+// A full Redis (maxmemory, noeviction) refuses writes: the upload that finds out answers 503,
+// readiness says degraded and the metric 0, and the next upload is refused before its analysis.
+// A damaged entry is rewritten by a replica that holds a verified copy.
+TEST(SharedStore, AFullRedisIsReportedAndADamagedEntryIsRepaired) {
+    RedisProcess redis(fresh_dir("shared-o-redis"));
+    ServerProcess a(fresh_dir("shared-o-1"), replica_args(redis));
+    auto ca = a.client();
+    const std::string id = upload(ca, "etr_sand01.png", "?size=16");
+    const std::string file = get(a, "/v1/textons/" + id + "/texton.exr")->body;
+    // Damaged: half the file under the whole one's checksum. a repairs it at its next recheck.
+    redis.cli({"-x", "HSET", texton_key(id), "file"}, file.substr(0, file.size() / 2));
+    EXPECT_TRUE(eventually(
+        [&] {
+            return redis.cli({"HSTRLEN", texton_key(id), "file"}) ==
+                   std::to_string(file.size()) + "\n";
+        },
+        5.0))
+        << "not repaired";
+    ServerProcess b(fresh_dir("shared-o-2"), replica_args(redis));
+    EXPECT_EQ(status_of(b, "/v1/textons/" + id + "/tiles/0/0/0.png"), 200);
+
+    redis.cli({"CONFIG", "SET", "maxmemory-policy", "noeviction"});
+    redis.cli({"CONFIG", "SET", "maxmemory", "1"});
+    auto first =
+        ca.Post("/v1/textons?size=16", read_file(exemplar_path("etr_pave02.png")), "image/png");
+    ASSERT_TRUE(first);
+    EXPECT_EQ(first->status, 503) << first->body;
+    const json ready = json::parse(get(a, "/readyz")->body);
+    EXPECT_TRUE(ready.at("degraded").get<bool>()) << ready.dump();
+    EXPECT_EQ(metric(a, "textond_shared_store_up"), 0.0);
+    auto again =
+        ca.Post("/v1/textons?size=16", read_file(exemplar_path("etr_pebbles04.png")), "image/png");
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->status, 503);
+    EXPECT_NE(again->body.find("refuses writes"), std::string::npos) << again->body;
+}
+
 // A value larger than any texton's (100 MB in `file`) is refused unread: b's memory does not grow
 // by it on each request, and the store stays up for every other texton.
 TEST(SharedStore, AHugeValueInRedisIsRefusedUnreadAndTheStoreStaysUp) {
     RedisProcess redis(fresh_dir("shared-h-redis"));
-    ServerProcess a(fresh_dir("shared-h-1"), replica_args(redis));
+    std::string id1, id2;
+    { // the analysing replica stops (it would repair the entry from its copy)
+        ServerProcess a(fresh_dir("shared-h-1"), replica_args(redis));
+        auto ca = a.client();
+        id1 = upload(ca, "etr_sand01.png", "?size=32");
+        id2 = upload(ca, "etr_pave02.png", "?size=32");
+    }
     ServerProcess b(fresh_dir("shared-h-2"), replica_args(redis));
-    auto ca = a.client();
-    const std::string id1 = upload(ca, "etr_sand01.png", "?size=32");
-    const std::string id2 = upload(ca, "etr_pave02.png", "?size=32");
     const std::string huge(100u << 20, 'x');
     redis.cli({"-x", "HSET", texton_key(id1), "file"}, huge);
     const double before = rss_mb(b.pid());
@@ -351,6 +393,31 @@ TEST(SharedStore, DeletesReachEveryReplicaAndAFlushedRedisIsRefilled) {
     EXPECT_EQ(ea->status, 200);
     EXPECT_EQ(ec->status, 200);
     EXPECT_TRUE(ea->body == ec->body);
+}
+
+// After FLUSHALL every texton a replica holds is written back, whether or not anyone asks for it
+// (only an id that reached a replica used to be), so the list is whole again and a fresh replica
+// finds each of them.
+TEST(SharedStore, AFlushedRedisGetsBackEveryHeldTextonUnasked) {
+    RedisProcess redis(fresh_dir("shared-f-redis"));
+    ServerProcess a(fresh_dir("shared-f-1"), replica_args(redis));
+    auto ca = a.client();
+    const std::vector<std::string> ids = {upload(ca, "etr_sand01.png", "?size=16"),
+                                          upload(ca, "etr_pave02.png", "?size=16"),
+                                          upload(ca, "etr_pebbles04.png", "?size=16")};
+    redis.cli({"FLUSHALL"});
+    EXPECT_TRUE(eventually(
+        [&] {
+            for (const auto& id : ids)
+                if (redis.cli({"EXISTS", texton_key(id)}) != "1\n") return false;
+            return true;
+        },
+        5.0))
+        << "not every held texton was written back";
+    ServerProcess c(fresh_dir("shared-f-3"), replica_args(redis));
+    EXPECT_EQ(json::parse(get(c, "/v1/textons")->body).at("total"), 3);
+    for (const auto& id : ids)
+        EXPECT_EQ(status_of(c, "/v1/textons/" + id + "/tiles/0/0/0.png"), 200);
 }
 
 } // namespace
