@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """Request smuggling through the shipped nginx edge (deploy/base/nginx, made local by
 deploy/local/edge-files.sh as `make run-edge` does): smugglers send GET, HEAD, OPTIONS and DELETE
-requests carrying Content-Length or chunked bodies that hold a hidden request (a large region,
-tagged X-Request-Id: smuggled-N), while ordinary clients on keep-alive connections fetch tiles no
-one else asks for. Every ordinary client must get exactly the answer to its own request: the
+requests carrying Content-Length or chunked bodies that hold a hidden request (
+a cold tile, tagged X-Request-Id: smuggled-N), while ordinary clients on keep-alive connections fetch tiles no
+one else asks for; first, each attack is followed at once by an ordinary request, which nginx
+sends down the upstream connection the attack just freed. Every ordinary client must get exactly
+the answer to its own request: the
 bytes textond gives for that URL, never a smuggled request's X-Request-Id, and the edge's pooled
 upstream connections must never deliver a hidden request's answer.
 
@@ -59,7 +61,9 @@ def wait_port(port, seconds=20):
 
 
 def hidden(n, tid):
-    return (f"GET /v1/textons/{tid}/region.png?w=1024&h=1024&seed={n} HTTP/1.1\r\nHost: x\r\n"
+    # A cold tile: its answer comes a few milliseconds late, after nginx has put the upstream
+    # connection back in its pool, which is when a stale answer reaches the next client.
+    return (f"GET /v1/textons/{tid}/tiles/0/{n}/{n}.png?seed={n} HTTP/1.1\r\nHost: x\r\n"
             f"X-Request-Id: smuggled-{n}\r\n\r\n").encode()
 
 
@@ -91,6 +95,11 @@ def smuggle(port, payloads, seen):
                 if not c:
                     break
                 got += c
+                # One answer read whole is enough: the edge keeps the connection open.
+                head, _, rest = got.partition(b"\r\n\r\n")
+                length = [l for l in head.split(b"\r\n") if l.lower().startswith(b"content-length:")]
+                if length and len(rest) >= int(length[0].split(b":")[1]):
+                    break
                 if len(got) > (4 << 20):
                     break
             s.close()
@@ -139,6 +148,30 @@ def main():
         r = c.getresponse()
         tid = json.loads(r.read())["id"]
         c.close()
+
+        # In turn: an attack, then at once an ordinary request. nginx hands the upstream
+        # connection it just freed (the attack's) to the next request, while textond would still
+        # be rendering the hidden one: where bodies are read as requests, this client gets it.
+        victim = http.client.HTTPConnection("127.0.0.1", edge_port, timeout=60)
+        turns = []
+        for n, attack in enumerate(attacks(tid)):
+            smuggle(edge_port, [attack], [])
+            url = f"/v1/textons/{tid}/tiles/1/{n}/{-1 - n}.png?seed=77"
+            victim.request("GET", url)
+            r = victim.getresponse()
+            turns.append((url, r.status, r.getheader("X-Request-Id", ""), r.read()))
+        victim.close()
+        direct = http.client.HTTPConnection("127.0.0.1", app_port, timeout=60)
+        crossed = 0
+        for url, status, rid, body in turns:
+            direct.request("GET", url)
+            ref = direct.getresponse().read()
+            if status != 200 or body != ref or "smuggled" in rid:
+                crossed += 1
+                print(f"  after an attack {url}: {status} id {rid} {len(body)} B "
+                      f"(expected {len(ref)} B)", file=sys.stderr)
+        check(crossed == 0, f"a request right after each attack got its own answer ({crossed} "
+                            f"of {len(turns)} did not)")
 
         results = [[] for _ in range(CLIENTS)]
         seen = [[] for _ in range(SMUGGLERS)]
