@@ -22,6 +22,25 @@ using std::chrono::milliseconds;
 
 thread_local ConnectionStream* t_connection = nullptr;
 
+// Lingering close: the client may still be sending the body we did not read; closing now would
+// answer it with a reset, and a reset discards our answer in its buffers. Half-close, then
+// discard what comes for a short while.
+void linger(int sock) {
+    ::shutdown(sock, SHUT_WR);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    std::size_t drained = 0;
+    char scratch[16384];
+    while (drained < (std::size_t{64} << 20)) {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            end - std::chrono::steady_clock::now());
+        pollfd p{sock, POLLIN, 0};
+        if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
+        const ssize_t n = ::recv(sock, scratch, sizeof scratch, 0);
+        if (n <= 0) break;
+        drained += static_cast<std::size_t>(n);
+    }
+}
+
 void address_of(int sock, bool peer, std::string& ip, int& port) {
     sockaddr_storage addr{};
     socklen_t len = sizeof addr;
@@ -139,72 +158,77 @@ void ConnectionStream::get_local_ip_and_port(std::string& ip, int& port) const {
     address_of(m_sock, false, ip, port);
 }
 
-bool ConnectionStream::check_chunked(const char* p, std::size_t n) {
-    const auto hex = [](char c) {
-        return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
+bool ConnectionStream::chunk_line_byte(char c) {
+    const auto hex = [](char h) {
+        return (h >= '0' && h <= '9') || (h >= 'a' && h <= 'f') || (h >= 'A' && h <= 'F');
     };
+    switch (m_chunk) {
+    case Chunk::size:
+        if (hex(c) && m_size_digits < 15) {
+            const int d = c <= '9' ? c - '0' : (c | 0x20) - 'a' + 10;
+            m_chunk_left = m_chunk_left * 16 + static_cast<std::uint64_t>(d);
+            ++m_size_digits;
+        } else if (m_size_digits > 0 && (c == ';' || c == ' ' || c == '\t')) {
+            m_chunk = Chunk::ext;
+        } else if (m_size_digits > 0 && c == '\r') {
+            m_chunk = Chunk::size_lf;
+        } else {
+            return false;
+        }
+        return true;
+    case Chunk::ext:
+        if (c == '\r') m_chunk = Chunk::size_lf;
+        return c != '\n';
+    case Chunk::size_lf:
+        if (c != '\n') return false;
+        m_chunk = m_chunk_left == 0 ? Chunk::trailer : Chunk::data;
+        m_line_empty = true;
+        return true;
+    default:
+        return false;
+    }
+}
+
+bool ConnectionStream::chunk_tail_byte(char c) {
+    switch (m_chunk) {
+    case Chunk::data_cr:
+        m_chunk = Chunk::data_lf;
+        return c == '\r';
+    case Chunk::data_lf:
+        m_chunk = Chunk::size;
+        m_size_digits = 0;
+        return c == '\n';
+    case Chunk::trailer:
+        if (c == '\n') return false;
+        if (c == '\r')
+            m_chunk = m_line_empty ? Chunk::last_lf : Chunk::trailer_lf;
+        else
+            m_line_empty = false;
+        return true;
+    case Chunk::trailer_lf:
+        m_chunk = Chunk::trailer;
+        m_line_empty = true;
+        return c == '\n';
+    case Chunk::last_lf:
+        m_chunk = Chunk::done;
+        return c == '\n';
+    default: // done: past the body's end, where the library never reads
+        return false;
+    }
+}
+
+bool ConnectionStream::check_chunked(const char* p, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) {
-        const char c = p[i];
-        switch (m_chunk) {
-        case Chunk::size:
-            if (hex(c) && m_size_digits < 15) {
-                const int d = c <= '9' ? c - '0' : (c | 0x20) - 'a' + 10;
-                m_chunk_left = m_chunk_left * 16 + static_cast<std::uint64_t>(d);
-                ++m_size_digits;
-            } else if (m_size_digits > 0 && (c == ';' || c == ' ' || c == '\t')) {
-                m_chunk = Chunk::ext;
-            } else if (m_size_digits > 0 && c == '\r') {
-                m_chunk = Chunk::size_lf;
-            } else {
-                return false;
-            }
-            break;
-        case Chunk::ext:
-            if (c == '\r')
-                m_chunk = Chunk::size_lf;
-            else if (c == '\n')
-                return false;
-            break;
-        case Chunk::size_lf:
-            if (c != '\n') return false;
-            m_chunk = m_chunk_left == 0 ? Chunk::trailer : Chunk::data;
-            m_line_empty = true;
-            break;
-        case Chunk::data: {
+        if (m_chunk == Chunk::data) {
             const std::uint64_t take = std::min<std::uint64_t>(m_chunk_left, n - i);
             m_chunk_left -= take;
             i += static_cast<std::size_t>(take) - 1;
             if (m_chunk_left == 0) m_chunk = Chunk::data_cr;
-            break;
+            continue;
         }
-        case Chunk::data_cr:
-            if (c != '\r') return false;
-            m_chunk = Chunk::data_lf;
-            break;
-        case Chunk::data_lf:
-            if (c != '\n') return false;
-            m_chunk = Chunk::size;
-            m_size_digits = 0;
-            break;
-        case Chunk::trailer:
-            if (c == '\n') return false;
-            if (c == '\r')
-                m_chunk = m_line_empty ? Chunk::last_lf : Chunk::trailer_lf;
-            else
-                m_line_empty = false;
-            break;
-        case Chunk::trailer_lf:
-            if (c != '\n') return false;
-            m_chunk = Chunk::trailer;
-            m_line_empty = true;
-            break;
-        case Chunk::last_lf:
-            if (c != '\n') return false;
-            m_chunk = Chunk::done;
-            break;
-        case Chunk::done:
-            return false; // past the body's end: the library never reads here
-        }
+        const bool line =
+            m_chunk == Chunk::size || m_chunk == Chunk::ext || m_chunk == Chunk::size_lf;
+        if (!(line ? chunk_line_byte(p[i]) : chunk_tail_byte(p[i]))) return false;
     }
     return true;
 }
@@ -287,6 +311,34 @@ std::pair<int, std::size_t> send_connection_error(ConnectionStream& strm, const 
     return {status, n > 0 ? static_cast<std::size_t>(n) : 0};
 }
 
+void HttpServer::answer_failure(ConnectionStream& strm) {
+    const auto canned = [&](const char* code, const char* message) {
+        const std::string id = fresh_request_id();
+        const auto [status, bytes] = send_connection_error(strm, code, message, id);
+        if (on_connection_error) on_connection_error(status, bytes, id);
+    };
+    switch (strm.failure()) {
+    case ConnectionStream::Failure::none:
+        break;
+    case ConnectionStream::Failure::head_too_large:
+        canned("header_too_large", "request line and headers are over the server's limit");
+        break;
+    case ConnectionStream::Failure::head_timeout:
+        canned("header_timeout", "request line and headers did not arrive in time");
+        break;
+    case ConnectionStream::Failure::body_too_large:
+        canned("payload_too_large", "request body is over the upload limit");
+        break;
+    case ConnectionStream::Failure::body_timeout:
+        canned("body_timeout", "request body did not arrive in time");
+        break;
+    case ConnectionStream::Failure::bad_chunk:
+        canned("bad_framing", "malformed chunked body (each chunk's data must end in CRLF; "
+                              "lines end in CRLF)");
+        break;
+    }
+}
+
 bool HttpServer::process_and_close_socket(socket_t sock) {
     ConnectionStream strm(sock, limits);
     ConnectionScope scope(&strm);
@@ -296,55 +348,14 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
         if (!strm.next_request(limits.keep_alive_timeout, stopping)) break;
         bool closed = false;
         ok = process_request(strm, left == 1, closed, nullptr);
-        const auto canned = [&](const char* code, const char* message) {
-            const std::string id = fresh_request_id();
-            const auto [status, bytes] = send_connection_error(strm, code, message, id);
-            if (on_connection_error) on_connection_error(status, bytes, id);
-        };
-        switch (strm.failure()) {
-        case ConnectionStream::Failure::none:
-            break;
-        case ConnectionStream::Failure::head_too_large:
-            canned("header_too_large", "request line and headers are over the server's limit");
-            break;
-        case ConnectionStream::Failure::head_timeout:
-            canned("header_timeout", "request line and headers did not arrive in time");
-            break;
-        case ConnectionStream::Failure::body_too_large:
-            canned("payload_too_large", "request body is over the upload limit");
-            break;
-        case ConnectionStream::Failure::body_timeout:
-            canned("body_timeout", "request body did not arrive in time");
-            break;
-        case ConnectionStream::Failure::bad_chunk:
-            canned("bad_framing", "malformed chunked body (each chunk's data must end in CRLF; "
-                                  "lines end in CRLF)");
-            break;
-        }
+        answer_failure(strm);
         // A body the route did not read to its end is still on the wire, and its bytes are no
         // request: they must never be parsed as the next one (request smuggling).
         if (!strm.body_complete()) strm.close_after_response();
         if (!ok || closed || strm.must_close() || strm.failure() != ConnectionStream::Failure::none)
             break;
     }
-    if (strm.must_close() || strm.failure() != ConnectionStream::Failure::none) {
-        // Lingering close: the client may still be sending the body we did not read; closing
-        // now would answer it with a reset, and a reset discards our answer in its buffers.
-        // Half-close, then discard what comes for a short while.
-        ::shutdown(sock, SHUT_WR);
-        const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-        std::size_t drained = 0;
-        char scratch[16384];
-        while (drained < (std::size_t{64} << 20)) {
-            const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-                end - std::chrono::steady_clock::now());
-            pollfd p{sock, POLLIN, 0};
-            if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
-            const ssize_t n = ::recv(sock, scratch, sizeof scratch, 0);
-            if (n <= 0) break;
-            drained += static_cast<std::size_t>(n);
-        }
-    }
+    if (strm.must_close() || strm.failure() != ConnectionStream::Failure::none) linger(sock);
     ::shutdown(sock, SHUT_RDWR);
     ::close(sock);
     return ok;

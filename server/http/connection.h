@@ -107,6 +107,8 @@ private:
         done
     };
     bool check_chunked(const char* p, std::size_t n);
+    bool chunk_line_byte(char c); // a size line
+    bool chunk_tail_byte(char c); // after a chunk's data, the trailers and the end
     std::uint64_t m_expected = 0; // body bytes announced by Content-Length
     bool m_chunked = false;
     Chunk m_chunk = Chunk::size;
@@ -174,6 +176,8 @@ public:
 
 private:
     bool process_and_close_socket(socket_t sock) override;
+    // The answer of a request a limit cut short (431, 408, 413, a broken chunk), if one was.
+    void answer_failure(ConnectionStream& strm);
 };
 
 } // namespace textond::http

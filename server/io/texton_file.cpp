@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
+#include <string>
 #include <vector>
 
 namespace textond::io {
@@ -155,6 +157,39 @@ std::vector<std::string> set_channel_names(const std::vector<api::MapMeta>& maps
             names.push_back(m.name + "." + (m.channels == 1 ? "Y" : std::string(1, "RGB"[c])));
     return names;
 }
+// The exemplar's marginals from the file's attribute, which the metadata says it has or not.
+std::optional<std::string> read_marginals(const std::string& text, const api::TextonMeta& m,
+                                          core::Texton& t) {
+    if (text.empty() == m.exemplar_marginals)
+        return "the metadata and the marginals attribute disagree";
+    if (text.empty()) return std::nullopt;
+    try {
+        auto mm = marginals_from_json(nlohmann::json::parse(text), m.channels, m.mean);
+        if (!mm) return mm.error().message;
+        t.marginals = std::move(mm.value());
+    } catch (const std::exception& e) {
+        return std::string("marginals: ") + e.what();
+    }
+    return std::nullopt;
+}
+
+// Plane c of the texton is the file's channel source[c]: found by name for a set, the file's
+// order otherwise. Why not, when a name is missing.
+std::optional<std::string> plane_sources(const std::vector<std::string>& file_names,
+                                         const api::TextonMeta& m, std::vector<int>& source) {
+    source.resize(static_cast<std::size_t>(m.channels));
+    for (int c = 0; c < m.channels; ++c) source[static_cast<std::size_t>(c)] = c;
+    if (m.maps.empty()) return std::nullopt;
+    const std::vector<std::string> names = set_channel_names(m.maps);
+    if (names.size() != static_cast<std::size_t>(m.channels))
+        return "the maps do not add up to the texton's channels";
+    for (std::size_t c = 0; c < names.size(); ++c) {
+        const auto it = std::find(file_names.begin(), file_names.end(), names[c]);
+        if (it == file_names.end()) return "no channel " + names[c];
+        source[c] = static_cast<int>(it - file_names.begin());
+    }
+    return std::nullopt;
+}
 } // namespace
 
 Result<std::string> texton_file_bytes(const TextonRecord& record) {
@@ -203,22 +238,8 @@ Result<TextonRecord> read_texton_file(const std::string& path) {
     r.texton.order = m.order;
     r.texton.mean = m.mean;
     r.texton.alpha = core::Image(m.size, m.size, m.channels);
-    // Plane c of the texton is the file's channel source[c] (identity for plain textons).
-    std::vector<int> source(static_cast<std::size_t>(m.channels));
-    for (int c = 0; c < m.channels; ++c) source[static_cast<std::size_t>(c)] = c;
-    if (!m.maps.empty()) {
-        const std::vector<std::string> names = set_channel_names(m.maps);
-        if (names.size() != static_cast<std::size_t>(m.channels))
-            return bad_file(path, "the maps do not add up to the texton's channels");
-        for (int c = 0; c < m.channels; ++c) {
-            const auto& file_names = spec.channelnames;
-            const auto it =
-                std::find(file_names.begin(), file_names.end(), names[static_cast<std::size_t>(c)]);
-            if (it == file_names.end())
-                return bad_file(path, "no channel " + names[static_cast<std::size_t>(c)]);
-            source[static_cast<std::size_t>(c)] = static_cast<int>(it - file_names.begin());
-        }
-    }
+    std::vector<int> source;
+    if (auto why = plane_sources(spec.channelnames, m, source)) return bad_file(path, *why);
     const std::size_t n = r.texton.alpha.plane_size();
     for (std::size_t k = 0; k < n; ++k)
         for (int c = 0; c < m.channels; ++c)
@@ -234,23 +255,13 @@ Result<TextonRecord> read_texton_file(const std::string& path) {
     // quarantines a file that fails them instead of serving it.
     if (m.size < 8 || m.size > 256 || !(m.order == 0 || m.order == 1 || m.order == 3))
         return bad_file(path, "size or interpolation order out of range");
-    for (int c = 0; c < m.channels; ++c)
-        if (!std::isfinite(m.mean[static_cast<std::size_t>(c)]))
-            return bad_file(path, "mean colour is not finite");
-    for (float v : r.texton.alpha.data)
-        if (!std::isfinite(v)) return bad_file(path, "coefficients are not finite");
-    const std::string marginals = spec.get_string_attribute(kMarginalsAttribute);
-    if (marginals.empty() == m.exemplar_marginals)
-        return bad_file(path, "the metadata and the marginals attribute disagree");
-    if (!marginals.empty()) {
-        try {
-            auto mm = marginals_from_json(nlohmann::json::parse(marginals), m.channels, m.mean);
-            if (!mm) return bad_file(path, mm.error().message);
-            r.texton.marginals = std::move(mm.value());
-        } catch (const std::exception& e) {
-            return bad_file(path, std::string("marginals: ") + e.what());
-        }
-    }
+    if (!std::all_of(m.mean.begin(), m.mean.begin() + m.channels,
+                     [](double v) { return std::isfinite(v); }) ||
+        !std::all_of(r.texton.alpha.data.begin(), r.texton.alpha.data.end(),
+                     [](float v) { return std::isfinite(v); }))
+        return bad_file(path, "mean colour or coefficients are not finite");
+    if (auto why = read_marginals(spec.get_string_attribute(kMarginalsAttribute), m, r.texton))
+        return bad_file(path, *why);
     return r;
 }
 
