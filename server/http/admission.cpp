@@ -132,42 +132,4 @@ std::optional<api::ApiError> read_body(const httplib::ContentReader& reader, std
     return api::ApiError{"bad_request", "could not read the request body"};
 }
 
-std::optional<api::ApiError> check_framing(const httplib::Request& req, std::size_t max_headers) {
-    auto bad = [](std::string m) { return api::ApiError{"bad_framing", std::move(m)}; };
-    if (req.headers.size() > max_headers)
-        return api::ApiError{"too_many_headers",
-                             "more than " + std::to_string(max_headers) + " header lines"};
-    const std::size_t lengths = req.get_header_value_count("Content-Length");
-    const std::size_t encodings = req.get_header_value_count("Transfer-Encoding");
-    if (lengths > 1) return bad("more than one Content-Length header");
-    if (lengths == 1) {
-        const std::string v = req.get_header_value("Content-Length");
-        if (v.empty() || v.size() > 18 ||
-            !std::all_of(v.begin(), v.end(), [](unsigned char c) { return std::isdigit(c); }))
-            return bad("Content-Length must be one decimal number");
-    }
-    // No route but POST reads a body, so a body on GET, HEAD, OPTIONS or DELETE would stay on
-    // the wire and be read as the next request (one client's hidden request answered to another
-    // behind a proxy that pools connections).
-    if (lengths == 1 && req.method != "POST" && req.get_header_value("Content-Length") != "0")
-        return bad("a " + api::printable(req.method, 16) + " request carries no body");
-    if (encodings > 1) return bad("more than one Transfer-Encoding header");
-    if (encodings == 1) {
-        std::string te = req.get_header_value("Transfer-Encoding");
-        std::transform(te.begin(), te.end(), te.begin(),
-                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-        if (te != "chunked")
-            return api::ApiError{"unsupported_transfer_encoding",
-                                 "only Transfer-Encoding: chunked is supported"};
-        if (lengths == 1) return bad("both Content-Length and Transfer-Encoding");
-        if (req.method != "POST") return bad("a chunked body is only accepted on POST routes");
-    }
-    // cpp-httplib reads such a body until the client closes its side: ask for a length instead.
-    if (lengths == 0 && encodings == 0 &&
-        (req.method == "POST" || req.method == "PUT" || req.method == "PATCH"))
-        return api::ApiError{"length_required",
-                             "a POST needs Content-Length (0 for no body) or a chunked body"};
-    return std::nullopt;
-}
-
 } // namespace textond::http

@@ -133,10 +133,4 @@ private:
 std::optional<api::ApiError> read_body(const httplib::ContentReader& reader, std::size_t limit,
                                        Body& body);
 
-// The header checks cpp-httplib 0.11 does not make, run before any body byte is read: one
-// decimal Content-Length (no sign, list, hex or duplicate: such a request smuggles a second one
-// past a proxy that reads the other value), not both Content-Length and Transfer-Encoding, and
-// only "chunked" as a transfer encoding, on POST alone; at most `max_headers` header lines.
-std::optional<api::ApiError> check_framing(const httplib::Request& req, std::size_t max_headers);
-
 } // namespace textond::http

@@ -342,7 +342,7 @@ void HttpServer::answer_failure(ConnectionStream& strm) {
 bool HttpServer::process_and_close_socket(socket_t sock) {
     ConnectionStream strm(sock, limits);
     ConnectionScope scope(&strm);
-    const auto stopping = [this] { return svr_sock_ == INVALID_SOCKET; };
+    const auto stopping = [this] { return !m_standalone && svr_sock_ == INVALID_SOCKET; };
     bool ok = false;
     for (int left = limits.keep_alive_max; left > 0; --left) {
         if (!strm.next_request(limits.keep_alive_timeout, stopping)) break;

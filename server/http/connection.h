@@ -173,8 +173,14 @@ public:
     // The access log and metrics of a request answered by the connection loop itself (408, 413,
     // 431, a broken chunked body): status, bytes sent, request id.
     std::function<void(int, std::size_t, const std::string&)> on_connection_error;
+    // Serves one connection on the calling thread without listening (the framing fuzzer).
+    bool serve_connection(socket_t sock) {
+        m_standalone = true;
+        return process_and_close_socket(sock);
+    }
 
 private:
+    bool m_standalone = false; // not listening: no stop to wait for
     bool process_and_close_socket(socket_t sock) override;
     // The answer of a request a limit cut short (431, 408, 413, a broken chunk), if one was.
     void answer_failure(ConnectionStream& strm);

@@ -5,6 +5,7 @@
 #include "core/texton_analysis.h"
 #include "render/backend_factory.h"
 #include "render/noise_request.h"
+#include "server/http/framing.h"
 #include "server/http/http_support.h"
 #include "server/io/image_io.h"
 
@@ -236,11 +237,7 @@ httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
                                                    httplib::Response& res) {
     if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
     api::ApiError e{"http_error", "HTTP error " + std::to_string(res.status)};
-    // An error the library raised before our pre-routing saw the request (a head it could not
-    // parse, a URI over its limit, a Range it could not read): nobody checked its framing or
-    // read its body, so nothing after it on the connection is read as a request.
-    if (!current_request().active || res.status == 400)
-        if (ConnectionStream* conn = current_connection()) conn->close_after_response();
+    close_after_library_error(res.status);
     if (res.status == 400) e = {"bad_request", "malformed HTTP request"};
     if (res.status == 404) e = {"not_found", "no such endpoint"};
     if (res.status == 413) e = {"payload_too_large", "request body is over the upload limit"};
@@ -270,34 +267,14 @@ void answer_exception(const httplib::Request& req, httplib::Response& res,
 httplib::Server::HandlerResponse Service::pre_route(const httplib::Request& req,
                                                     httplib::Response& res) {
     begin_request(req);
-    ConnectionStream* conn = current_connection();
-    if (conn) conn->begin_body();
-    if (auto e = check_framing(req, static_cast<std::size_t>(m_config.max_headers))) {
+    if (auto e = frame_request(req, static_cast<std::size_t>(m_config.max_headers),
+                               m_config.max_upload_bytes)) {
         set_route("framing");
-        if (conn) conn->close_after_response(); // its body, if any, is still on the wire
         send_error(res, *e);
-        return httplib::Server::HandlerResponse::Handled;
-    }
-    // Over the limit by its own account: answered before a byte of it is read (cpp-httplib
-    // would read and discard it all first), and the connection closed after the answer.
-    if (req.has_header("Content-Length") &&
-        std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) >
-            m_config.max_upload_bytes) {
-        set_route("framing");
-        if (conn) conn->close_after_response();
-        send_error(res,
-                   {"payload_too_large", "request body is over the upload limit of " +
-                                             std::to_string(m_config.max_upload_bytes) + " bytes"});
         return httplib::Server::HandlerResponse::Handled;
     }
     // Ranges past the limit are ignored, as nginx does past max_ranges: the whole answer, once.
     if (!ranges_allowed(req.ranges)) current_request().request->ranges.clear();
-    if (conn)
-        conn->expect_body(
-            req.has_header("Content-Length")
-                ? std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10)
-                : 0,
-            req.has_header("Transfer-Encoding"));
     if (req.method == "OPTIONS") { // CORS preflight
         set_route("OPTIONS *");
         res.status = 204;
@@ -325,14 +302,7 @@ void Service::install_hooks() {
         res.set_header("X-Request-Id", ctx.id);
         apply_cors(m_cors_any, m_cors_origins, req, res);
         apply_security_headers(res);
-        // The connection closes after this answer: say so, so that a pooling proxy does not
-        // send its next request down a socket about to close.
-        if (const ConnectionStream* conn = current_connection();
-            conn && (conn->must_close() || !conn->body_complete())) {
-            res.headers.erase("Keep-Alive");
-            res.headers.erase("Connection");
-            res.set_header("Connection", "close");
-        }
+        announce_close(res);
     });
     // Errors raised before or outside a route (404, 413 from the body limit, 414...) get the
     // same JSON body as ours; bodies a route already wrote are left alone.

@@ -1,11 +1,13 @@
 // libFuzzer target past decoding (issue 21): the request parsers of api/ on arbitrary paths and
 // queries, and what they accept fed onward. A mix field is evaluated (rho and its level, which
 // once indexed past the levels with a NaN); surface parameters go through the input check. Any
-// error message must survive api::printable into strict JSON.
+// error message must survive api::printable into strict JSON. Selector 6 is the framing
+// property: a stream of requests through the service's connection loop (framing_property.cpp).
 #include "api/requests.h"
 #include "api/safe_text.h"
 #include "core/texture_mix.h"
 #include "server/http/errors.h"
+#include "tests/fuzz/framing_property.h"
 #include "tests/fuzz/fuzz_query.h"
 
 #include <nlohmann/json.hpp>
@@ -38,7 +40,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::string_view in(reinterpret_cast<const char*>(data), size);
     // Layout: selector byte, then "path pieces|query" with '/' between pieces.
     if (in.empty()) return 0;
-    const unsigned selector = static_cast<unsigned char>(in[0]) % 6;
+    const unsigned selector = static_cast<unsigned char>(in[0]) % 7;
+    if (selector == 6) {
+        test::check_framing_property(data + 1, size - 1);
+        return 0;
+    }
     const std::string_view rest = in.substr(1);
     const std::size_t bar = rest.find('|');
     const std::string_view path = rest.substr(0, bar);

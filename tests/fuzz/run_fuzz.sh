@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the fuzz preset (clang, libFuzzer, address + UB sanitizers), makes the seed corpus and
 # runs decode_analyze_fuzzer, then request_fuzzer (api/ parsers, mix fields, surface
-# parameters), then render_fuzzer (what the parsers accept, rendered: a tiny mix, surface
+# parameters, and the framing property of the connection loop), then render_fuzzer (what the parsers accept, rendered: a tiny mix, surface
 # points, a mesh preview), each for SECONDS (default 60, the CI smoke). Prints executions and
 # coverage; a crash leaves its input in build/fuzz/crashes/ and fails the script. Make every
 # crash a regression test in tests/fuzz/regressions/ (replayed by this script first).
@@ -56,6 +56,9 @@ printf '\003|u=%064d&v=%064d&dx=1e308&dy=1e308&levels=2' 0 0 >"$rcorpus/mix"
 printf '\0022/exr|x=-500&y=200&w=1920&h=1080&z=1' >"$rcorpus/region"
 printf '\004mesh|width=512&height=512&eye=0,0,3&target=0,0,0&fov=35' >"$rcorpus/mesh"
 printf '\005|size=64&order=3&iterations=50&periodic=true' >"$rcorpus/analysis"
+# Framing streams (selector 6): the fuzzer grows them from a few bytes of choices.
+printf '\006\003\001\004\002\000\001\007\001\003\005\002\001' >"$rcorpus/framing"
+printf '\006\007\000\001\005\001\003\002\004\001\006\000\002\001\001\004' >"$rcorpus/framing2"
 # Runs build/fuzz/NAME over CORPUS for the set time; prints its executions and coverage, fails on
 # a finding (its input is in build/fuzz/crashes/).
 run_target() {
