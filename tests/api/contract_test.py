@@ -24,28 +24,16 @@ import subprocess
 import sys
 import tempfile
 import uuid
-import zlib
 
 import jsonschema
 import yaml
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from png_bytes import pattern_png  # noqa: E402
+
 MAPS = ["albedo", "height", "roughness", "ao", "metallic"]
 # Numbers whose maximum is a cost, not a value to try (16384 x 16384 regions).
 COSTLY = {"w", "h", "width", "height", "limit"}
-
-
-def png_grey(width, height, seed):
-    """A small 8-bit grey PNG of a smooth pattern (no image library: zlib and struct)."""
-    rows = b""
-    for y in range(height):
-        rows += b"\0" + bytes(((x * 7 + y * 13 + seed * 31 + (x * y) % 17) * 5) % 256
-                              for x in range(width))
-
-    def chunk(kind, data):
-        return (struct.pack(">I", len(data)) + kind + data +
-                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
 
 
 def multipart(parts):
@@ -238,7 +226,7 @@ def run(c, spec, exemplar_dir):
     c.exchange("/v1/textons", "post", "/v1/textons", body, headers)
     images = {"albedo": pebbles}
     for i, name in enumerate(MAPS[1:]):
-        images[name] = png_grey(256, 256, i)
+        images[name] = pattern_png(256, 256, i)
     full_set = None
     for n in range(1, len(MAPS) + 1):
         for subset in itertools.combinations(MAPS, n):
@@ -265,16 +253,16 @@ def run(c, spec, exemplar_dir):
     st, _, b = c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3")
     mix = json.loads(b)["id"] if st in (200, 201) else None
     c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3",
-               png_grey(32, 32, 9), {"Content-Type": "image/png"})
+               pattern_png(32, 32, 9), {"Content-Type": "image/png"})
     c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3&scale=2",
-               png_grey(32, 32, 9), {"Content-Type": "application/octet-stream"})
+               pattern_png(32, 32, 9), {"Content-Type": "application/octet-stream"})
 
     bodies = {
         "application/json": json.dumps({"points": [[0, 0, 0], [10.5, -3, 2]],
                                         "normals": [[0, 0, 1], [0, 1, 0]]}).encode(),
         "application/octet-stream": struct.pack("<12f", 0, 0, 0, 0, 0, 1, 10.5, -3, 2, 0, 1, 0),
         "model/obj": b"v -1 -1 0\nv 1 -1 0\nv 0 1 0.5\nvn 0 0 1\nf 1//1 2//1 3//1\n",
-        "image/png": png_grey(32, 32, 3),
+        "image/png": pattern_png(32, 32, 3),
         "image/*": sand,
         "multipart/form-data": None,  # above
     }

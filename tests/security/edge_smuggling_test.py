@@ -124,6 +124,48 @@ def client(port, tid, k, results):
     conn.close()
 
 
+SECURITY_HEADERS = ("X-Content-Type-Options", "Referrer-Policy", "X-Frame-Options",
+                    "Content-Security-Policy")
+
+
+def headers_of(port, method, path, extra=b""):
+    """Status and header lines (name lower-cased, repeats kept) of one raw request."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=30)
+    s.sendall(f"{method} {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n".encode() + extra +
+              b"\r\n")
+    got = b""
+    while b"\r\n\r\n" not in got:
+        c = s.recv(65536)
+        if not c:
+            break
+        got += c
+    s.close()
+    lines = got.split(b"\r\n\r\n", 1)[0].decode("latin-1").split("\r\n")
+    status = int(lines[0].split()[1]) if len(lines[0].split()) > 1 else None
+    return status, [(k.strip().lower(), v.strip()) for k, v in
+                    (l.split(":", 1) for l in lines[1:] if ":" in l)]
+
+
+def check_security_headers(edge_port, app_port, tid):
+    """Each answer through the edge, nginx's own errors included, carries textond's security
+    headers once, with textond's values."""
+    _, direct = headers_of(app_port, "GET", "/")
+    want = {k.lower(): v for k, v in direct if k in [h.lower() for h in SECURITY_HEADERS]}
+    check(len(want) == len(SECURITY_HEADERS), f"textond sends its security headers ({want})")
+    cases = [("GET", "/", b""), ("GET", f"/v1/textons/{tid}/tiles/0/0/0.png", b""),
+             ("GET", f"/v1/textons/{tid}/tiles/0/0/0.png", b""),  # a cache hit
+             ("GET", f"/v1/textons/{'0' * 64}", b""), ("GET", "/nginx-healthz", b""),
+             # nginx's own 400, before any location
+             ("POST", "/v1/textons", b"Content-Length: 1\r\nContent-Length: 2\r\n")]
+    for method, path, extra in cases:
+        status, hs = headers_of(edge_port, method, path, extra)
+        for name in SECURITY_HEADERS:
+            values = [v for k, v in hs if k == name.lower()]
+            check(values == [want.get(name.lower())],
+                  f"{method} {path} ({status}) through the edge: {name} once, as textond sends it "
+                  f"(got {values})")
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="textond-edge-")
     os.chmod(tmp, 0o755)  # nginx's workers drop root and write their cache below it
@@ -148,6 +190,8 @@ def main():
         r = c.getresponse()
         tid = json.loads(r.read())["id"]
         c.close()
+
+        check_security_headers(edge_port, app_port, tid)
 
         # In turn: an attack, then at once an ordinary request. nginx hands the upstream
         # connection it just freed (the attack's) to the next request, while textond would still

@@ -19,6 +19,9 @@ import threading
 import time
 import unittest
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from png_bytes import pattern_png, ramp_png  # noqa: E402
+
 BINARY = sys.argv[1] if len(sys.argv) > 1 else "build/release/textond"
 EXEMPLARS = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/exemplars"
 MIB = 1 << 20
@@ -497,20 +500,8 @@ class HostileClients(unittest.TestCase):
 
     # Round 2, item 5: an analysis's cost is estimated before it is queued, and a queued one
     # whose client left is dropped.
-    @staticmethod
-    def grey_png(width, height, period=64):
-        import zlib
-        row = b"\0" + bytes((x * 255 // period) % 256 for x in range(period)) * (width // period)
-
-        def chunk(kind, data):
-            return (struct.pack(">I", len(data)) + kind + data +
-                    struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-        return (b"\x89PNG\r\n\x1a\n" +
-                chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)) +
-                chunk(b"IDAT", zlib.compress(row * height, 9)) + chunk(b"IEND", b""))
-
     def test_analyses_over_the_cpu_budget_are_refused_before_they_run(self):
-        big = self.grey_png(4096, 4096)  # small on the wire, 16.7 MP once decoded
+        big = ramp_png(4096, 4096)  # small on the wire, 16.7 MP once decoded
         self.assertLess(len(big), UPLOAD_MB * MIB)
         with PeakRss(self.s.proc.pid) as m:
             t0 = time.monotonic()
@@ -526,14 +517,14 @@ class HostileClients(unittest.TestCase):
         s = Server(data, ["--analysis-workers", "1", "--analysis-queue", "4",
                           "--max-request-cpu-s", "60"])
         try:
-            slow = self.grey_png(1024, 1024, 32)
+            slow = ramp_png(1024, 1024, 32)
             done = []
             t = threading.Thread(target=lambda: done.append(s.request(
                 "POST", "/v1/textons?iterations=400&size=64", slow, {"Content-Type": "image/png"},
                 timeout=120)[0]))
             t.start()
             time.sleep(0.5)  # the slow one runs; the next one queues
-            queued = self.grey_png(1024, 1024, 16)
+            queued = ramp_png(1024, 1024, 16)
             sock = socket.create_connection(("127.0.0.1", s.port))
             sock.sendall(b"POST /v1/textons?iterations=400&size=64 HTTP/1.1\r\nHost: x\r\n"
                          b"Content-Type: image/png\r\nContent-Length: %d\r\n\r\n" % len(queued)
@@ -720,6 +711,64 @@ class HostileClients(unittest.TestCase):
         largest = 50000 * 600 + 4 * len(body)  # the parsed DOM, the body and the answer
         self.assertLess(m.peak - m.base, self.bound(largest))
         print(f"  surface: peak +{(m.peak - m.base) / MIB:.0f} MiB", file=sys.stderr)
+
+    # Round 2: every route class the README's bound names, each measured against it with more
+    # concurrent requests than slots. `largest` is the README's single-request term for the class.
+    def route_classes(self):
+        u, v = self.ids
+        obj = b"v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n"
+        pts = json.dumps({"points": [[i * 0.5, i * 0.25, 0] for i in range(20000)],
+                          "normals": [[0, 0, 1]] * 20000}).encode()
+        st, _, body = self.post(f"/v1/mixes?u={u}&v={v}&levels=4", b"", timeout=120)
+        self.assertIn(st, (200, 201), body)
+        mix = json.loads(body)["id"]
+        px = 12 * 2.5  # bytes a pixel of a float render, its encoding and scratch
+        json_ = {"Content-Type": "application/json"}
+        uploads = [pattern_png(1024, 1024, 100 + i) for i in range(4)]
+        return [
+            ("tiles", 32, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/tiles/3/{i}/{-i}.png?seed={i}"), 256 * 256 * px),
+            ("regions", 6, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/region.png?w=2048&h=1024&seed={i}"), 2048 * 1024 * px),
+            ("tileable", 4, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/tileable.png?w=1024&h=1024&seed={i}"), 1024 * 1024 * px),
+            ("spectra", 6, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/spectrum.png?seed={i}"), 2 * 512 * 512 * px),
+            ("kits", 6, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/kit.tar?mni={20 + i}"), 4 * MIB),
+            ("quality", 6, lambda i: self.s.request(
+                "GET", f"/v1/textons/{u}/quality.{'json' if i % 2 else 'png'}?seed={i}"),
+             3 * 256 * 256 * px),
+            ("surface", 6, lambda i: self.s.request(
+                "POST", f"/v1/textons/{u}/surface?seed={i}", pts, json_), 20000 * 600),
+            ("mesh", 6, lambda i: self.s.request(
+                "POST", f"/v1/textons/{u}/mesh.png?width=768&height=768&mni=10&seed={i}", obj,
+                {"Content-Type": "model/obj"}), 768 * 768 * px),
+            ("mixes", 6, lambda i: self.s.request(
+                "GET", f"/v1/mixes/{mix}/region.png?w=1024&h=1024&seed={i}"), 1024 * 1024 * px),
+            ("json bodies", 6, lambda i: self.s.request(
+                "POST", "/v1/sign", json.dumps({"urls": [f"/v1/textons/{u}/tiles/0/{k}/{i}.png"
+                                                         for k in range(100)]}).encode(), json_), MIB),
+            # Uploads and their analyses: one worker, no queue (more are refused with 429); the
+            # upload's body and decode, and 40 bytes a channel-pixel.
+            ("uploads", 4, lambda i: self.s.request(
+                "POST", "/v1/textons?size=32&iterations=20", uploads[i], {"Content-Type": "image/png"},
+                timeout=120), 2 * UPLOAD_MB * MIB + 40 * 1024 * 1024),
+        ]
+
+    def test_every_route_class_stays_within_the_bound(self):
+        for name, n, fn, largest in self.route_classes():
+            with PeakRss(self.s.proc.pid) as m:
+                answers = self.concurrent(n, fn)
+            sts = [a[0] for a in answers]
+            self.assertTrue(all(st in (200, 201, 429) for st in sts),
+                            f"{name}: {sts} {[a[2][:120] for a in answers if a[0] >= 300]}")
+            self.assertIn(200 if name != "uploads" else 201, sts, name)
+            grew = m.peak - m.base
+            row = (f"  {name:12} x{n:<3} peak +{grew / MIB:6.1f} MiB, bound "
+                   f"{self.bound(largest) / MIB:5.0f} MiB, {sts.count(429)} x 429")
+            print(row, file=sys.stderr)
+            self.assertLess(grew, self.bound(largest), row)
 
     def test_mesh_over_the_work_budget_is_refused_before_it_runs(self):
         u = self.ids[0]

@@ -1,0 +1,26 @@
+"""8-bit grey PNGs for the Python tests, built with zlib and struct (no image library here)."""
+import struct
+import zlib
+
+
+def grey_png(width, height, row_of):
+    """A PNG whose row y holds the `width` bytes row_of(y)."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    rows = b"".join(b"\0" + row_of(y) for y in range(height))
+    return (b"\x89PNG\r\n\x1a\n" +
+            chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b""))
+
+
+def pattern_png(width, height, seed):
+    """A smooth pattern that differs with `seed`: distinct uploads, distinct textons."""
+    return grey_png(width, height, lambda y: bytes(
+        ((x * 7 + y * 13 + seed * 31 + (x * y) % 17) * 5) % 256 for x in range(width)))
+
+
+def ramp_png(width, height, period=64):
+    """One repeated ramp: small on the wire whatever size it declares."""
+    row = bytes((x * 255 // period) % 256 for x in range(period)) * (width // period)
+    return grey_png(width, height, lambda y: row)
