@@ -15,6 +15,10 @@ namespace textond::api {
 inline constexpr std::size_t kMaxSignUrls = 100;
 inline constexpr std::size_t kMaxSignUrlBytes = 4096;
 inline constexpr std::int64_t kMaxSignSeconds = 365LL * 86400;
+// The largest body such a request needs (every URL at its longest, twice over for escapes): a
+// larger one is refused before it is read, so one token of a 32 MB body (which the JSON lexer
+// holds several times over) costs nothing.
+inline constexpr std::size_t kMaxSignBodyBytes = kMaxSignUrls * kMaxSignUrlBytes * 2 + 4096;
 
 struct SignRequest {
     std::vector<std::string> urls;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <thread>
@@ -125,6 +126,10 @@ ssize_t ConnectionStream::read(char* ptr, size_t size) {
         m_failure = Failure::bad_chunk;
         return -1;
     }
+    if (m_phase == Phase::head && !check_head(m_buf.data() + m_off, n)) {
+        m_failure = Failure::bad_head;
+        return -1;
+    }
     std::memcpy(ptr, m_buf.data() + m_off, n);
     m_off += n;
     m_phase_bytes += n;
@@ -217,6 +222,59 @@ bool ConnectionStream::chunk_tail_byte(char c) {
     }
 }
 
+bool ConnectionStream::head_byte(char c) {
+    const auto token = [](char t) {
+        return std::isalnum(static_cast<unsigned char>(t)) ||
+               std::strchr("!#$%&'*+-.^_`|~", t) != nullptr;
+    };
+    if (c == '\0') return false;
+    switch (m_head) {
+    case Head::request:
+    case Head::value:
+        if (c == '\r') {
+            m_after_cr = Head::line_start;
+            m_head = Head::cr;
+        } else if (c == '\n') {
+            m_head = Head::line_start;
+        } else if (c == '%' && m_framing_header) {
+            return false;
+        }
+        return true;
+    case Head::cr:
+    case Head::end_cr:
+        if (c != '\n') return false; // a bare CR
+        m_head = m_head == Head::end_cr ? Head::done : m_after_cr;
+        return true;
+    case Head::line_start:
+        if (c == '\r' || c == '\n') {
+            m_head = c == '\r' ? Head::end_cr : Head::done;
+            return true;
+        }
+        if (!token(c)) return false; // a folded line, or a name that is no token
+        m_name.assign(1, static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+        m_head = Head::name;
+        return true;
+    case Head::name:
+        if (c == ':') {
+            m_framing_header = m_name == "content-length" || m_name == "transfer-encoding";
+            m_head = Head::value;
+            return true;
+        }
+        if (!token(c)) return false; // whitespace before the colon, or no colon at all
+        if (m_name.size() < 20)
+            m_name += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        return true;
+    default: // done: the library reads no further head bytes
+        return true;
+    }
+}
+
+bool ConnectionStream::check_head(const char* p, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i)
+        if (!head_byte(p[i])) return false;
+    return true;
+}
+
 bool ConnectionStream::check_chunked(const char* p, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) {
         if (m_chunk == Chunk::data) {
@@ -252,6 +310,8 @@ bool ConnectionStream::next_request(milliseconds timeout, const std::function<bo
     m_chunk = Chunk::size;
     m_chunk_left = 0;
     m_size_digits = 0;
+    m_head = Head::request;
+    m_framing_header = false;
     if (m_off == m_len) {
         // In short waits, so that a stopping server does not wait out every idle connection.
         const auto end = Clock::now() + timeout;
@@ -331,6 +391,11 @@ void HttpServer::answer_failure(ConnectionStream& strm) {
         break;
     case ConnectionStream::Failure::body_timeout:
         canned("body_timeout", "request body did not arrive in time");
+        break;
+    case ConnectionStream::Failure::bad_head:
+        canned("bad_request", "malformed request head (each header line is NAME: VALUE, with no "
+                              "folding, bare CR or NUL, and no % in Content-Length or "
+                              "Transfer-Encoding)");
         break;
     case ConnectionStream::Failure::bad_chunk:
         canned("bad_framing", "malformed chunked body (each chunk's data must end in CRLF; "

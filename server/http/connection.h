@@ -45,7 +45,8 @@ public:
         head_timeout,
         body_too_large,
         body_timeout,
-        bad_chunk
+        bad_chunk,
+        bad_head
     };
 
     ConnectionStream(int sock, const ConnectionLimits& limits);
@@ -107,6 +108,18 @@ private:
         done
     };
     bool check_chunked(const char* p, std::size_t n);
+    // The head's lines, checked byte by byte as the library reads them (RFC 9112 section 5): the
+    // library drops a line without a colon, keeps `Content-Length : 5` under another name,
+    // unfolds nothing and URL-decodes values, so each could hide a body from the framing checks
+    // while a proxy reads it: a header line is a token, a colon and a value without NUL or bare
+    // CR; no folded lines; no `%` in Content-Length or Transfer-Encoding.
+    enum class Head { request, line_start, name, value, cr, end_cr, done };
+    bool check_head(const char* p, std::size_t n);
+    bool head_byte(char c);
+    Head m_head = Head::request;
+    Head m_after_cr = Head::line_start;
+    std::string m_name; // the header's name, lower case, while it is read (first 20 bytes)
+    bool m_framing_header = false;
     bool chunk_line_byte(char c); // a size line
     bool chunk_tail_byte(char c); // after a chunk's data, the trailers and the end
     std::uint64_t m_expected = 0; // body bytes announced by Content-Length

@@ -112,8 +112,9 @@ std::shared_ptr<BudgetLease> Gate::lease_transfer(httplib::Response& res, std::s
 }
 
 bool Gate::read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
-                             Body& body) {
-    if (auto e = read_body(reader, m_config.max_upload_bytes, body)) {
+                             Body& body, std::size_t limit) {
+    if (limit == 0 || limit > m_config.max_upload_bytes) limit = m_config.max_upload_bytes;
+    if (auto e = read_body(reader, limit, body)) {
         if (e->code == "overloaded") res.set_header("Retry-After", "1");
         send_error(res, *e);
         return false;

@@ -46,9 +46,10 @@ public:
                          const std::string& code = {});
     // `bytes` of the body budget for a large response, waiting like admit() (429 sent).
     std::shared_ptr<BudgetLease> lease_transfer(httplib::Response& res, std::size_t bytes);
-    // The body of a POST route, read with the upload limit (sends the error on failure).
-    bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res,
-                           Body& body);
+    // The body of a POST route, read with the upload limit or a smaller `limit` of the route's
+    // own (sends the error on failure).
+    bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res, Body& body,
+                           std::size_t limit = 0);
 
     // 429 with a Retry-After from the analysis pool's queue (uploads and mixes).
     void pool_full(httplib::Response& res, const AnalysisPool& pool);

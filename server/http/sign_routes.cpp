@@ -20,7 +20,7 @@ void SignRoutes::sign(const httplib::Request& req, httplib::Response& res,
                                 "was started without one: sign with `textond sign` instead"});
     if (!authorised(m_config.api_key, req, res)) return;
     Body body(m_gate.bodies());
-    if (!m_gate.read_request_body(reader, res, body)) return;
+    if (!m_gate.read_request_body(reader, res, body, api::kMaxSignBodyBytes)) return;
     api::SignRequest r;
     if (auto e = api::parse_sign(body.bytes, r)) return send_error(res, *e);
     if (key.empty()) return send_json(res, 200, {{"urls", r.urls}, {"signed", false}});

@@ -106,12 +106,17 @@ void add_request(FuzzedDataProvider& in, int index, Composed& s) {
         framed = broken_chunked(in, body);
         break;
     case 4: { // a Content-Length that is not one decimal number
-        static const char* const kForms[] = {"+%zu", " %zu, %zu", "0x%zx",
-                                             "%zu\r\nContent-Length: %zu"};
+        // Each after "Content-Length": the library once ignored the last five (a name with a
+        // space, no colon, a folded value, a bare CR, a URL-encoded value).
+        static const char* const kForms[] = {
+            ": +%zu",  ": %zu, %zu", ": 0x%zx",     ": %zu\r\nContent-Length: %zu",
+            " : %zu",  " %zu",       ": 0\r\n %zu", "-X: 1\rContent-Length: %zu",
+            ": %%3%zu"};
         char v[96];
-        std::snprintf(v, sizeof v, kForms[in.ConsumeIntegralInRange(0, 3)], body.size(),
+        const int form = in.ConsumeIntegralInRange(0, 8);
+        std::snprintf(v, sizeof v, kForms[form], form == 8 ? body.size() % 10 : body.size(),
                       body.size());
-        head += std::string("Content-Length: ") + v + "\r\n";
+        head += std::string("Content-Length") + v + "\r\n";
         valid = false;
         framed = body;
         break;

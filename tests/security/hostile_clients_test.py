@@ -329,6 +329,30 @@ class HostileClients(unittest.TestCase):
         self.assertEqual(self.answers(self.s.raw(zero + b"GET /healthz HTTP/1.1\r\nHost: x\r\n"
                                                  b"Connection: close\r\n\r\n")), 2)
 
+    # Review of round 2: header lines the library ignored or decoded hid a body from the framing
+    # checks (a hidden request answered straight from textond, without the edge).
+    def test_malformed_header_lines_are_refused(self):
+        n = len(self.HIDDEN)
+        for lines in (b"Content-Length : %d\r\n" % n, b"Content-Length %d\r\n" % n,
+                      b"Content-Length: 0\r\n %d\r\n" % n, b"X-A: 1\rContent-Length: %d\r\n" % n,
+                      b"Content-Length: %%3%d\r\n" % (n % 10), b"X-A: \0\r\n"):
+            answer = self.s.raw(b"GET /healthz HTTP/1.1\r\nHost: x\r\n" + lines + b"\r\n" +
+                                self.HIDDEN)
+            self.assertEqual((self.answers(answer), status_of(answer)), (1, 400), (lines, answer))
+            self.assertNotIn(b"openapi:", answer, lines)
+        # TE.CL: a Transfer-Encoding only a proxy would read, and a length.
+        chunked = b"%x\r\n" % n + self.HIDDEN + b"\r\n0\r\n\r\n"
+        for te in (b"Transfer-Encoding : chunked", b"Transfer-Encoding: %63hunked"):
+            answer = self.s.raw(b"POST /v1/sign HTTP/1.1\r\nHost: x\r\nContent-Type: "
+                                b"application/json\r\n" + te + b"\r\nContent-Length: 4\r\n\r\n" +
+                                chunked)
+            self.assertEqual((self.answers(answer), status_of(answer)), (1, 400), (te, answer))
+        # Bodies of /v1/sign are held to what 100 URLs need: one long token used to cost its size
+        # several times over in the JSON lexer, outside any slot.
+        body = b'{"expires_in": ' + b"1" * (2 * MIB) + b"}"
+        st, _, data = self.post("/v1/sign", body, {"Content-Type": "application/json"})
+        self.assertEqual((st, error_code(data)), (413, "payload_too_large"))
+
     def test_framing_property_n_requests_give_at_most_n_answers(self):
         # Seeded random streams of complete requests, some framed to hide a request in a body:
         # never more answers than requests sent; all answered when every one is well framed.
