@@ -66,7 +66,10 @@ Result<SetAnalysis> analyze_material_set(const Image& stacked, const std::vector
     if (auto err = validate_analysis(params, stacked.width, stacked.height, 1)) return *err;
     const auto t_start = std::chrono::steady_clock::now();
     const int threads = resolve_threads(params.threads);
-    const Image p = params.periodic ? periodic_component(stacked, threads) : stacked;
+    // SOT paper section 3.1, on the working window of large maps.
+    const Image crop = working_window(stacked, params.working_side);
+    const Image& window = crop.empty() ? stacked : crop;
+    const Image p = params.periodic ? periodic_component(window, threads) : window;
     const GaussianModel model = estimate_gaussian_model(p, threads);
     SetAnalysis out;
     out.result = texton_from_model(model, params, progress);
@@ -77,7 +80,7 @@ Result<SetAnalysis> analyze_material_set(const Image& stacked, const std::vector
                                                    params.order, 0, 0, threads));
     const TextonMap& first = maps.front();
     out.result.coherence =
-        phase_coherence(channel_planes(stacked, first.first, first.channels), threads);
+        phase_coherence(channel_planes(window, first.first, first.channels), threads);
     out.result.texton.maps = maps;
     out.result.timings.total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start)

@@ -139,7 +139,11 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     AnalysisResult out;
 
     auto t0 = std::chrono::steady_clock::now();
-    const Image p = params.periodic ? periodic_component(exemplar, threads) : exemplar;
+    // SOT paper section 3.1, on the working window of a large exemplar: every step below, the
+    // verdict and the marginals too, looks at the window alone.
+    const Image crop = working_window(exemplar, params.working_side);
+    const Image& window = crop.empty() ? exemplar : crop;
+    const Image p = params.periodic ? periodic_component(window, threads) : window;
     out.timings.periodic_ms = ms_since(t0);
 
     t0 = std::chrono::steady_clock::now();
@@ -149,10 +153,10 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     r.timings.periodic_ms = out.timings.periodic_ms;
     r.timings.model_ms = out.timings.model_ms;
     t0 = std::chrono::steady_clock::now();
-    r.coherence = phase_coherence(exemplar, threads);
+    r.coherence = phase_coherence(window, threads);
     r.timings.coherence_ms = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
-    r.texton.marginals = marginal_model(exemplar);
+    r.texton.marginals = marginal_model(window);
     r.timings.marginals_ms = ms_since(t0);
     r.timings.total_ms = ms_since(t_start);
     return r;

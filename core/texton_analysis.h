@@ -7,6 +7,7 @@
 #include "core/phase_coherence.h"
 #include "core/result.h"
 #include "core/texton.h"
+#include "core/working_window.h"
 
 #include <cstdint>
 #include <functional>
@@ -24,6 +25,9 @@ struct AnalysisParams {
     std::uint64_t seed = 0;
     bool periodic = true; // replace the exemplar by its periodic component first
     int threads = 0;      // 0 = all cores; results are bit-identical for any value
+    // Past this many pixels a side the centred window stands for the exemplar in the model,
+    // the projections and the RME (core/working_window.h); 0: the whole exemplar (benchmarks).
+    int working_side = kWorkingSide;
 };
 
 struct AnalysisTimings {

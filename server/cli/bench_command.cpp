@@ -4,6 +4,7 @@
 #include "core/rme.h"
 #include "core/texton_analysis.h"
 #include "server/cli/analysis_options.h"
+#include "server/cli/bench_analyze.h"
 #include "server/cli/commands.h"
 #include "server/io/image_io.h"
 
@@ -16,16 +17,20 @@
 namespace textond::cli {
 
 namespace {
-const char* kHelp = R"(usage: textond bench analyze [--exemplars DIR] [--repeat N] [--threads N]
+const char* kHelp =
+    R"(usage: textond bench analyze [--exemplars DIR] [--repeat N] [--threads N] [--compare]
        textond bench render --help   (texton noise per backend against FFTW ADSN)
        textond bench tile --help     (one cold PNG tile on one thread: render, encode)
 
-Times the texton analysis (r = 64, order 1, 50 iterations) on exemplars of growing size and prints
-a table; then the RME of the analysed texton against the cropped canonical texton for every
-exemplar in DIR. Sizes above an exemplar's own are made by tiling it (timing only).
+Times the texton analysis (r = 64, order 1, 50 iterations) on a 4096 x 4096 window of texton
+noise cropped to 512² ... 4096² (time, ratio to 1024², peak memory, RME: past 1024 pixels a side
+the analysis works on the centred 1024 x 1024 window), and on small exemplars by threads; then the
+RME of the analysed texton against the cropped canonical texton for every exemplar in DIR.
   --exemplars DIR   texture photos                              [../shared/data/exemplars]
   --repeat N        runs per row; the table shows the median     [3]
   --threads N       threads for the multi-threaded column        [0 = all cores]
+  --compare         beside each large size, the whole exemplar's analysis; then every photo of
+                    DIR upscaled and tiled to 4096², windowed against whole (about 10 minutes)
 )";
 
 core::Image tile(const core::Image& src, int w, int h) {
@@ -104,17 +109,21 @@ Result<bool> rme_row(const std::filesystem::path& f, const core::Image& u, int n
     return true;
 }
 
+std::vector<std::filesystem::path> exemplar_files(const std::filesystem::path& dir) {
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        if (e.path().extension() == ".png") files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    return files;
+}
+
 int rme_table(const std::filesystem::path& dir, int nthreads) {
     std::printf("\nRME of the analysed texton (SOT) and of the cropped canonical texton, r = 64, "
                 "order 1, 50 iterations, seeds 0-3\n");
     std::printf("| exemplar | SOT RME (corrected) | SOT RME (uncorrected) | canonical crop RME | "
                 "canonical crop RME (corrected) |\n");
     std::printf("|---|---|---|---|---|\n");
-    std::vector<std::filesystem::path> files;
-    for (const auto& e : std::filesystem::directory_iterator(dir))
-        if (e.path().extension() == ".png") files.push_back(e.path());
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files) {
+    for (const auto& f : exemplar_files(dir)) {
         auto u = io::decode_image_file(f.string());
         if (!u) continue;
         if (auto row = rme_row(f, u.value(), nthreads); !row) return fail(1, row.error().message);
@@ -128,7 +137,7 @@ int bench_command(const Argv& argv) {
         return bench_render_command(Argv(argv.begin() + 1, argv.end()));
     if (!argv.empty() && argv[0] == "tile")
         return bench_tile_command(Argv(argv.begin() + 1, argv.end()));
-    auto args = parse_args(argv, {"--exemplars", "--repeat", "--threads"}, {"--help"});
+    auto args = parse_args(argv, {"--exemplars", "--repeat", "--threads"}, {"--help", "--compare"});
     if (!args) return fail(2, args.error().message);
     const Args& a = args.value();
     if (a.flags.count("--help") || a.positional.empty()) {
@@ -146,7 +155,13 @@ int bench_command(const Argv& argv) {
     if (!sand || !gravel) return fail(1, "exemplars not found in " + dir.string());
 
     const int nthreads = core::resolve_threads(static_cast<int>(threads.value()));
+    const bool compare = a.flags.count("--compare") > 0;
+    if (auto t = scaling_table(sand.value(), static_cast<int>(repeat.value()), compare); !t)
+        return fail(1, t.error().message);
+    std::printf("\n");
     timing_table(sand.value(), gravel.value(), static_cast<int>(repeat.value()), nthreads);
+    if (compare)
+        if (auto t = photo_table(exemplar_files(dir)); !t) return fail(1, t.error().message);
     return rme_table(dir, nthreads);
 }
 

@@ -88,6 +88,10 @@ std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& p
     hash_u32(h, static_cast<std::uint32_t>(exemplar.channels));
     hash_floats(h, exemplar.data);
     h.update(api::canonical_params(params).dump());
+    // A large exemplar's texton comes from its working window (core/working_window.h): a
+    // different computation than the whole exemplar's, so a different id.
+    if (core::is_windowed(exemplar.width, exemplar.height, params.working_side))
+        h.update("\nwindow " + std::to_string(params.working_side));
     for (const api::MapMeta& m : maps)
         h.update("\nmap " + m.name + " " + std::to_string(m.channels) + " " +
                  std::to_string(m.bits));

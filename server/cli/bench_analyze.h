@@ -1,0 +1,18 @@
+#pragma once
+// The tables of `textond bench analyze` on large exemplars (bench_analyze.cpp).
+#include "core/image.h"
+#include "core/result.h"
+
+#include <filesystem>
+#include <vector>
+
+namespace textond::cli {
+
+// Sizes 512² to 4096² of a window of `sand`'s texton noise: time, ratio to 1024², peak memory
+// and RME; with `compare`, the whole exemplar's analysis beside each.
+Result<bool> scaling_table(const core::Image& sand, int repeat, bool compare);
+// Every photo upscaled and tiled to 4096²: the windowed analysis against the whole one (slow:
+// about 30 s of the whole analysis a row on 2 cores).
+Result<bool> photo_table(const std::vector<std::filesystem::path>& files);
+
+} // namespace textond::cli
