@@ -14,7 +14,7 @@ core::AnalysisParams TextonMeta::params() const {
 
 std::string TextonMeta::kind() const {
     if (!phase_coherence) return "";
-    return *phase_coherence > core::kMacroCoherence ? "macro" : "micro";
+    return core::to_string(core::texture_kind(*phase_coherence));
 }
 
 nlohmann::json canonical_params(const core::AnalysisParams& p) {

@@ -55,7 +55,7 @@ struct TextonMeta {
     std::string created; // RFC 3339 UTC, set when the service stores it; may be empty
 
     core::AnalysisParams params() const;
-    // "micro" or "macro" (phase_coherence against core::kMacroCoherence); "" when unknown.
+    // "micro", "borderline" or "macro" (core::texture_kind of phase_coherence); "" when unknown.
     std::string kind() const;
 };
 

@@ -106,8 +106,17 @@ Image box_reduce(const Image& u, int f) {
 
 } // namespace
 
-bool PhaseCoherence::macro() const {
-    return index > kMacroCoherence;
+const char* to_string(TextureKind k) {
+    return k == TextureKind::micro ? "micro" : k == TextureKind::macro ? "macro" : "borderline";
+}
+
+TextureKind texture_kind(double index) {
+    if (index > kMacroCoherence) return TextureKind::macro;
+    return index > kMicroCoherence ? TextureKind::borderline : TextureKind::micro;
+}
+
+TextureKind PhaseCoherence::kind() const {
+    return texture_kind(index);
 }
 
 PhaseCoherence phase_coherence(const Image& u, int threads) {

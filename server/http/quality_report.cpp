@@ -84,6 +84,8 @@ std::string quality_verdict(const api::TextonMeta& meta) {
     const std::string k = meta.kind();
     if (k == "macro") return "macro-texture: expect the noise to lose its edges and shapes";
     if (k == "micro") return "micro-texture: the noise keeps its look";
+    if (k == "borderline")
+        return "borderline: the noise keeps the overall look, but some shapes may soften or fade";
     return "not measured (analysed by an older server)";
 }
 

@@ -171,9 +171,11 @@ async function waitForAnalysis(accepted) {
 function verdict(meta) {
   if (!meta.kind) return 'not measured (analysed by an older server)';
   const pc = `phase coherence ${meta.phase_coherence.toFixed(3)}`;
-  return meta.kind === 'macro'
-    ? `macro-texture (${pc}): expect the noise to lose its edges and shapes`
-    : `micro-texture (${pc}): the noise keeps its look`;
+  if (meta.kind === 'macro') return `macro-texture (${pc}): expect the noise to lose its edges and shapes`;
+  if (meta.kind === 'borderline') {
+    return `borderline (${pc}): the noise keeps the overall look, but some shapes may soften or fade`;
+  }
+  return `micro-texture (${pc}): the noise keeps its look`;
 }
 
 async function show(meta) {
