@@ -1,5 +1,7 @@
 #include "server/http/admission.h"
 
+#include "core/working_window.h"
+
 #include "api/safe_text.h"
 #include "server/http/connection.h"
 
@@ -25,8 +27,12 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
            surface_work_s(static_cast<std::size_t>(pixels), mni, order);
 }
 
-double analysis_work_s(std::int64_t channel_pixels, int iterations) {
-    return static_cast<double>(channel_pixels) * (iterations + 8) * 20e-9;
+double analysis_work_s(int width, int height, int channels, int iterations) {
+    constexpr double kAnalysisNs = 13; // fitted by tests/bench/analysis_cost.py
+    const double window = static_cast<double>(std::min(width, core::kWorkingSide)) *
+                          std::min(height, core::kWorkingSide) * channels;
+    const double whole = static_cast<double>(width) * height * channels;
+    return window * (iterations + 8) * kAnalysisNs * 1e-9 + whole * 10e-9;
 }
 
 RenderSlots::Admit RenderSlots::acquire(std::chrono::milliseconds max_wait,

@@ -30,13 +30,14 @@ int taps_of_order(int order); // 1, 4 or 16
 double noise_work_s(std::int64_t pixels, double mni, int order);
 double surface_work_s(std::size_t points, double mni, int order);
 double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, int order);
-// An analysis (core/texton_analysis.h) runs two FFTs of the exemplar's size a channel and an
-// iteration (alternating projections, texton paper section 4), plus the periodic component,
-// the model and the marginals: about 20 ns of one core a channel-pixel and iteration, with 8
-// iterations' worth of fixed work, and about 40 bytes a channel-pixel at its peak (4096 x 4096
-// RGB at 50 iterations: 59 s of CPU and 1.7 GB measured). The upload is refused (413
-// work_too_large) before it is queued when over --max-request-cpu-s.
-double analysis_work_s(std::int64_t channel_pixels, int iterations);
+// An analysis (core/texton_analysis.h) runs two FFTs of its working window (at most 1024 x 1024,
+// core/working_window.h) a channel and an iteration (alternating projections, texton paper
+// section 4), plus the periodic component, the model, the verdict and the marginals: kAnalysisNs
+// of one core a window channel-pixel and iteration, with 8 iterations' worth of fixed work
+// (fitted on a split of the shared photos, README "Limits"), and 10 ns a channel-pixel of the
+// whole exemplar for its id (sha256 of its floats) and the window's copy. The upload is refused
+// (413 work_too_large) before it is queued when over --max-request-cpu-s.
+double analysis_work_s(int width, int height, int channels, int iterations);
 
 // First come, first served slots, waking exactly the next waiter (a shared condition variable
 // woke every waiter on each release, and that storm preempted the renders: tail latency x10).

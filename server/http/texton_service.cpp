@@ -26,8 +26,7 @@ std::optional<TextonService::Refused> TextonService::store_refuses_writes() cons
 
 std::optional<TextonService::Refused>
 TextonService::over_budget(const core::Image& u, const core::AnalysisParams& p) const {
-    const auto channel_pixels = static_cast<std::int64_t>(u.plane_size()) * u.channels;
-    const double work = analysis_work_s(channel_pixels, p.iterations);
+    const double work = analysis_work_s(u.width, u.height, u.channels, p.iterations);
     if (m_max_work_s <= 0 || work <= m_max_work_s) return std::nullopt;
     char text[160];
     std::snprintf(text, sizeof text,

@@ -75,6 +75,16 @@ TEST(TextonFile, IdIsContentAddressedAndThreadIndependent) {
 
 // Content-addressed means one id, one body: replicas that analyse the same exemplar on their
 // own must serve the same texton.exr (and ETag). Timings and the store time stay out of it.
+// A large exemplar's texton comes from its working window: its id says so, a small one's is
+// what it always was.
+TEST(TextonFile, AWindowedAnalysisHasAnIdOfItsOwn) {
+    core::AnalysisParams p, whole;
+    whole.working_side = 0;
+    const core::Image large(1100, 64, 1, 0.5f), small(1024, 64, 1, 0.5f);
+    EXPECT_NE(io::texton_id(large, p), io::texton_id(large, whole));
+    EXPECT_EQ(io::texton_id(small, p), io::texton_id(small, whole));
+}
+
 TEST(TextonFile, TwoAnalysesOfOneExemplarAreTheSameBytes) {
     const Analysed a = analyse(1), b = analyse(2);
     ASSERT_TRUE(a.record.meta.timings);
