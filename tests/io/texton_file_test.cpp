@@ -62,6 +62,19 @@ TEST(TextonFile, ReadsMetadataWithoutThePhaseCoherence) {
     EXPECT_EQ(old.id, a.record.meta.id);
 }
 
+// Three verdicts from the stored index, at the thresholds fitted on the corpus (issue 32): a
+// texton stored before them gets the new verdict when read.
+TEST(TextonFile, KindIsMicroBorderlineOrMacroFromTheStoredIndex) {
+    api::TextonMeta m;
+    const std::pair<double, const char*> cases[] = {{0.0, "micro"},         {0.046, "micro"},
+                                                    {0.0461, "borderline"}, {0.077, "borderline"},
+                                                    {0.0771, "macro"},      {0.3, "macro"}};
+    for (const auto& [index, kind] : cases) {
+        m.phase_coherence = index;
+        EXPECT_EQ(m.kind(), kind) << index;
+    }
+}
+
 TEST(TextonFile, IdIsContentAddressedAndThreadIndependent) {
     const Analysed a = analyse(1), b = analyse(2), c = analyse(1, 2);
     EXPECT_EQ(a.record.meta.id.size(), 64u);
