@@ -24,6 +24,12 @@ namespace textond::cli {
 namespace {
 
 constexpr int kLargest = 4096;
+const core::AnalysisParams windowed{};
+const core::AnalysisParams whole_exemplar = [] {
+    core::AnalysisParams p;
+    p.working_side = 0;
+    return p;
+}();
 
 // Peak resident memory since the last reset, over what was resident then (Linux: writing 5 to
 // clear_refs resets VmHWM to VmRSS).
@@ -35,36 +41,6 @@ long status_kb(const char* field) {
 }
 void reset_peak() {
     std::ofstream("/proc/self/clear_refs") << "5";
-}
-
-struct Run {
-    double ms = 0;
-    double rme = 0;
-    long peak_mib = 0;
-    core::Texton texton;
-};
-
-Result<Run> analyse(const core::Image& u, int working_side, int repeat) {
-    core::AnalysisParams p;
-    p.working_side = working_side;
-    std::vector<double> ms;
-    Run run;
-    reset_peak();
-    const long base_kb = status_kb("VmRSS:");
-    for (int i = 0; i < repeat; ++i) {
-        const auto t0 = std::chrono::steady_clock::now();
-        auto r = core::analyze_texton(u, p);
-        ms.push_back(
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                .count());
-        if (!r) return r.error();
-        run.rme = r.value().rme;
-        run.texton = std::move(r.value().texton);
-    }
-    run.peak_mib = (status_kb("VmHWM:") - base_kb) / 1024;
-    std::sort(ms.begin(), ms.end());
-    run.ms = ms[ms.size() / 2];
-    return run;
 }
 
 // The RME of `t` against the whole exemplar's model: how well a windowed texton summarises all
@@ -89,14 +65,6 @@ Result<core::Image> noise_window(const core::Image& exemplar) {
     return backend.value().backend->render(*prepared.value(), q);
 }
 
-core::Image tiled(const core::Image& src, int w, int h) {
-    core::Image out(w, h, src.channels);
-    for (int c = 0; c < src.channels; ++c)
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x % src.width, y % src.height);
-    return out;
-}
-
 // Bilinear, pixel centres aligned.
 core::Image upscaled(const core::Image& src, int w, int h) {
     core::Image out(w, h, src.channels);
@@ -119,6 +87,35 @@ core::Image upscaled(const core::Image& src, int w, int h) {
 
 } // namespace
 
+core::Image tiled(const core::Image& src, int w, int h) {
+    core::Image out(w, h, src.channels);
+    for (int c = 0; c < src.channels; ++c)
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x % src.width, y % src.height);
+    return out;
+}
+
+Result<AnalysisRun> analyse(const core::Image& u, const core::AnalysisParams& p, int repeat) {
+    std::vector<double> ms;
+    AnalysisRun run;
+    reset_peak();
+    const long base_kb = status_kb("VmRSS:");
+    for (int i = 0; i < repeat; ++i) {
+        const auto t0 = std::chrono::steady_clock::now();
+        auto r = core::analyze_texton(u, p);
+        ms.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count());
+        if (!r) return r.error();
+        run.rme = r.value().rme;
+        run.texton = std::move(r.value().texton);
+    }
+    run.peak_mib = (status_kb("VmHWM:") - base_kb) / 1024;
+    std::sort(ms.begin(), ms.end());
+    run.ms = ms[ms.size() / 2];
+    return run;
+}
+
 Result<bool> scaling_table(const core::Image& sand, int repeat, bool compare) {
     auto noise = noise_window(sand);
     if (!noise) return noise.error();
@@ -135,7 +132,7 @@ Result<bool> scaling_table(const core::Image& sand, int repeat, bool compare) {
     for (int side = 512; side <= kLargest; side *= 2) {
         const core::Image crop = core::working_window(noise.value(), side);
         const core::Image& u = crop.empty() ? noise.value() : crop;
-        auto w = analyse(u, core::kWorkingSide, repeat);
+        auto w = analyse(u, windowed, repeat);
         if (!w) return w.error();
         if (side == 1024) ms1024 = w.value().ms;
         std::printf("| %d² | %.0f | %s | %ld | %.4f |", side, w.value().ms,
@@ -143,7 +140,7 @@ Result<bool> scaling_table(const core::Image& sand, int repeat, bool compare) {
                                : "-",
                     w.value().peak_mib, w.value().rme);
         if (compare) {
-            auto whole = analyse(u, 0, 1);
+            auto whole = analyse(u, whole_exemplar, 1);
             if (!whole) return whole.error();
             std::printf(" %.0f | %ld | %.4f | %+.4f | %.4f |", whole.value().ms,
                         whole.value().peak_mib, whole.value().rme,
@@ -168,8 +165,8 @@ Result<bool> photo_table(const std::vector<std::filesystem::path>& files) {
         for (const bool tile : {false, true}) {
             const core::Image u = tile ? tiled(src.value(), kLargest, kLargest)
                                        : upscaled(src.value(), kLargest, kLargest);
-            auto w = analyse(u, core::kWorkingSide, 1);
-            auto whole = w ? analyse(u, 0, 1) : w;
+            auto w = analyse(u, windowed, 1);
+            auto whole = w ? analyse(u, whole_exemplar, 1) : w;
             if (!whole) return whole.error();
             std::printf("| %s | %s | %.0f | %.0f | %.4f | %.4f | %+.4f | %.4f |\n",
                         f.filename().string().c_str(), tile ? "tiled" : "upscaled", w.value().ms,

@@ -2,11 +2,25 @@
 // The tables of `textond bench analyze` on large exemplars (bench_analyze.cpp).
 #include "core/image.h"
 #include "core/result.h"
+#include "core/texton_analysis.h"
 
 #include <filesystem>
 #include <vector>
 
 namespace textond::cli {
+
+// `src` repeated to w x h.
+core::Image tiled(const core::Image& src, int w, int h);
+
+// `repeat` analyses of `u`: the median time, the last RME and texton, and the peak resident
+// memory over what was resident at the start.
+struct AnalysisRun {
+    double ms = 0;
+    double rme = 0;
+    long peak_mib = 0;
+    core::Texton texton;
+};
+Result<AnalysisRun> analyse(const core::Image& u, const core::AnalysisParams& p, int repeat);
 
 // Sizes 512² to 4096² of a window of `sand`'s texton noise: time, ratio to 1024², peak memory
 // and RME; with `compare`, the whole exemplar's analysis beside each.

@@ -33,27 +33,12 @@ RME of the analysed texton against the cropped canonical texton for every exempl
                     DIR upscaled and tiled to 4096², windowed against whole (about 10 minutes)
 )";
 
-core::Image tile(const core::Image& src, int w, int h) {
-    core::Image out(w, h, src.channels);
-    for (int c = 0; c < src.channels; ++c)
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) out.at(c, x, y) = src.at(c, x % src.width, y % src.height);
-    return out;
+double median_ms(const core::Image& u, const core::AnalysisParams& p, int repeat) {
+    auto run = analyse(u, p, repeat);
+    if (!run) throw std::runtime_error(run.error().message);
+    return run.value().ms;
 }
 
-double median_ms(const core::Image& u, const core::AnalysisParams& p, int repeat) {
-    std::vector<double> ms;
-    for (int i = 0; i < repeat; ++i) {
-        const auto t0 = std::chrono::steady_clock::now();
-        auto r = core::analyze_texton(u, p);
-        ms.push_back(
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                .count());
-        if (!r) throw std::runtime_error(r.error().message);
-    }
-    std::sort(ms.begin(), ms.end());
-    return ms[ms.size() / 2];
-}
 // Analysis time on one thread and on all, by exemplar size (tiled past the exemplar's own).
 void timing_table(const core::Image& sand, const core::Image& gravel, int repeat, int nthreads) {
     std::printf("Texton analysis time (median of %d runs; r = 64, order 1, 50 iterations)\n",
@@ -70,7 +55,7 @@ void timing_table(const core::Image& sand, const core::Image& gravel, int repeat
     const Row rows[] = {{&sand, 128, 128}, {&sand, 256, 256},   {&sand, 512, 512},
                         {&sand, 768, 512}, {&gravel, 512, 512}, {&gravel, 768, 512}};
     for (const Row& row : rows) {
-        const core::Image u = tile(*row.src, row.w, row.h);
+        const core::Image u = tiled(*row.src, row.w, row.h);
         core::AnalysisParams p;
         p.threads = 1;
         const double t1 = median_ms(u, p, repeat);
