@@ -1,6 +1,7 @@
 #include "core/band_kurtosis.h"
 
 #include "core/fft2d.h"
+#include "core/phase_coherence.h"
 #include "core/random.h"
 
 #include <algorithm>
@@ -11,15 +12,6 @@ namespace textond::core {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-std::vector<float> grey_of(const Image& u) {
-    std::vector<float> g(u.plane_size(), 0.0f);
-    for (int c = 0; c < u.channels; ++c) {
-        const float* p = u.plane(c);
-        for (std::size_t k = 0; k < g.size(); ++k) g[k] += p[k] / static_cast<float>(u.channels);
-    }
-    return g;
-}
 
 // The kurtosis of the DoG band of `spec` at sigma (spec is left intact).
 double band_of(const Spectrum& spec, const RealFft2d& fft, double sigma, int threads) {
@@ -55,15 +47,15 @@ std::vector<BandKurtosis> band_kurtosis(const Image& u, int samples, std::uint64
     std::vector<BandKurtosis> out;
     if (w < 8 || h < 8) return out;
     const auto fft = RealFft2d::get(w, h);
-    std::vector<float> g = grey_of(u);
+    const Image g = grey_level(u);
     Spectrum spec(w, h);
-    fft->forward(g.data(), spec, threads);
+    fft->forward(g.data.data(), spec, threads);
     spec.row(0)[0] = 0; // the mean
     // Random phases with the symmetry of a real image: those of white noise's spectrum.
     std::vector<Spectrum> rpn;
     Rng rng(seed, 0xba4d);
     for (int s = 0; s < samples; ++s) {
-        std::vector<float> noise(g.size());
+        std::vector<float> noise(g.plane_size());
         for (auto& v : noise) v = static_cast<float>(rng.normal());
         Spectrum phase(w, h);
         fft->forward(noise.data(), phase, threads);

@@ -29,15 +29,20 @@ double minus_log10_phi(double x) {
     return (x2 / 2.0 + std::log(-x * std::sqrt(2.0 * kPi)) - std::log(series)) / std::log(10.0);
 }
 
+Image grey_level(const Image& u) {
+    Image grey(u.width, u.height, 1);
+    for (int c = 0; c < u.channels; ++c)
+        for (std::size_t i = 0; i < grey.plane_size(); ++i)
+            grey.data[i] += u.plane(c)[i] / static_cast<float>(u.channels);
+    return grey;
+}
+
 // Leclaire and Moisan (JMIV 2015), section 3.2: SI and its closed-form mean and variance.
 SharpnessIndex sharpness_index(const Image& u, int threads, bool periodic) {
     SharpnessIndex out;
     const int w = u.width, h = u.height;
     if (w < 2 || h < 2 || u.channels < 1) return out;
-    Image grey(w, h, 1);
-    for (int c = 0; c < u.channels; ++c)
-        for (std::size_t i = 0; i < grey.plane_size(); ++i)
-            grey.data[i] += u.plane(c)[i] / static_cast<float>(u.channels);
+    const Image grey = grey_level(u);
     const Image p = periodic ? grey : periodic_component(grey, threads);
 
     // Periodic finite differences, and the TV they sum to.

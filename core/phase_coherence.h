@@ -29,6 +29,9 @@ struct SharpnessIndex {
 // with w(t) = t asin(t) + sqrt(1 - t^2) - 1, a = |dx u|, b = |dy u| and r the correlations.
 SharpnessIndex sharpness_index(const Image& u, int threads = 1, bool periodic = false);
 
+// The grey level of u: one plane, the mean of its channels.
+Image grey_level(const Image& u);
+
 // The micro/macro verdict. SI alone does not separate the shared photos (README, "Micro or
 // macro"): it grows with the image's size and is dominated by the finest scale, where grain,
 // JPEG blocks and palettes count as sharpness. What a texton loses is coherence at the scale of
