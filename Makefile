@@ -4,7 +4,7 @@ BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 ARGS   ?= serve
 
-.PHONY: deps build run run-edge test bench load load-replicas image-check format tidy mutation clean
+.PHONY: deps build run run-edge test check bench load load-replicas image-check format tidy mutation clean
 
 deps:
 	bash docker/install-deps.sh
@@ -19,12 +19,17 @@ run: build
 	./$(BUILD)/textond $(ARGS)
 
 # The service behind the nginx edge of deploy/ on :8080 (textond itself on 127.0.0.1:8081):
-# how one machine should face a network (README "Hostile clients").
+# how one machine should face a network (deploy/README.md "Hostile clients").
 run-edge: build
 	deploy/local/run-edge.sh 8080 -- $(filter-out serve,$(ARGS))
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+# The inner loop: every test but clang-tidy (label style), the libFuzzer smoke run (fuzz) and the
+# browser test (browser); under 5 minutes on 2 cores. `make test` is the full suite CI runs.
+check: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -LE '^(style|fuzz|browser)$$'
 
 bench: build
 	./$(BUILD)/textond bench analyze
@@ -33,7 +38,7 @@ bench: build
 load: build
 	tests/load/load_test.sh
 
-# Two replicas sharing Redis behind the nginx edge, with a 60-second soak (README "Run at scale").
+# Two replicas sharing Redis behind the nginx edge, with a 60-second soak (deploy/README.md "Run at scale").
 load-replicas: build
 	tests/load/load_test.sh --replicas
 

@@ -131,7 +131,6 @@ std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
         out.exemplar_marginals = *s == "exemplar";
     }
     return map_fields(q, out.map);
-    return std::nullopt;
 }
 
 std::optional<ApiError> format_of(std::string_view ext, ImageFormat& out) {

@@ -1,6 +1,17 @@
 #include "api/texton_meta.h"
 
+#include <ctime>
+
 namespace textond::api {
+
+std::string rfc3339_now() {
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
 
 core::AnalysisParams TextonMeta::params() const {
     core::AnalysisParams p;

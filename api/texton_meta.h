@@ -13,6 +13,9 @@
 
 namespace textond::api {
 
+// Now, as the metadata's `created` field writes it: 2026-11-26T04:20:00Z (UTC).
+std::string rfc3339_now();
+
 inline constexpr double kDefaultMni = 30.0;
 
 // One map of a material set (core/material_set.h), as the metadata lists it.

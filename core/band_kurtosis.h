@@ -1,5 +1,5 @@
 #pragma once
-// Non-Gaussianity of band-pass responses, for the micro/macro verdict (issue 32). A Gaussian
+// Non-Gaussianity of band-pass responses, for the micro/macro verdict. A Gaussian
 // texture's response to any linear filter is Gaussian, so its kurtosis E[b^4] / E[b^2]^2 is 3:
 // shapes move it away from 3, above for sparse edges and spots, below for regular shapes (rings,
 // tiles). A finite image's kurtosis is 3 only on average, so each band's is compared with the

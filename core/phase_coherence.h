@@ -60,7 +60,7 @@ struct PhaseCoherence {
 // The verdict's thresholds, chosen on the fit half of a labelled corpus of 104 textures from
 // Debian packages and reported on the other half (tests/verdict/: fit_verdict.py picked the
 // index among the candidate scores, with a best threshold of 0.0617; the borderline band is that
-// threshold +- 25%; README "Micro or macro" has the held-out table).
+// threshold +- 25%; core/README.md "Micro or macro" has the held-out table).
 inline constexpr double kMicroCoherence = 0.046; // at most: micro
 inline constexpr double kMacroCoherence = 0.077; // above: macro; between: borderline
 TextureKind texture_kind(double index);

@@ -5,7 +5,7 @@
 # only `install-deps.sh --runtime`, the binary and the page, and runs `textond serve` as uid
 # 10001; the HEALTHCHECK command and a tile request must succeed against it.
 #   docker/chroot_build_test.sh [WORKDIR]     (root; needs debootstrap; about 10-20 minutes)
-# Not part of `make test` (time, root, network); its last result is in README "Run at scale".
+# Not part of `make test` (time, root, network); its last result is in deploy/README.md "Run at scale".
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 work=${1:-$root/build/chroot}

@@ -1,8 +1,7 @@
 #pragma once
-// When a render gives up before its end (issue 21: a 46 s mesh preview kept running after its
-// client had gone, and delayed every tile behind it): the client left, or the request's
-// deadline passed. Backends poll stop() between blocks of work, from any thread, and answer
-// ErrorCode::cancelled; the first "stop" sticks.
+// When a render gives up before its end, so that work nobody waits for does not delay the tiles
+// behind it: the client left, or the request's deadline passed. Backends poll stop() between blocks
+// of work, from any thread, and answer ErrorCode::cancelled; the first "stop" sticks.
 #include "core/result.h"
 
 #include <atomic>

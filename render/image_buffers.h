@@ -1,5 +1,5 @@
 #pragma once
-// Reused pixel buffers for renders (issue 20). `serve` maps every allocation over 128 kB on its
+// Reused pixel buffers for renders. `serve` maps every allocation over 128 kB on its
 // own (so that cached tiles go back to the system when evicted), which made each cold tile's
 // 786 kB float image a fresh mapping: page faults and zero fills were a third of the server's
 // CPU per tile. Renders give their images back after encoding; a process-wide pool keeps at most

@@ -1,5 +1,5 @@
 #pragma once
-// The one entry point of render/ for the service (issue 14): it owns the backends, knows which
+// The one entry point of render/ for the service: it owns the backends, knows which
 // serves which work (tiles, large frames, mixes, surface points, mesh previews) and falls back
 // to the CPU path where a backend has none (a mix's limit levels, surfaces beyond the GPU's
 // range, everything when no GPU was found). server/ never sees a backend type.

@@ -1,5 +1,5 @@
 #pragma once
-// Gathers concurrent windows for one GL backend into batches (issue 14): each caller prepares
+// Gathers concurrent windows for one GL backend into batches: each caller prepares
 // its window on its own thread (points listed, no GL), queues it and waits; one worker takes what
 // is queued (up to `max_tiles`, waiting at most `max_wait` for more once the first arrives) and
 // renders it as one GlBackend::render_batch: one upload, one dispatch per level table, one

@@ -103,6 +103,7 @@ public:
 
     // Test hook: pretend storage buffers hold at most `bytes` (batches split below it).
     void limit_storage_block(std::size_t bytes) { m_max_block_bytes = bytes; }
+    std::size_t pass_words() const; // output words a pass: fewer on a software renderer
 
     // Test hook: runs render/glsl/spec_probe.comp on `queries` (8 words each) with the given
     // Poisson thresholds; returns 64 words per query.
@@ -119,7 +120,6 @@ private:
     std::string m_renderer;
     std::string m_version;
     bool m_software = false;
-    std::size_t pass_words() const; // output words a pass: fewer on a software renderer
     int m_subpixel_bits = 4;
     std::mutex m_mutex;         // the context: one batch (or surface, mesh, probe call) at a time
     std::string m_noise_source; // lib + eval + comp, compiled per output precision

@@ -1,4 +1,4 @@
-// Marginal restoration (README "Marginals"; core/marginals.h, after Heitz and Neyret, HPG 2018):
+// Marginal restoration (core/README.md "Marginals"; core/marginals.h, after Heitz and Neyret, HPG 2018):
 // the noise's value projected on the exemplar's principal colour directions, each component
 // through its monotone table for this level, and back. Pointwise, so seamless. Compile after
 // texton_eval.glsl with TEXTOND_MARGINALS defined (texton_noise.frag then applies it); the tables

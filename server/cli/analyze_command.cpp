@@ -1,16 +1,25 @@
+#include "server/app/texton_service.h"
 #include "server/cli/analysis_options.h"
 #include "server/cli/commands.h"
-#include "server/http/texton_service.h"
 #include "server/io/image_io.h"
 #include "server/io/texton_file.h"
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <future>
+#include <iostream>
 #include <memory>
+#include <set>
+#include <thread>
+#include <utility>
+#include <vector>
 
 namespace textond::cli {
 
@@ -52,7 +61,8 @@ std::variant<Args, int> parse_input_command(const Argv& argv, const std::string&
                                             const char* help, const char* input_name,
                                             bool needs_output,
                                             const std::set<std::string>& own_options,
-                                            const std::set<std::string>& own_flags) {
+                                            const std::set<std::string>& own_flags,
+                                            bool many_inputs) {
     std::set<std::string> options = kAnalysisOptions;
     options.insert(own_options.begin(), own_options.end());
     std::set<std::string> flags = kAnalysisFlags;
@@ -64,7 +74,7 @@ std::variant<Args, int> parse_input_command(const Argv& argv, const std::string&
         std::printf("%s\n%s", help, kAnalysisHelp);
         return 0;
     }
-    if (args.value().positional.size() != 1)
+    if (!many_inputs && args.value().positional.size() != 1)
         return fail(2, name + " needs exactly one " + input_name + " (see textond " + name +
                            " --help)");
     if (needs_output && !args.value().options.count("--output"))
@@ -105,31 +115,149 @@ core::ProgressFn progress_reporter(const std::string& label, const std::string& 
 namespace {
 const char* kHelp =
     R"(usage: textond analyze EXEMPLAR [options] [-o TEXTON.exr] [--export-v1 FILE.texton]
+       textond analyze EXEMPLAR... [--from-list FILE] [--jobs N] [options] -o DIR/
 
 Estimates the Gaussian model of EXEMPLAR (any format OpenImageIO reads), computes its texton by
 alternating projections and prints a JSON summary (id, RME, mean, timings) on stdout.
   -o, --output FILE     write the texton file (OpenEXR + metadata, see api/TEXTON_FORMAT.md)
   --export-v1 FILE      also write the authors' .texton v1 text format (their OpenGL viewer)
+Many exemplars in one process (several EXEMPLARs, --from-list, or -o ending in /): each texton
+goes to DIR/NAME.exr (NAME from the exemplar's file name), and each exemplar gets one JSON line
+on stdout, in the order given: its summary, or {"exemplar": {"path"}, "error": {"code",
+"message"}}. A bad file does not stop the others; the exit status is 1 if any failed.
+  --from-list FILE      also the exemplars named in FILE, one path a line ("-": stdin; blank
+                        lines and lines starting with # are skipped)
+  --jobs N              exemplars analysed at once, 1..64; each gets --threads, or its share
+                        of the cores                                           [1]
 )";
+
+// The batch form's outputs: DIR/NAME.exr, NAME-2.exr, ... where two exemplars share a name.
+std::vector<std::string> batch_outputs(const std::vector<std::string>& inputs,
+                                       const std::string& dir) {
+    std::set<std::string> used;
+    std::vector<std::string> out;
+    for (const std::string& in : inputs) {
+        const std::string stem = std::filesystem::path(in).stem().string();
+        std::string name = stem + ".exr";
+        for (int k = 2; used.count(name); ++k) name = stem + "-" + std::to_string(k) + ".exr";
+        used.insert(name);
+        out.push_back((std::filesystem::path(dir) / name).string());
+    }
+    return out;
+}
+
+Result<std::vector<std::string>> batch_inputs(const Args& a) {
+    std::vector<std::string> inputs = a.positional;
+    if (!a.options.count("--from-list")) return inputs;
+    const std::string list = a.get("--from-list");
+    std::ifstream file;
+    if (list != "-") {
+        file.open(list);
+        if (!file) return make_error(ErrorCode::not_found, "--from-list: cannot read " + list);
+    }
+    std::istream& in = list == "-" ? std::cin : file;
+    for (std::string line; std::getline(in, line);) {
+        while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+        if (!line.empty() && line[0] != '#') inputs.push_back(line);
+    }
+    return inputs;
+}
+
+// One exemplar of a batch: its JSON line (a summary or an error) and whether it succeeded.
+std::pair<nlohmann::json, bool> analyse_one(const std::string& path, const std::string& output,
+                                            const core::AnalysisParams& params,
+                                            const io::DecodeLimits& limits) {
+    auto failed = [&](const Error& e) {
+        nlohmann::json j;
+        j["exemplar"]["path"] = path;
+        j["error"] = {{"code", to_string(e.code)}, {"message", e.message}};
+        return std::make_pair(j, false);
+    };
+    auto image = io::decode_image_file(path, limits);
+    if (!image) return failed(image.error());
+    auto analysed = app::TextonService::analyse(image.value(), params, {});
+    if (!analysed) return failed(analysed.error());
+    if (auto w = io::write_texton_file(output, analysed.value()); !w) return failed(w.error());
+    nlohmann::json summary = analysed.value().meta;
+    summary["exemplar"]["path"] = path;
+    summary["output"] = output;
+    return {summary, true};
+}
+
+int analyze_many(const Args& a, core::AnalysisParams params, const io::DecodeLimits& limits) {
+    if (a.options.count("--export-v1"))
+        return fail(2, "--export-v1 takes one exemplar (see textond analyze --help)");
+    auto inputs = batch_inputs(a);
+    if (!inputs) return fail(2, inputs.error().message);
+    if (inputs.value().empty())
+        return fail(2, "analyze needs an EXEMPLAR (or --from-list FILE; see textond analyze "
+                       "--help)");
+    if (!a.options.count("--output")) return fail(2, "analyze of many exemplars needs -o DIR/");
+    auto jobs = a.get_int("--jobs", 1, 1, 64);
+    if (!jobs) return fail(2, jobs.error().message);
+    const std::string dir = a.get("--output");
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (!std::filesystem::is_directory(dir))
+        return fail(1, dir + ": not a directory" + (ec ? " (" + ec.message() + ")" : ""));
+    const auto n = static_cast<int>(jobs.value());
+    if (params.threads == 0) // the cores shared out: the result never depends on them
+        params.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / n);
+    const std::vector<std::string>& paths = inputs.value();
+    const std::vector<std::string> outputs = batch_outputs(paths, dir);
+    // Lines in the order given: each waits for its own result, the workers take the next file.
+    std::vector<std::future<std::pair<nlohmann::json, bool>>> results(paths.size());
+    std::vector<std::promise<std::pair<nlohmann::json, bool>>> promises(paths.size());
+    for (std::size_t i = 0; i < paths.size(); ++i) results[i] = promises[i].get_future();
+    std::atomic<std::size_t> next{0};
+    std::vector<std::thread> workers;
+    for (int w = 0; w < std::min<int>(n, static_cast<int>(paths.size())); ++w)
+        workers.emplace_back([&] {
+            for (std::size_t i; (i = next++) < paths.size();) {
+                try {
+                    promises[i].set_value(analyse_one(paths[i], outputs[i], params, limits));
+                } catch (const std::exception& e) { // out of memory, say: this file fails
+                    nlohmann::json j;
+                    j["exemplar"]["path"] = paths[i];
+                    j["error"] = {{"code", "internal"}, {"message", e.what()}};
+                    promises[i].set_value({j, false});
+                }
+            }
+        });
+    int status = 0;
+    for (auto& r : results) {
+        const auto [line, ok] = r.get();
+        std::printf("%s\n", line.dump().c_str());
+        std::fflush(stdout);
+        if (!ok) status = 1;
+    }
+    for (auto& t : workers) t.join();
+    return status;
+}
 } // namespace
 
 int analyze_command(const Argv& argv) {
-    auto parsed = parse_input_command(argv, "analyze", kHelp, "EXEMPLAR", false,
-                                      {"--output", "--export-v1"}, {});
+    auto parsed =
+        parse_input_command(argv, "analyze", kHelp, "EXEMPLAR", false,
+                            {"--output", "--export-v1", "--jobs", "--from-list"}, {}, true);
     if (auto* code = std::get_if<int>(&parsed)) return *code;
     const Args& a = std::get<Args>(parsed);
     auto params = analysis_params_from(a);
     if (!params) return fail(2, params.error().message);
     auto limits = decode_limits_from(a);
     if (!limits) return fail(2, limits.error().message);
+    const std::string out = a.options.count("--output") ? a.get("--output") : "";
+    if (a.positional.size() != 1 || a.options.count("--from-list") || a.options.count("--jobs") ||
+        (!out.empty() && (out.back() == '/' || std::filesystem::is_directory(out))))
+        return analyze_many(a, params.value(), limits.value());
 
     const std::string& path = a.positional[0];
     auto image = io::decode_image_file(path, limits.value());
     if (!image) return fail(1, path + ": " + image.error().message);
     // The upload's own step (POST /v1/textons runs it on the analysis pool): one exemplar and one
     // set of parameters give one texton file, byte for byte, whichever way it was made.
-    auto analysed = http::TextonService::analyse(image.value(), params.value(),
-                                                 progress_reporter("analyze " + path));
+    auto analysed = app::TextonService::analyse(image.value(), params.value(),
+                                                progress_reporter("analyze " + path));
     if (!analysed)
         return fail(analysed.error().code == ErrorCode::invalid_argument ? 2 : 1,
                     analysed.error().message);

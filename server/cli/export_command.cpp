@@ -3,11 +3,11 @@
 // OUT.partial (an MBTiles database, committed every second), so an interrupted export resumes
 // where it stopped; OUT appears only when every tile is in it.
 #include "render/renderer.h"
+#include "server/app/image_service.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
 #include "server/cli/export_plan.h"
 #include "server/cli/progress_bar.h"
-#include "server/http/image_service.h"
 #include "server/io/crash_point.h"
 #include "server/io/mbtiles.h"
 #include "server/io/pmtiles.h"
@@ -50,7 +50,7 @@ OUT.partial; run the same command again after an interruption and it resumes fro
   --quality Q         1..100 for lossy WebP and AVIF          [WebP lossless, AVIF 80]
   --tile-size S       256 | 512                               [256]
   --seed N, --mni M, --marginals gaussian|exemplar, --map NAME, --strength S, --light AZ,EL
-                      the noise, as the tile URLs take them (README "HTTP API")
+                      the noise, as the tile URLs take them (api/README.md "HTTP API")
   --png-compression N zlib level of PNG tiles, 0..9           [1]
   --jobs N            tiles rendered at once, 1..64           [one per core]
   --backend B         auto | cpu | osmesa | egl               [auto]
@@ -147,7 +147,7 @@ Result<Options> options_from(const Args& a) {
 struct Context {
     const Options& o;
     std::string id;
-    http::PreparedSet set;
+    app::PreparedSet set;
     render::Renderer& renderer;
 };
 
@@ -158,13 +158,13 @@ Result<Encoded> render_tile(const Context& c, TileAddress t) {
     if (auto e = api::parse_map_tile(c.id, std::to_string(t.z), std::to_string(t.x),
                                      std::to_string(t.y), c.o.ext, c.o.query, r))
         return make_error(ErrorCode::invalid_argument, e->message);
-    render::NoiseRequest q = http::noise_request(r.level, r.x0(), r.y0(), r.size, r.size, r.noise);
+    render::NoiseRequest q = app::noise_request(r.level, r.x0(), r.y0(), r.size, r.size, r.noise);
     q.precision =
         r.format == api::ImageFormat::png16 ? render::Precision::u16 : render::Precision::u8;
     auto image =
-        http::render_view(c.renderer, c.set, r.noise.map, q, render::Renderer::Work::tile, nullptr);
+        app::render_view(c.renderer, c.set, r.noise.map, q, render::Renderer::Work::tile, nullptr);
     if (!image) return image.error();
-    auto bytes = http::encode_image(image.value(), r.format, r.quality, c.id, c.o.png_compression);
+    auto bytes = app::encode_image(image.value(), r.format, r.quality, c.id, c.o.png_compression);
     if (!bytes) return bytes.error();
     return Encoded{t, std::move(bytes.value())};
 }

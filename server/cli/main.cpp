@@ -20,7 +20,7 @@ commands:
   synth     reference synthesis (ADSN, RPN, discrete spot noise) from an exemplar or texton
   render    evaluate a window of texton noise (any position, level, seed) on a backend
   mix       mix two exemplars across space (optimal-transport barycentres, a ramp or a mask)
-  serve     run the HTTP service (textond serve --help; README "HTTP API")
+  serve     run the HTTP service (textond serve --help; api/README.md "HTTP API")
   bench     benchmarks (textond bench analyze | render)
   probe     GET a URL, exit 0 on 2xx (the container HEALTHCHECK)
   sign      sign an image URL for a server run with --url-signing-key

@@ -27,7 +27,7 @@ summary (backend, timing) on stdout.
   --mni M           mean number of impacts per pixel, 1..200                    [30]
   --period P        tileable mode: the noise repeats every P cells (P x cell side texels)
   --marginals M     gaussian | exemplar: map the noise onto the exemplar's colour
-                    marginals (README "Marginals")                              [gaussian]
+                    marginals (core/README.md "Marginals")                              [gaussian]
   --backend B       auto | cpu | osmesa | egl                                   [auto]
   --render-threads N  CPU backend threads, 0 = all cores                        [0]
   --png16           16-bit PNG instead of 8-bit

@@ -1,3 +1,4 @@
+#include "server/app/build_id.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
 #include "server/http/http_support.h"
@@ -59,7 +60,7 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --max-upload-mb N        largest request body, MiB (413 above)               [32]
   --max-pixels N           largest exemplar, pixels, read from the header (413)  [16777216]
   --formats LIST           upload formats, of png,jpeg,tiff,bmp,openexr (415 otherwise)
-                           [png,jpeg,tiff,bmp: EXR is opt-in, see README "Fuzzing"]
+                           [png,jpeg,tiff,bmp: EXR is opt-in, see tests/README.md "Fuzzing"]
   --max-region-pixels N    largest region image                                [8388608]
   --max-tileable-side N    largest tileable texture side                       [4096]
   --read-timeout S, --write-timeout S                                          [30]
@@ -233,9 +234,9 @@ Result<http::ServeConfig> config_from(const Args& a) {
     c.public_url = a.get("--public-url", c.public_url);
     c.api_key = a.get("--api-key", c.api_key);
     c.url_signing_key = a.get("--url-signing-key", c.url_signing_key);
-    if (!c.url_signing_key.empty() && c.url_signing_key.size() < http::kMinSigningKey)
+    if (!c.url_signing_key.empty() && c.url_signing_key.size() < app::kMinSigningKey)
         return make_error(ErrorCode::invalid_argument, "--url-signing-key must have at least " +
-                                                           std::to_string(http::kMinSigningKey) +
+                                                           std::to_string(app::kMinSigningKey) +
                                                            " characters");
     if (a.options.count("--presets")) {
         std::ifstream in(a.get("--presets"), std::ios::binary);
@@ -244,7 +245,7 @@ Result<http::ServeConfig> config_from(const Args& a) {
                               "--presets: cannot read " + a.get("--presets"));
         std::stringstream text;
         text << in.rdbuf();
-        auto presets = http::parse_presets(text.str());
+        auto presets = app::parse_presets(text.str());
         if (!presets)
             return make_error(ErrorCode::invalid_argument,
                               "--presets " + a.get("--presets") + ": " + presets.error().message);
@@ -274,7 +275,7 @@ void tune_malloc() {
     // Fixing the mmap threshold also fixes the trim threshold at its 128 kB default: each
     // thread's arena then gave its top back (madvise, a TLB shootdown on every core) and faulted
     // it in again for the next tile's small buffers, a third of the server's CPU per cold tile
-    // (issue 20: 4.0 -> 2.1 CPU-ms/tile under load_test.sh). 1 MiB kept per arena (glibc makes at
+    // (4.0 -> 2.1 CPU-ms/tile under load_test.sh). 1 MiB kept per arena (glibc makes at
     // most 8 per core) ends that.
     ::mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
 }
@@ -318,7 +319,7 @@ int serve_command(const Argv& argv) {
     if (!port) return fail(1, port.error().message);
     http::Service& svc = *service.value();
     spdlog::info("backend: {}", svc.backend_description());
-    spdlog::info("build: {}", http::build_id());
+    spdlog::info("build: {}", app::build_id());
     // The URL on stdout (one line) so scripts and tests can read the port chosen by --port 0.
     std::printf("textond listening on http://%s:%d/\n", config.value().host.c_str(), port.value());
     std::fflush(stdout);

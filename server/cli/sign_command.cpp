@@ -1,8 +1,9 @@
 // `textond sign URL`: the URL with exp and sig added, as a server started with the same
-// --url-signing-key checks them (server/http/url_signing.h; README "Signed URLs and presets").
+// --url-signing-key checks them (server/app/url_signing.h; api/README.md "Signed URLs and
+// presets").
+#include "server/app/url_signing.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
-#include "server/http/url_signing.h"
 
 #include <chrono>
 #include <cstdio>
@@ -42,7 +43,7 @@ int sign_command(const Argv& argv) {
                   std::chrono::system_clock::now().time_since_epoch())
                   .count() +
               seconds.value();
-    auto url = http::sign_url(key, a.value().positional[0], exp);
+    auto url = app::sign_url(key, a.value().positional[0], exp);
     if (!url) return fail(2, "sign: " + url.error().message);
     std::puts(url.value().c_str());
     return 0;

@@ -5,7 +5,8 @@
 // (server/cli/serve_command).
 #include "api/requests.h"
 #include "render/backend_factory.h"
-#include "server/http/url_signing.h"
+#include "server/app/url_signing.h"
+#include "server/http/layers.h"
 
 #include <cstdint>
 #include <string>
@@ -18,7 +19,7 @@ struct ServeConfig {
     int port = 8080; // 0 = any free port (tests)
     std::string data_dir = "./data";
     // Shared texton store for replicas (redis://...); empty = the data directory alone. With
-    // one, the data directory is a read-through cache of it (server/http/texton_store.h).
+    // one, the data directory is a read-through cache of it (server/store/texton_store.h).
     std::string store_url;
     int store_timeout_ms = 1000; // connect and command timeout
     int store_recheck_s = 30;    // how stale a local copy may get (deletes reach other replicas)
@@ -74,7 +75,7 @@ struct ServeConfig {
     int png_compression = 0;
 
     std::string api_key; // empty: POST and DELETE are open
-    // Image URLs signed with this key (server/http/url_signing.h); empty: unsigned URLs.
+    // Image URLs signed with this key (server/app/url_signing.h); empty: unsigned URLs.
     std::string url_signing_key;
     Presets presets;               // non-empty: image URLs name one of these parameter sets
     std::string cors_origin = "*"; // "" disables CORS; else "*" or a comma-separated list

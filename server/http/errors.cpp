@@ -23,7 +23,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"unsupported_transfer_encoding", 400},
         {"invalid_body", 400},
         {"unauthorized", 401},
-        // Signed URLs and presets (server/http/url_signing.h).
+        // Signed URLs and presets (server/app/url_signing.h).
         {"signature_missing", 403},
         {"signature_invalid", 403},
         {"signature_expired", 403},

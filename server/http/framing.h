@@ -2,9 +2,10 @@
 // Message framing (RFC 9112 section 6): one request's bytes and no more are read as that
 // request. cpp-httplib 0.11 parses any body on any method and leaves unread bytes on the wire, so
 // a GET whose Content-Length hides a second request got two answers, and behind a proxy that
-// pools connections the second went to another client (issue 31). What the service and the
+// pools connections the second would go to another client. What the service and the
 // framing fuzzer (tests/fuzz/request_fuzzer.cpp) share:
 #include "api/requests.h"
+#include "server/http/layers.h"
 
 #include <httplib.h>
 

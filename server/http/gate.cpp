@@ -39,8 +39,8 @@ bool Gate::within_budget(httplib::Response& res, double work_s, double cpu_share
     return true;
 }
 
-void Gate::refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy) {
-    if (why == RenderSlots::Admit::gone) {
+void Gate::refuse(httplib::Response& res, WorkSlots::Admit why, const char* busy) {
+    if (why == WorkSlots::Admit::gone) {
         m_metrics.not_admitted("gone");
         return send_error(res, {"client_gone", "the client left before the work started"});
     }
@@ -55,7 +55,7 @@ std::optional<SlotGuard> Gate::admit(httplib::Response& res, double work_s, doub
     const auto gone = [conn] { return conn && conn->client_gone(); };
     const auto why =
         m_render_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms), gone);
-    if (why == RenderSlots::Admit::granted) return SlotGuard(&m_render_slots);
+    if (why == WorkSlots::Admit::granted) return SlotGuard(&m_render_slots);
     refuse(res, why, "every render slot is busy and the wait is too long; retry shortly");
     return std::nullopt;
 }
@@ -83,7 +83,7 @@ void Gate::send_work_error(httplib::Response& res, const Error& e, const render:
 
 std::optional<SlotGuard> Gate::admit_decode(httplib::Response& res) {
     const auto why = m_decode_slots.acquire(std::chrono::milliseconds(m_config.queue_timeout_ms));
-    if (why == RenderSlots::Admit::granted) return SlotGuard(&m_decode_slots);
+    if (why == WorkSlots::Admit::granted) return SlotGuard(&m_decode_slots);
     refuse(res, why, "every decoder is busy; retry shortly");
     return std::nullopt;
 }

@@ -5,10 +5,11 @@
 // that refuses has already sent its answer (413, 408 client_gone, 429 with Retry-After).
 #include "core/result.h"
 #include "render/cancel.h"
+#include "server/app/analysis_pool.h"
+#include "server/app/metrics.h"
 #include "server/http/admission.h"
-#include "server/http/analysis_pool.h"
 #include "server/http/config.h"
-#include "server/http/metrics.h"
+#include "server/http/layers.h"
 
 #include <httplib.h>
 
@@ -37,7 +38,7 @@ public:
     // A decoder slot (masks), waiting like admit().
     std::optional<SlotGuard> admit_decode(httplib::Response& res);
     // The answer for work not admitted: 408 when the client left, else 429 with `busy`.
-    void refuse(httplib::Response& res, RenderSlots::Admit why, const char* busy);
+    void refuse(httplib::Response& res, WorkSlots::Admit why, const char* busy);
     // What stops admitted work: its client leaving, or --render-deadline-s from now.
     render::Cancel work_cancel() const;
     // The answer for work that failed: an abandoned one is counted (and gets 503 when its
@@ -54,17 +55,17 @@ public:
     // 429 with a Retry-After from the analysis pool's queue (uploads and mixes).
     void pool_full(httplib::Response& res, const AnalysisPool& pool);
 
-    RenderSlots& render_slots() { return m_render_slots; }
-    RenderSlots& decode_slots() { return m_decode_slots; }
+    WorkSlots& render_slots() { return m_render_slots; }
+    WorkSlots& decode_slots() { return m_decode_slots; }
     BodyBudget& bodies() { return m_bodies; }
 
 private:
     const ServeConfig& m_config;
     Metrics& m_metrics;
-    RenderSlots m_render_slots;
+    WorkSlots m_render_slots;
     // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
     // so that many simultaneous large uploads cannot exhaust memory.
-    RenderSlots m_decode_slots;
+    WorkSlots m_decode_slots;
     BodyBudget m_bodies; // request bodies held in memory, all requests together
     double m_work_factor = 1.0;
 };

@@ -3,6 +3,7 @@
 // JSON error body, the mapping from library errors to HTTP, and entity-tag matching.
 #include "api/requests.h"
 #include "core/result.h"
+#include "server/http/layers.h"
 
 #include <httplib.h>
 #include <nlohmann/json.hpp>
@@ -30,7 +31,7 @@ struct RequestContext {
 RequestContext& current_request();
 // Cache-Control of what a DELETE takes away and that is not content-addressed noise (the
 // exemplar, the texton's files): a minute in any cache, the edge's included. Noise images are
-// immutable and stay in caches until they expire (README "Run at scale").
+// immutable and stay in caches until they expire (deploy/README.md "Run at scale").
 inline constexpr const char* kDeletableFor = "public, max-age=60";
 // cpp-httplib 0.11 applies a Range to a body without fitting it (bytes=0-99999999 of a 100 kB
 // body read past its end from a content provider, and named a false Content-Range otherwise):
@@ -61,8 +62,6 @@ api::ApiError to_api_error(const Error& e, std::string code = {});
 
 // RFC 9110 If-None-Match: a list of strong or weak tags, or "*".
 bool etag_matches(std::string_view if_none_match, std::string_view etag);
-
-std::string rfc3339_now();
 
 // Writes need `Authorization: Bearer <api_key>` when an API key is set (compared in constant
 // time); 401 with WWW-Authenticate sent when not.

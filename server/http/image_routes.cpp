@@ -4,7 +4,7 @@
 
 #include "render/image_buffers.h"
 #include "render/prepared_texton.h"
-#include "server/http/engine_kit.h"
+#include "server/app/engine_kit.h"
 #include "server/http/http_support.h"
 
 #include <openssl/crypto.h>

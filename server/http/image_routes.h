@@ -4,12 +4,13 @@
 // Every image is a window onto one deterministic function, so its bytes are named by a strong
 // ETag and cached; the work is ImageService's, admitted through the Gate.
 #include "api/requests.h"
+#include "server/app/image_service.h"
+#include "server/app/metrics.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/image_cache.h"
-#include "server/http/image_service.h"
-#include "server/http/metrics.h"
+#include "server/http/layers.h"
 #include "server/http/rate_limiter.h"
+#include "server/store/image_cache.h"
 
 #include <httplib.h>
 
@@ -26,7 +27,9 @@ public:
                 MixStore& mixes, ImageCache& cache, Gate& gate, Metrics& metrics, const int& port);
 
     using Handler = httplib::Server::Handler;
-    // Game tiles (z = level) and web-map tiles (z = zoom, level = 24 - z) differ only in parsing.
+    // Game tiles (z = level) and web-map tiles (z = zoom, level = 24 - z) differ only in parsing:
+    // routes.cpp passes api::parse_tile or api::parse_map_tile here (no call in this file names
+    // them).
     using TileParser = decltype(&api::parse_tile);
     Handler tile(const char* route, TileParser parse, bool mix);
     Handler region(const char* route, bool mix);
@@ -65,8 +68,8 @@ private:
     bool within_rate(const httplib::Request& req, httplib::Response& res);
     // Whom a render is counted against: the --api-key's holder, else the client's address.
     std::string rate_client(const httplib::Request& req) const;
-    // The query an image is served with (README "Signed URLs and presets"): the request's, its
-    // signature checked and sig and exp dropped, or the fields of the preset it names. Nothing,
+    // The query an image is served with (api/README.md "Signed URLs and presets"): the request's,
+    // its signature checked and sig and exp dropped, or the fields of the preset it names. Nothing,
     // the error sent, when refused. `format`: the URL's extension ("" when negotiated).
     std::optional<api::Query> served_query(const httplib::Request& req, httplib::Response& res,
                                            std::string_view format) const;

@@ -1,11 +1,12 @@
 #pragma once
 // Texture mixes (texton-noise section 7): POST /v1/mixes from two textons (MixService's
 // workflow) and GET /v1/mixes/{id}; their images are ImageRoutes'.
-#include "server/http/analysis_pool.h"
+#include "server/app/analysis_pool.h"
+#include "server/app/mix_service.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/mix_service.h"
-#include "server/http/mix_store.h"
+#include "server/http/layers.h"
+#include "server/store/mix_store.h"
 
 #include <httplib.h>
 

@@ -1,6 +1,7 @@
 #include "server/http/ops_routes.h"
 
 #include "api/openapi_spec.h"
+#include "server/app/build_id.h"
 #include "server/http/http_support.h"
 #include "server/http/service.h"
 #include "server/io/image_io.h"

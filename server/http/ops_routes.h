@@ -3,10 +3,11 @@
 // server/web/, read into memory once: no stat() per request, and a request can only name a file
 // that is in the map, never a path.
 #include "render/renderer.h"
+#include "server/app/metrics.h"
 #include "server/http/config.h"
-#include "server/http/metrics.h"
-#include "server/http/mix_store.h"
-#include "server/http/texton_store.h"
+#include "server/http/layers.h"
+#include "server/store/mix_store.h"
+#include "server/store/texton_store.h"
 
 #include <httplib.h>
 

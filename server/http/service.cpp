@@ -9,7 +9,6 @@
 #include "server/http/http_support.h"
 #include "server/io/image_io.h"
 
-#include <OpenImageIO/oiioversion.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -19,22 +18,7 @@
 #include <sys/socket.h>
 #include <thread>
 
-#ifndef TEXTOND_GIT_COMMIT
-#define TEXTOND_GIT_COMMIT "unknown"
-#endif
-#ifndef TEXTOND_VERSION
-#define TEXTOND_VERSION "0.0.0"
-#endif
-
 namespace textond::http {
-
-const std::string& build_id() {
-    // The PNG/EXR encoder is part of what produced a tile's bytes, so its version is too.
-    static const std::string id = std::string("textond/") + TEXTOND_VERSION + "+" +
-                                  TEXTOND_GIT_COMMIT + " " + render::kNoiseVersion + " " +
-                                  core::kAnalysisVersion + " oiio/" OIIO_VERSION_STRING;
-    return id;
-}
 
 namespace {
 int cores() {

@@ -7,24 +7,25 @@
 #include "render/backend.h"
 #include "render/cancel.h"
 #include "render/renderer.h"
+#include "server/app/analysis_pool.h"
+#include "server/app/image_service.h"
+#include "server/app/metrics.h"
+#include "server/app/mix_service.h"
+#include "server/app/texton_service.h"
 #include "server/http/admission.h"
-#include "server/http/analysis_pool.h"
 #include "server/http/config.h"
 #include "server/http/connection.h"
 #include "server/http/gate.h"
-#include "server/http/image_cache.h"
 #include "server/http/image_routes.h"
-#include "server/http/image_service.h"
-#include "server/http/metrics.h"
+#include "server/http/layers.h"
 #include "server/http/mix_routes.h"
-#include "server/http/mix_service.h"
-#include "server/http/mix_store.h"
 #include "server/http/ops_routes.h"
 #include "server/http/sign_routes.h"
 #include "server/http/surface_routes.h"
 #include "server/http/texton_routes.h"
-#include "server/http/texton_service.h"
-#include "server/http/texton_store.h"
+#include "server/store/image_cache.h"
+#include "server/store/mix_store.h"
+#include "server/store/texton_store.h"
 
 #include <httplib.h>
 
@@ -94,8 +95,5 @@ private:
     std::atomic<bool> m_stopping{false};
     int m_port = 0;
 };
-
-// Identifies the build in ETags and /healthz: version, commit, noise and analysis versions.
-const std::string& build_id();
 
 } // namespace textond::http

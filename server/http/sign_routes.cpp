@@ -1,8 +1,8 @@
 #include "server/http/sign_routes.h"
 
 #include "api/sign_request.h"
+#include "server/app/url_signing.h"
 #include "server/http/http_support.h"
-#include "server/http/url_signing.h"
 
 #include <chrono>
 

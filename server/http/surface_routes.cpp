@@ -106,9 +106,11 @@ void SurfaceRoutes::mesh(Req req, Res res, const httplib::ContentReader& reader)
                         (p.map.name.empty() && smooth && core::find_map(maps, core::kHeightMap));
     auto prepared = render::map_view(set, relief ? std::string() : p.map.name);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
-    auto height = relief ? render::map_view(set, core::kLitMap) : prepared;
+    auto height = relief ? render::map_view(set, core::kHeightMap) : prepared;
     if (!height) return send_error(res, to_api_error(height.error()));
     const render::PreparedTexton& texton = *prepared.value();
+    // Admitted at no cost: the cost is known only once the mesh is parsed (a parse the body limit
+    // bounds), and within_budget refuses it below before anything is rasterised.
     auto slot = m_gate.admit(res, 0.0); // parsing, the view, rasterising and encoding
     if (!slot) return;
     auto preview = SurfaceService::preview(body.bytes, texton, p, relief);

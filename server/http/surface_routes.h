@@ -1,9 +1,10 @@
 #pragma once
 // Surface noise over HTTP (texton-noise section 6): the bodies (points as JSON or float32, an OBJ
 // mesh) read and admitted through the Gate at the cost SurfaceService knows before it runs.
+#include "server/app/surface_service.h"
 #include "server/http/gate.h"
-#include "server/http/surface_service.h"
-#include "server/http/texton_store.h"
+#include "server/http/layers.h"
+#include "server/store/texton_store.h"
 
 #include <httplib.h>
 

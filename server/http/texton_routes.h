@@ -2,12 +2,13 @@
 // POST/GET/DELETE /v1/textons...: uploads (TextonService's ingest), metadata, analysis status,
 // the texton's files and engine kit, deletion and listing.
 #include "api/texton_meta.h"
-#include "server/http/analysis_pool.h"
+#include "server/app/analysis_pool.h"
+#include "server/app/texton_service.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/image_cache.h"
-#include "server/http/texton_service.h"
-#include "server/http/texton_store.h"
+#include "server/http/layers.h"
+#include "server/store/image_cache.h"
+#include "server/store/texton_store.h"
 
 #include <httplib.h>
 #include <nlohmann/json.hpp>

@@ -1,5 +1,5 @@
 #pragma once
-// Fault injection for the crash tests (issue 16): with TEXTOND_CRASH_POINT=<name> in its
+// Fault injection for the crash tests: with TEXTOND_CRASH_POINT=<name> in its
 // environment the process ends at once (_exit(86): no destructor, no flush, like kill -9) when it
 // reaches that point of the write path. The points:
 //   <ext>-written   write_file_atomic: the temporary is written and fsynced, not yet renamed

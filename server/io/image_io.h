@@ -54,7 +54,7 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
 // The bytes of encoded images are reused: encode_image_memory writes into a string taken from a
 // pool, and whoever drops an encoded image (the image cache, on eviction) may give its string
 // back. serve maps every allocation over 128 kB on its own, so a fresh 200 kB string per cold
-// tile was 50 page faults (issue 20). At most 32 MiB of strings of at most 2 MiB each are kept.
+// tile was 50 page faults. At most 32 MiB of strings of at most 2 MiB each are kept.
 void recycle_encoded(std::string&& bytes);
 
 // Writes atomically (temporary file in the same directory, fsync, rename). PNG values are

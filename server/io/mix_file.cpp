@@ -142,7 +142,7 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
         const int n = r.meta.size, nl = r.meta.levels, nc = r.meta.channels;
         const int order = r.meta.order;
         // Today's rules, not the writer's: a file from an older build (or edited on disk) that
-        // they refuse is never rendered (server/http/mix_store.cpp quarantines it).
+        // they refuse is never rendered (server/store/mix_store.cpp quarantines it).
         if (n < 8 || n > 256 || nl < 2 || nl > core::kMaxMixLevels || (nc != 1 && nc != 3) ||
             !(order == 0 || order == 1 || order == 3))
             return bad(path, "size, levels, channels or order out of range");

@@ -54,7 +54,7 @@ Result<std::string> encode_webp(const core::Image& image, int quality) {
     if (!WebPConfigInit(&config))
         return make_error(ErrorCode::internal, "libwebp: version mismatch");
     // Speed over the last percent of size: a tile is encoded on a request's thread, once per
-    // cache miss (tests/bench/format_bench measures both; README "Formats for the web").
+    // cache miss (tests/bench/format_bench measures both; api/README.md "Formats for the web").
     const bool ok = quality == 0 ? WebPConfigLosslessPreset(&config, kWebpLosslessLevel) != 0
                                  : WebPConfigPreset(&config, WEBP_PRESET_DEFAULT,
                                                     static_cast<float>(quality)) != 0;

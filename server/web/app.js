@@ -139,7 +139,7 @@ function upload(file) {
   });
 }
 
-// A material set: the chosen maps as one multipart form (README "Material sets").
+// A material set: the chosen maps as one multipart form (core/README.md "Material sets").
 function uploadSet() {
   const form = new FormData();
   for (const name of ['albedo', 'height', 'roughness', 'ao', 'metallic']) {
@@ -167,7 +167,7 @@ async function waitForAnalysis(accepted) {
   }
 }
 
-// The micro/macro verdict in plain words (README "Micro or macro").
+// The micro/macro verdict in plain words (core/README.md "Micro or macro").
 function verdict(meta) {
   if (!meta.kind) return 'not measured (analysed by an older server)';
   const pc = `phase coherence ${meta.phase_coherence.toFixed(3)}`;

@@ -23,7 +23,9 @@ import struct
 import subprocess
 import sys
 import tempfile
+import threading
 import uuid
+from concurrent.futures import ThreadPoolExecutor
 
 import jsonschema
 import yaml
@@ -32,6 +34,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from png_bytes import pattern_png  # noqa: E402
 
 MAPS = ["albedo", "height", "roughness", "ao", "metallic"]
+CLIENTS = 4
 # Numbers whose maximum is a cost, not a value to try (16384 x 16384 regions).
 COSTLY = {"w", "h", "width", "height", "limit"}
 
@@ -55,9 +58,18 @@ class Contract:
     def __init__(self, spec, base_port):
         self.spec = spec
         self.port = base_port
-        self.conn = None
+        self.local = threading.local()  # one keep-alive connection per client thread
+        self.lock = threading.Lock()
         self.failures = {}  # operation -> [messages]
         self.sent = {}  # operation -> count
+
+    @property
+    def conn(self):
+        return getattr(self.local, "conn", None)
+
+    @conn.setter
+    def conn(self, value):
+        self.local.conn = value
 
     # --- the document ---
     def resolve(self, node):
@@ -120,12 +132,14 @@ class Contract:
         raise AssertionError("unreachable")
 
     def fail(self, op, message):
-        self.failures.setdefault(op, []).append(message)
+        with self.lock:
+            self.failures.setdefault(op, []).append(message)
         print(f"FAIL {op}: {message}", file=sys.stderr)
 
     def check(self, path, method, target, status, headers, body):
         op = f"{method.upper()} {path}"
-        self.sent[op] = self.sent.get(op, 0) + 1
+        with self.lock:
+            self.sent[op] = self.sent.get(op, 0) + 1
         what = f"{method.upper()} {target[:160]} -> {status}"
         if status >= 500:
             self.fail(op, f"{what}: {body[:200]!r}")
@@ -227,28 +241,30 @@ def run(c, spec, exemplar_dir):
     images = {"albedo": pebbles}
     for i, name in enumerate(MAPS[1:]):
         images[name] = pattern_png(256, 256, i)
-    full_set = None
+    def material_set(order):
+        parts = [(m, images[m], m + ".png") for m in order]
+        parts += [("size", "16", None), ("iterations", "5", None)]
+        body, headers = multipart(parts)
+        st, _, b = c.exchange("/v1/textons", "post", "/v1/textons", body, headers)
+        if st not in (200, 201):
+            c.fail("POST /v1/textons", f"material set {order}: {st} {b[:200]!r}")
+            return None
+        sid = json.loads(b)["id"]
+        for m in order:
+            target = f"/v1/textons/{sid}/tiles/0/0/0.png?map={m}"
+            st, _, b = c.exchange("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", "get", target)
+            if st != 200:
+                c.fail("GET /v1/textons/{id}/tiles/{z}/{x}/{y}.{format}",
+                       f"set {order}, map {m}: {st} {b[:200]!r}")
+        return sid if len(order) == len(MAPS) else None
+
+    orders = []
     for n in range(1, len(MAPS) + 1):
         for subset in itertools.combinations(MAPS, n):
-            orders = {subset, tuple(reversed(subset)), subset[1:] + subset[:1]}
-            for order in sorted(orders):
-                parts = [(m, images[m], m + ".png") for m in order]
-                parts += [("size", "16", None), ("iterations", "5", None)]
-                body, headers = multipart(parts)
-                st, _, b = c.exchange("/v1/textons", "post", "/v1/textons", body, headers)
-                if st not in (200, 201):
-                    c.fail("POST /v1/textons", f"material set {order}: {st} {b[:200]!r}")
-                    continue
-                sid = json.loads(b)["id"]
-                for m in order:
-                    target = f"/v1/textons/{sid}/tiles/0/0/0.png?map={m}"
-                    st, _, b = c.exchange("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", "get",
-                                          target)
-                    if st != 200:
-                        c.fail("GET /v1/textons/{id}/tiles/{z}/{x}/{y}.{format}",
-                               f"set {order}, map {m}: {st} {b[:200]!r}")
-                if len(order) == len(MAPS):
-                    full_set = sid
+            orders += sorted({subset, tuple(reversed(subset)), subset[1:] + subset[:1]})
+    # Clients at once: the server is the bottleneck of a sequential run (it waits on each answer).
+    with ThreadPoolExecutor(CLIENTS) as pool:
+        full_set = next((sid for sid in pool.map(material_set, orders) if sid), None)
     # Mixes: a ramp (no body) and a mask.
     st, _, b = c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3")
     mix = json.loads(b)["id"] if st in (200, 201) else None
@@ -267,6 +283,7 @@ def run(c, spec, exemplar_dir):
         "multipart/form-data": None,  # above
     }
     path_values = {"z": [0, -1, 3], "x": [0, -3, 4000000000], "y": [0, 7]}
+    variants = []  # arguments of send_variant, sent by CLIENTS threads
     for path, ops in spec["paths"].items():
         for method, op in ops.items():
             if method not in ("get", "post", "delete"):
@@ -294,11 +311,14 @@ def run(c, spec, exemplar_dir):
                 combos = list(itertools.product(*choices)) or [()]
                 first = combos[0]
                 for combo in combos:
-                    send_variant(c, path, method, tid, dict(combo), dict(required), None, content)
+                    variants.append((c, path, method, tid, dict(combo), dict(required), None,
+                                     content))
                 for p in optional:
                     for v in c.values(p):
-                        send_variant(c, path, method, tid, dict(first), dict(required), (p, v),
-                                     content)
+                        variants.append((c, path, method, tid, dict(first), dict(required),
+                                         (p, v), content))
+    with ThreadPoolExecutor(CLIENTS) as pool:
+        list(pool.map(lambda a: send_variant(*a), variants))
     # Bodies: every documented content type of every operation with a body.
     for path, ops in spec["paths"].items():
         for method, op in ops.items():

@@ -1,4 +1,4 @@
-// zlib against libdeflate on the bytes a compressed PNG tile deflates (issue 20): 256x256 8-bit
+// zlib against libdeflate on the bytes a compressed PNG tile deflates: 256x256 8-bit
 // RGB tiles of texton noise from the shared exemplars, each row behind PNG's Average filter (what
 // `serve --png-compression N` asks libpng for), compressed as one zlib stream by each library at
 // the same levels. Prints bytes and ms per tile next to what `serve` does today (OpenImageIO's PNG

@@ -1,4 +1,4 @@
-// Tile formats for web pipelines (issue 19): 256x256 tiles of texton noise from three shared
+// Tile formats for web pipelines: 256x256 tiles of texton noise from three shared
 // exemplars (colour and grey), each encoded as the server encodes it: PNG as `serve` stores it
 // by default (level 0) and compressed (levels 1 and 6), WebP lossless and lossy (libwebp) and
 // AVIF (libavif, fastest speed, 4:4:4). Prints bytes and encode ms per tile, each as a ratio to

@@ -1,4 +1,4 @@
-// Marginal restoration on the shared photos (issue 17): the 1-D Wasserstein distance between the
+// Marginal restoration on the shared photos: the 1-D Wasserstein distance between the
 // exemplar's and the noise's marginals along the exemplar's principal colour directions, and the
 // power-spectrum RME of the noise, without (gaussian) and with (exemplar) restoration.
 //   marginals_bench [SEEDS]    (texton r = 64, level-0 windows of the exemplar's size, CPU)

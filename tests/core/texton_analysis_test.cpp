@@ -205,8 +205,8 @@ TEST(Analysis, LargeExemplarsAreAnalysedOnTheirCentredWorkingWindow) {
 
 // What the window costs in fidelity: on a 2048 x 2048 exemplar the windowed analysis's texton,
 // measured against the whole exemplar's model, is within 0.01 of the whole analysis's RME
-// (issue 32's tolerance; the RME reported, the window's own, differs more on a tiled exemplar:
-// README "Analysis time" has both over every shared photo).
+// (the analysis's tolerance; the RME reported, the window's own, differs more on a tiled exemplar:
+// core/README.md "Analysis time" has both over every shared photo).
 TEST(Analysis, TheWorkingWindowsTextonFitsTheWholeExemplar) {
     const Image u = tiled(test::load_exemplar("etr_pebbles04.png"), 2048, 2048);
     AnalysisParams p;

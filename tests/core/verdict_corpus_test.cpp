@@ -1,4 +1,4 @@
-// The micro/macro verdict on its labelled corpus (tests/verdict/, issue 32): held out, fitted,
+// The micro/macro verdict on its labelled corpus (tests/verdict/): held out, fitted,
 // and on random-phase textures. Labels and the split were fixed before any score.
 #include "core/phase_coherence.h"
 #include "core/spectral_synthesis.h"
@@ -89,8 +89,8 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
 
 // The held-out half: the verdict is right (its label, out of three verdicts) far more often than
 // a coin would be: one-sided binomial test against p = 1/2 at the 0.001 level (measured: 21 of
-// 25 micro and 14 of 20 macro right, p = 5e-5; README "Micro or macro"). Issue 32's 90% is not
-// reached, and one held-out macro (a dark, low-contrast stone wall) is called micro.
+// 25 micro and 14 of 20 macro right, p = 5e-5; core/README.md "Micro or macro"). Issue 32's 90% is
+// not reached, and one held-out macro (a dark, low-contrast stone wall) is called micro.
 TEST(VerdictCorpus, HeldOutHalfIsRightFarMoreOftenThanChance) {
     const Tally t = tally("held-out");
     const int n = t.micro + t.macro, right = t.micro_right + t.macro_right;

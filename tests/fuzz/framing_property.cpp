@@ -1,4 +1,4 @@
-// The framing property of issue 31, checked by request_fuzzer: a stream of N complete requests
+// The framing property, checked by request_fuzzer: a stream of N complete requests
 // gets at most N answers, exactly N when every request is well framed (fewer only when the
 // connection closed), the answers in request order, and a request hidden in a body is never
 // answered. The stream goes through the service's own connection loop (HttpServer,

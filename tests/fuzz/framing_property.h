@@ -1,5 +1,5 @@
 #pragma once
-// The framing property (issue 31): see framing_property.cpp.
+// The framing property: see framing_property.cpp.
 #include <cstddef>
 #include <cstdint>
 

@@ -1,4 +1,4 @@
-// libFuzzer target over what the request parsers let through to a render (issue 21): mix fields,
+// libFuzzer target over what the request parsers let through to a render: mix fields,
 // tile coordinates and noise parameters into a small CPU render of a tiny mix; surface
 // parameters and raw points into evaluate_surface; mesh parameters and an OBJ body into the
 // view, the cost estimate and the rasteriser. Whatever the parsers accept must render to finite

@@ -1,4 +1,4 @@
-// libFuzzer target past decoding (issue 21): the request parsers of api/ on arbitrary paths and
+// libFuzzer target past decoding: the request parsers of api/ on arbitrary paths and
 // queries, and what they accept fed onward. A mix field is evaluated (rho and its level, which
 // once indexed past the levels with a NaN); surface parameters go through the input check. Any
 // error message must survive api::printable into strict JSON. Selector 6 is the framing

@@ -62,7 +62,7 @@ TEST(TextonFile, ReadsMetadataWithoutThePhaseCoherence) {
     EXPECT_EQ(old.id, a.record.meta.id);
 }
 
-// Three verdicts from the stored index, at the thresholds fitted on the corpus (issue 32): a
+// Three verdicts from the stored index, at the thresholds fitted on the corpus: a
 // texton stored before them gets the new verdict when read.
 TEST(TextonFile, KindIsMicroBorderlineOrMacroFromTheStoredIndex) {
     api::TextonMeta m;

@@ -1,4 +1,4 @@
-// Abandoning work (render/cancel.h, issue 21): a render whose client left or whose deadline
+// Abandoning work (render/cancel.h): a render whose client left or whose deadline
 // passed stops between blocks and answers ErrorCode::cancelled; one that is never told to stop
 // gives the same bits as one without a Cancel.
 #include "render/cancel.h"

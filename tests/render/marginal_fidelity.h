@@ -1,5 +1,5 @@
 #pragma once
-// How faithful texton noise is to its exemplar with and without marginal restoration (issue 17's
+// How faithful texton noise is to its exemplar with and without marginal restoration (the
 // acceptance measures), shared by tests/bench/marginals_bench.cpp and render_stats_test.
 #include "core/image.h"
 #include "render/prepared_texton.h"

@@ -1,6 +1,6 @@
 // Marginal restoration in the renders (marginals=exemplar): tiles still stitch and equal the
 // region on every backend, OSMesa agrees with the CPU, zoomed-out levels keep level 0's mean, and
-// the acceptance measures of issue 17 on two photos.
+// the acceptance measures of marginal restoration on two photos.
 #include "render/cpu_backend.h"
 #include "render/osmesa_backend.h"
 #include "tests/render/marginal_fidelity.h"

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Hostile clients against the real binary (issue 21): every attack of the adversarial run and
+"""Hostile clients against the real binary: every attack of the adversarial run and
 the classes they stand for. Each case asserts no crash, no 5xx, the right 4xx and error code,
 bounded memory (RSS from /proc) and a healthy server afterwards.
 
@@ -680,7 +680,7 @@ class HostileClients(unittest.TestCase):
 
     # 5. Memory and CPU bounded by admission, not by the number of clients.
     def bound(self, largest):
-        # README "Memory bound": slots x the largest single request + the image cache + the
+        # deploy/README.md "Memory bound": slots x the largest single request + the image cache + the
         # transfer budget + the pools of reused render and encode buffers (64 MiB) + the free
         # heap malloc arenas may keep (1 MiB each, at most 8 a core), over the memory the server
         # held before the load.

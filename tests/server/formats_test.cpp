@@ -1,4 +1,4 @@
-// Tile formats for web pipelines (issue 19) over HTTP: .webp (lossless by default, lossy with
+// Tile formats for web pipelines over HTTP: .webp (lossless by default, lossy with
 // quality=) and .avif, the same pixels as the PNG tile (exactly, or within a PSNR for the lossy
 // ones); an extension-less tile URL answered by Accept with Vary: Accept; each format and quality
 // its own ETag; @2x tiles are one level finer over the same square; the refusals.

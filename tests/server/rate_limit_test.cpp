@@ -1,4 +1,4 @@
-// Rate limits on cold work (issue 19; server/http/rate_limiter.h): the token bucket itself with a
+// Rate limits on cold work (server/http/rate_limiter.h): the token bucket itself with a
 // clock of the test's own, then over HTTP: a client's renders past its burst get 429
 // rate_limited with Retry-After, cache hits and 304s are never counted, the --api-key holder has
 // a bucket of its own, and /metrics counts the refusals.

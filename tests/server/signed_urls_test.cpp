@@ -1,9 +1,9 @@
-// Signed URLs and presets (issue 19; server/http/url_signing.h) over HTTP: with a signing key a
+// Signed URLs and presets (server/app/url_signing.h) over HTTP: with a signing key a
 // good signature gets 200 and a missing one, a tampered path, query, signature or expiry each a
 // 403 with its code; one signature opens a whole tile layer, and a signed TileJSON hands out
 // signed templates; `textond sign` signs as the server checks, and so does POST /v1/sign for the
 // API key's holder. With presets, URLs name one and carry nothing else, and get the preset's tile.
-#include "server/http/url_signing.h"
+#include "server/app/url_signing.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -34,7 +34,7 @@ std::string outcome(httplib::Client& c, const std::string& url) {
 }
 
 std::string sign(const std::string& url, std::int64_t exp = 0) {
-    return http::sign_url(kKey, url, exp).value();
+    return app::sign_url(kKey, url, exp).value();
 }
 
 TEST(SignedUrls, GoodSignaturesPassAndEveryTamperingIsRefused) {
@@ -69,7 +69,7 @@ TEST(SignedUrls, GoodSignaturesPassAndEveryTamperingIsRefused) {
     std::string flipped = good;
     flipped.back() = flipped.back() == '0' ? '1' : '0';
     EXPECT_EQ(outcome(c, flipped), "403 signature_invalid");
-    EXPECT_EQ(outcome(c, http::sign_url("another key of some length", tile, 0).value()),
+    EXPECT_EQ(outcome(c, app::sign_url("another key of some length", tile, 0).value()),
               "403 signature_invalid");
     // Expiry: a future exp passes, a past one fails, and a changed exp breaks the signature.
     const std::string region = "/v1/textons/" + id + "/region.png?w=32&h=32&seed=1";
@@ -185,10 +185,9 @@ TEST(SignedUrls, TheServerSignsForItsApiKeyHolderOnly) {
 
 TEST(SignedUrls, PresetsAreTheOnlyParameterSets) {
     auto config = TestServer::default_config();
-    config.presets =
-        http::parse_presets(R"({"web-256": {"format": "webp", "quality": 80, "seed": 9},
+    config.presets = app::parse_presets(R"({"web-256": {"format": "webp", "quality": 80, "seed": 9},
                                 "game": {"format": "png", "seed": 7, "mni": 20}})")
-            .value();
+                         .value();
     TestServer server(config);
     auto c = server.client();
     const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=10");
@@ -218,16 +217,16 @@ TEST(SignedUrls, PresetsAreTheOnlyParameterSets) {
     const std::string tmpl = nlohmann::json::parse(tj->body).at("tiles")[0];
     EXPECT_NE(tmpl.find("/map/{z}/{x}/{y}.webp?preset=web-256"), std::string::npos) << tmpl;
     // A preset's 30.0 is mni=30 (the canonical spelling), not a refusal at start.
-    EXPECT_TRUE(http::parse_presets(R"({"x": {"format": "png", "mni": 30.0}})").ok());
+    EXPECT_TRUE(app::parse_presets(R"({"x": {"format": "png", "mni": 30.0}})").ok());
     // Bad preset files are refused clearly.
-    EXPECT_FALSE(http::parse_presets(R"({"a b": {}})").ok());
-    EXPECT_FALSE(http::parse_presets(R"({"x": {"sig": "1"}})").ok());
-    EXPECT_FALSE(http::parse_presets(R"([1, 2])").ok());
-    EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "gif"}})").ok());
-    EXPECT_FALSE(http::parse_presets(R"({"x": {"seed": 1}})").ok()) << "a format each";
-    EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "png", "quality": 80}})").ok());
-    EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "png", "sed": 1}})").ok());
-    EXPECT_FALSE(http::parse_presets(R"({"x": {"format": "png", "seed": 1.5}})").ok());
+    EXPECT_FALSE(app::parse_presets(R"({"a b": {}})").ok());
+    EXPECT_FALSE(app::parse_presets(R"({"x": {"sig": "1"}})").ok());
+    EXPECT_FALSE(app::parse_presets(R"([1, 2])").ok());
+    EXPECT_FALSE(app::parse_presets(R"({"x": {"format": "gif"}})").ok());
+    EXPECT_FALSE(app::parse_presets(R"({"x": {"seed": 1}})").ok()) << "a format each";
+    EXPECT_FALSE(app::parse_presets(R"({"x": {"format": "png", "quality": 80}})").ok());
+    EXPECT_FALSE(app::parse_presets(R"({"x": {"format": "png", "sed": 1}})").ok());
+    EXPECT_FALSE(app::parse_presets(R"({"x": {"format": "png", "seed": 1.5}})").ok());
 }
 
 // The engine kit is an image route like the others: signed, preset and rate limited, and
@@ -250,7 +249,7 @@ TEST(SignedUrls, TheEngineKitIsSignedPresetRateLimitedAndCached) {
     for (int i = 0; i < 3; ++i) EXPECT_EQ(outcome(c, sign(kit + "?mni=20")), "200") << i;
 
     auto presets = TestServer::default_config();
-    presets.presets = http::parse_presets(R"({"game": {"format": "png", "mni": 20}})").value();
+    presets.presets = app::parse_presets(R"({"game": {"format": "png", "mni": 20}})").value();
     TestServer with_presets(presets);
     auto p = with_presets.client();
     const std::string pkit =

@@ -1,7 +1,7 @@
 // Images over HTTP: tiles stitch into the region of the same window (near the origin, at negative
 // and at huge indices, at several levels), map tiles are level tiles, TileJSON points at them,
 // tileable textures wrap, and the caching headers (ETag, 304, Cache-Control, CORS, HEAD) hold.
-#include "server/http/quality_report.h"
+#include "server/app/quality_report.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -409,14 +409,14 @@ TEST(Ops, HealthReadinessMetricsAndSpec) {
 } // namespace
 } // namespace textond::test
 
-// The quality report and the page say each verdict in words (issue 32: three verdicts).
+// The quality report and the page say each verdict in words.
 TEST(QualityVerdict, SaysEachKindInWords) {
     textond::api::TextonMeta m;
-    EXPECT_NE(textond::http::quality_verdict(m).find("not measured"), std::string::npos);
+    EXPECT_NE(textond::app::quality_verdict(m).find("not measured"), std::string::npos);
     m.phase_coherence = 0.01;
-    EXPECT_NE(textond::http::quality_verdict(m).find("keeps its look"), std::string::npos);
+    EXPECT_NE(textond::app::quality_verdict(m).find("keeps its look"), std::string::npos);
     m.phase_coherence = 0.06;
-    EXPECT_NE(textond::http::quality_verdict(m).find("borderline"), std::string::npos);
+    EXPECT_NE(textond::app::quality_verdict(m).find("borderline"), std::string::npos);
     m.phase_coherence = 0.2;
-    EXPECT_NE(textond::http::quality_verdict(m).find("lose its edges"), std::string::npos);
+    EXPECT_NE(textond::app::quality_verdict(m).find("lose its edges"), std::string::npos);
 }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -91,7 +92,8 @@ Estimate estimate_of(const std::vector<double>& v) {
 }
 
 RunResult run(const std::string& args) {
-    const std::string errfile = temp_path("run-stderr");
+    static std::atomic<int> calls{0}; // runs may overlap (threads): a file each
+    const std::string errfile = temp_path("run-stderr-" + std::to_string(calls++));
     const std::string cmd = std::string(TEXTOND_BINARY) + " " + args + " 2>" + errfile;
     RunResult r;
     FILE* p = ::popen(cmd.c_str(), "r");
@@ -105,6 +107,7 @@ RunResult run(const std::string& args) {
             r.err.append(buf.data(), n);
         std::fclose(e);
     }
+    std::remove(errfile.c_str());
     return r;
 }
 

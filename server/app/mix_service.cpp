@@ -1,0 +1,89 @@
+#include "server/app/mix_service.h"
+
+#include "core/texture_mix.h"
+#include "server/io/image_io.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+namespace textond::app {
+
+MixService::MixService(store::TextonStore& textons, store::MixStore& mixes, AnalysisPool& pool)
+    : m_textons(textons), m_mixes(mixes), m_pool(pool) {}
+
+Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api::MixRequest& m,
+                                          const api::TextonMeta& mu, const std::string& id) {
+    const auto t0 = std::chrono::steady_clock::now();
+    auto pu = textons.exemplar_png(m.u);
+    if (!pu) return pu.error();
+    auto pv = textons.exemplar_png(m.v);
+    if (!pv) return pv.error();
+    auto eu = io::decode_image_memory(pu.value());
+    auto ev = io::decode_image_memory(pv.value());
+    if (!eu || !ev) return eu ? ev.error() : eu.error();
+    const core::AnalysisParams p = mu.params();
+    auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
+    if (!pair) return pair.error();
+    auto levels = core::mix_levels(pair.value(), p, m.levels);
+    if (!levels) return levels.error();
+    io::MixRecord record;
+    record.levels = levels.value().levels;
+    record.field = m.field;
+    api::MixMeta& meta = record.meta;
+    meta.id = id;
+    meta.version = core::kMixVersion;
+    meta.u = m.u;
+    meta.v = m.v;
+    meta.levels = m.levels;
+    meta.size = p.size;
+    meta.order = p.order;
+    meta.channels = record.levels.front().channels;
+    meta.iterations = p.iterations;
+    meta.seed = p.seed;
+    meta.periodic = p.periodic;
+    meta.grid = {pair.value().u.width, pair.value().u.height};
+    for (const auto& t : record.levels)
+        meta.means.emplace_back(t.mean.begin(), t.mean.begin() + t.channels);
+    meta.rme = levels.value().rme;
+    meta.field = io::field_json(m.field);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    meta.analysis_ms = ms;
+    meta.created = api::rfc3339_now();
+    return record;
+}
+
+Result<MixService::Started> MixService::start(const api::MixRequest& m) {
+    auto u = m_textons.find(m.u);
+    if (!u) return u.error();
+    auto v = m_textons.find(m.v);
+    if (!v) return v.error();
+    Started out;
+    out.id = io::mix_id(m.u, m.v, m.levels, m.field);
+    if (auto meta = m_mixes.meta(out.id)) {
+        out.known = std::move(meta.value());
+        return out;
+    }
+    // A mix is R texton analyses: it runs on the analysis pool, single flight per id, and a
+    // full pool answers 429 at once (it waited on a mutex before: 15 s became 159 s).
+    store::TextonStore* textons = &m_textons;
+    store::MixStore* mixes = &m_mixes;
+    const api::TextonMeta mu = u.value();
+    const std::string id = out.id;
+    out.submitted = m_pool.submit(
+        "mix:" + id,
+        [textons, mixes, m, mu, id](const core::ProgressFn&) -> Result<AnalysisOutcome> {
+            if (mixes->contains(id)) return AnalysisOutcome{mu, false};
+            auto record = analyse(*textons, m, mu, id);
+            if (!record) return record.error();
+            auto put = mixes->put(record.value());
+            if (!put) return put.error();
+            spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms", id, m.u.substr(0, 12),
+                         m.v.substr(0, 12), m.levels, record.value().meta.analysis_ms.value_or(0));
+            return AnalysisOutcome{mu, put.value()};
+        });
+    return out;
+}
+
+} // namespace textond::app

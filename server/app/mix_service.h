@@ -1,0 +1,41 @@
+#pragma once
+// The texture-mix workflow without HTTP (texton-noise section 7): both textons must be stored;
+// a mix stored already is answered at once; any other runs on the analysis pool (single flight
+// per id, like a texton), which re-reads both exemplars, takes their common models and the R
+// optimal-transport barycentres, and stores the levels.
+#include "api/mix_meta.h"
+#include "api/requests.h"
+#include "core/result.h"
+#include "server/app/analysis_pool.h"
+#include "server/io/mix_file.h"
+#include "server/store/mix_store.h"
+#include "server/store/texton_store.h"
+
+#include <optional>
+#include <string>
+
+namespace textond::app {
+
+class MixService {
+public:
+    MixService(store::TextonStore& textons, store::MixStore& mixes, AnalysisPool& pool);
+
+    // The stored form of a mix of m.u and m.v with u's analysis parameters (`mu`).
+    static Result<io::MixRecord> analyse(store::TextonStore& textons, const api::MixRequest& m,
+                                         const api::TextonMeta& mu, const std::string& id);
+
+    struct Started {
+        std::string id;
+        std::optional<api::MixMeta> known; // stored already: nothing was submitted
+        AnalysisPool::Submitted submitted; // otherwise the job; a null job: the queue is full
+    };
+    // not_found (or unavailable) when a texton is not stored.
+    Result<Started> start(const api::MixRequest& m);
+
+private:
+    store::TextonStore& m_textons;
+    store::MixStore& m_mixes;
+    AnalysisPool& m_pool;
+};
+
+} // namespace textond::app

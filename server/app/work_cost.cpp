@@ -1,0 +1,34 @@
+#include "server/app/work_cost.h"
+
+#include "core/working_window.h"
+
+#include <algorithm>
+
+namespace textond::app {
+
+int taps_of_order(int order) {
+    return order == 3 ? 16 : order == 1 ? 4 : 1;
+}
+
+double noise_work_s(std::int64_t pixels, double mni, int order) {
+    return static_cast<double>(pixels) * mni * taps_of_order(order) * 1.5e-9;
+}
+
+double surface_work_s(std::size_t points, double mni, int order) {
+    return static_cast<double>(points) * mni * taps_of_order(order) * 55e-9;
+}
+
+double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, int order) {
+    return static_cast<double>(raster_tests) * 10e-9 +
+           surface_work_s(static_cast<std::size_t>(pixels), mni, order);
+}
+
+double analysis_work_s(int width, int height, int channels, int iterations) {
+    constexpr double kAnalysisNs = 13; // fitted by tests/bench/analysis_cost.py
+    const double window = static_cast<double>(std::min(width, core::kWorkingSide)) *
+                          std::min(height, core::kWorkingSide) * channels;
+    const double whole = static_cast<double>(width) * height * channels;
+    return window * (iterations + 8) * kAnalysisNs * 1e-9 + whole * 10e-9;
+}
+
+} // namespace textond::app

@@ -1,0 +1,27 @@
+#pragma once
+// What a request's work may cost, in estimated single-core CPU seconds: requests over the budget
+// (--max-request-cpu-s) are refused (413) before they start, and the rest wait for a slot
+// (slots.h), so that memory and CPU grow with the slots and not with the clients.
+#include <cstddef>
+#include <cstdint>
+
+namespace textond::app {
+
+// Estimated single-core CPU seconds, from per-unit costs measured with `textond bench render`
+// on the CI machine (order 1, r 64): a kernel tap 1.5 ns, a (surface point, tap) 55 ns, a
+// rasteriser pixel test 10 ns. Coarse on purpose: they only have to rank requests against the
+// budget (--max-request-cpu-s; deploy/README.md "Hostile clients").
+int taps_of_order(int order); // 1, 4 or 16
+double noise_work_s(std::int64_t pixels, double mni, int order);
+double surface_work_s(std::size_t points, double mni, int order);
+double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, int order);
+// An analysis (core/texton_analysis.h) runs two FFTs of its working window (at most 1024 x 1024,
+// core/working_window.h) a channel and an iteration (alternating projections, texton paper
+// section 4), plus the periodic component, the model, the verdict and the marginals: kAnalysisNs
+// of one core a window channel-pixel and iteration, with 8 iterations' worth of fixed work
+// (fitted on a split of the shared photos, core/README.md "Analysis time"), and 10 ns a
+// channel-pixel of the whole exemplar for its id (sha256 of its floats) and the window's copy. The
+// upload is refused (413 work_too_large) before it is queued when over --max-request-cpu-s.
+double analysis_work_s(int width, int height, int channels, int iterations);
+
+} // namespace textond::app

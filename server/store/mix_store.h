@@ -1,0 +1,46 @@
+#pragma once
+// Texture mixes on local disk (`<data>/mixes/`, see server/io/mix_file.h), content addressed like
+// textons, with a small LRU of prepared mixes. Not shared through --store: a replica that lacks a
+// mix answers 404 and the client creates it again there (same id).
+#include "core/result.h"
+#include "render/prepared_mix.h"
+#include "server/io/mix_file.h"
+
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace textond::store {
+
+class MixStore {
+public:
+    static Result<std::unique_ptr<MixStore>> open(const std::string& data_dir);
+
+    bool contains(const std::string& id);
+    Result<api::MixMeta> meta(const std::string& id);
+    Result<std::shared_ptr<const render::PreparedMix>> prepared(const std::string& id);
+    // Writes the files (atomically); false when the mix was already there.
+    Result<bool> put(const io::MixRecord& record);
+    // Mixes whose files were damaged or failed today's validation at load, moved to
+    // <data>/mixes/quarantine/ instead of being rendered.
+    std::vector<std::string> quarantined() const;
+
+private:
+    struct Entry {
+        std::string id;
+        api::MixMeta meta;
+        std::shared_ptr<const render::PreparedMix> prepared;
+    };
+    explicit MixStore(std::string dir) : m_dir(std::move(dir)) {}
+    Result<Entry> load(const std::string& id);
+    void quarantine(const std::string& id, const std::string& why);
+    std::string m_dir;
+    mutable std::mutex m_mutex;
+    std::vector<std::string> m_quarantined;
+    std::list<Entry> m_lru; // front = most recent
+    static constexpr std::size_t kCapacity = 8;
+};
+
+} // namespace textond::store

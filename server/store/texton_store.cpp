@@ -1,0 +1,284 @@
+#include "server/store/texton_store.h"
+
+#include "api/safe_text.h"
+
+#include "server/io/image_io.h"
+
+#include <spdlog/spdlog.h>
+
+namespace textond::store {
+
+TextonStore::TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t prepared_cache,
+                         std::unique_ptr<store::RedisStore> shared,
+                         std::chrono::milliseconds recheck)
+    : m_local(std::move(local)), m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache),
+      m_shared(std::move(shared)), m_recheck(recheck) {
+    if (m_shared) m_sweeper = std::thread([this] { sweep_loop(); });
+}
+
+TextonStore::~TextonStore() {
+    {
+        std::lock_guard lock(m_sweep_mutex);
+        m_stopping = true;
+    }
+    m_sweep_cv.notify_all();
+    if (m_sweeper.joinable()) m_sweeper.join();
+}
+
+void TextonStore::sweep_loop() {
+    std::unique_lock lock(m_sweep_mutex);
+    while (!m_sweep_cv.wait_for(lock, m_recheck, [this] { return m_stopping; })) {
+        lock.unlock();
+        sweep();
+        lock.lock();
+    }
+}
+
+void TextonStore::sweep() {
+    std::string after;
+    for (;;) {
+        const std::vector<api::TextonMeta> page = m_local->list(after, 256);
+        if (page.empty()) return;
+        for (const api::TextonMeta& meta : page) {
+            {
+                std::lock_guard lock(m_sweep_mutex);
+                if (m_stopping) return;
+            }
+            {
+                std::lock_guard lock(m_mutex);
+                m_checked[meta.id] = std::chrono::steady_clock::now();
+            }
+            if (!m_shared->presence(meta.id)) return; // down: try again next round
+            (void)recheck(meta.id, meta);
+        }
+        after = page.back().id;
+    }
+}
+
+Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_dir,
+                                                       std::size_t prepared_cache,
+                                                       std::unique_ptr<store::RedisStore> shared,
+                                                       std::chrono::milliseconds recheck) {
+    auto local = TextonDirectory::open(data_dir);
+    if (!local) return local.error();
+    std::unique_ptr<TextonStore> s(
+        new TextonStore(std::move(local.value()), prepared_cache, std::move(shared), recheck));
+    const std::size_t quarantined = s->m_local->quarantined().size();
+    spdlog::info("store: {} textons in {}{}{}", s->m_local->count(), s->m_local->path(),
+                 s->m_shared ? " (a cache of " + s->m_shared->describe() + ")" : "",
+                 quarantined == 0 ? "" : ", " + std::to_string(quarantined) + " quarantined");
+    return s;
+}
+
+void TextonStore::forget(const std::string& id) {
+    std::lock_guard lock(m_mutex);
+    m_checked.erase(id);
+    m_prepared.remove_if([&](const auto& p) { return p.first == id; });
+}
+
+Result<api::TextonMeta> TextonStore::find(const std::string& id) {
+    auto local = m_local->meta(id);
+    if (!local) {
+        if (!m_shared) return make_error(ErrorCode::not_found, "no texton " + id);
+        return fetch_shared(id);
+    }
+    if (!m_shared) return std::move(*local);
+    {
+        std::lock_guard lock(m_mutex);
+        const auto now = std::chrono::steady_clock::now();
+        auto& checked = m_checked[id];
+        if (now < checked + m_recheck) return std::move(*local);
+        checked = now; // one request per interval makes the round trip
+    }
+    return recheck(id, std::move(*local));
+}
+
+Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonMeta local) {
+    auto presence = m_shared->presence(id);
+    if (!presence) return local; // the shared store is down: serve what we hold
+    switch (presence.value()) {
+    case store::RedisStore::Presence::present:
+        // A damaged or replaced entry is rewritten from this verified copy.
+        if (auto file = m_local->file(id)) {
+            auto exemplar = m_local->exemplar(id);
+            const nlohmann::json meta = local;
+            auto fixed = m_shared->repair_if_differs(id, file.value(), meta.dump(),
+                                                     exemplar ? exemplar.value() : "");
+            if (fixed && fixed.value())
+                spdlog::warn("store: texton {} was damaged in the shared store; repaired", id);
+        }
+        return local;
+    case store::RedisStore::Presence::deleted:
+        (void)m_local->erase(id, true); // never served here again, even if its file stays
+        forget(id);
+        spdlog::info("store: texton {} was deleted from the shared store; dropped here", id);
+        return make_error(ErrorCode::not_found, "no texton " + id + " (deleted)");
+    case store::RedisStore::Presence::unknown:
+        break;
+    }
+    // Held here but absent there (a flushed Redis, or stored before the shared store was
+    // configured): write it back so the other replicas find it.
+    auto file = m_local->file(id);
+    auto exemplar = m_local->exemplar(id);
+    if (file) {
+        const nlohmann::json meta = local;
+        auto put = m_shared->put(id, file.value(), meta.dump(), exemplar ? exemplar.value() : "");
+        if (put && put.value())
+            spdlog::warn("store: texton {} was missing from the shared store; written back", id);
+    }
+    return local;
+}
+
+Result<api::TextonMeta> TextonStore::fetch_shared(const std::string& id) {
+    auto got = m_shared->get(id);
+    if (!got) {
+        if (got.error().code != ErrorCode::unavailable)
+            spdlog::error("store: {}", got.error().message);
+        return got.error();
+    }
+    if (!got.value()) return make_error(ErrorCode::not_found, "no texton " + id);
+    // The analysing replica's provenance travels in the shared store's metadata.
+    nlohmann::json provenance = nlohmann::json::object();
+    try {
+        api::TextonMeta theirs;
+        api::read_provenance(nlohmann::json::parse(got.value()->meta_json), theirs);
+        provenance = api::provenance_json(theirs);
+    } catch (const std::exception&) {
+        // Absent or unreadable: the texton is served without it.
+    }
+    auto w = m_local->write(id, got.value()->file, &got.value()->exemplar_png, provenance);
+    if (!w) return w.error();
+    {
+        std::lock_guard lock(m_mutex);
+        m_checked[id] = std::chrono::steady_clock::now();
+    }
+    auto meta = m_local->meta(id);
+    if (!meta) return make_error(ErrorCode::not_found, "no texton " + id);
+    return std::move(*meta);
+}
+
+Result<io::TextonRecord> TextonStore::record(const std::string& id) {
+    if (!m_local->contains(id))
+        if (auto found = find(id); !found) return found.error();
+    auto r = m_local->load(id);
+    if (!r) forget(id); // quarantined, or deleted meanwhile
+    return r;
+}
+
+Result<std::shared_ptr<const render::PreparedTexton>> TextonStore::prepared(const std::string& id) {
+    {
+        std::lock_guard lock(m_mutex);
+        for (auto it = m_prepared.begin(); it != m_prepared.end(); ++it)
+            if (it->first == id) {
+                m_prepared.splice(m_prepared.begin(), m_prepared, it);
+                return m_prepared.front().second;
+            }
+    }
+    auto r = record(id);
+    if (!r) return r.error();
+    auto p = render::PreparedTexton::make(std::move(r.value().texton));
+    if (!p) return p.error();
+    std::lock_guard lock(m_mutex);
+    // A remove erases the file before it takes m_mutex to forget: either it is seen here, or
+    // its forget comes after this insertion.
+    if (!m_local->contains(id)) return make_error(ErrorCode::not_found, "no texton " + id);
+    for (auto it = m_prepared.begin(); it != m_prepared.end(); ++it)
+        if (it->first == id) return it->second; // another thread won the race
+    m_prepared.emplace_front(id, p.value());
+    while (m_prepared.size() > m_prepared_capacity) m_prepared.pop_back();
+    return p.value();
+}
+
+Result<std::string> TextonStore::file_bytes(const std::string& id) {
+    auto r = record(id);
+    if (!r) return r.error();
+    return m_local->file(id);
+}
+
+Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exemplar) {
+    const std::string id = record.meta.id;
+    // Held here; a copy only the shared store holds is found by its write-if-absent below.
+    if (m_local->contains(id)) return false;
+    record.meta.created = api::rfc3339_now();
+    std::string png;
+    if (exemplar) {
+        auto p = io::encode_image_memory(*exemplar, io::Encoding::png8, {}, 6);
+        if (!p) return p.error();
+        png = std::move(p.value());
+    }
+    auto file = io::texton_file_bytes(record);
+    if (!file) return file.error();
+    if (m_shared) {
+        const nlohmann::json meta = record.meta;
+        auto stored = m_shared->put(id, file.value(), meta.dump(), png);
+        if (!stored) return stored.error();
+        if (!stored.value()) { // another replica stored it first: adopt that one
+            auto adopted = fetch_shared(id);
+            if (!adopted) return adopted.error();
+            return false;
+        }
+    }
+    auto w = m_local->write(id, file.value(), &png, api::provenance_json(record.meta));
+    if (!w) return w.error();
+    std::lock_guard lock(m_mutex);
+    m_checked[id] = std::chrono::steady_clock::now();
+    return true;
+}
+
+Result<bool> TextonStore::remove(const std::string& id) {
+    if (m_shared) {
+        auto r = m_shared->remove(id);
+        if (!r) return r.error();
+        if (!r.value() && !m_local->contains(id))
+            return make_error(ErrorCode::not_found, "no texton " + id);
+    }
+    auto erased = m_local->erase(id);
+    if (!erased) return erased.error();
+    forget(id);
+    if (!erased.value() && !m_shared) return make_error(ErrorCode::not_found, "no texton " + id);
+    return true; // with a shared store: deleted there, perhaps never fetched here
+}
+
+Result<std::string> TextonStore::exemplar_png(const std::string& id) {
+    if (auto found = find(id); !found) return found.error();
+    auto png = m_local->exemplar(id);
+    if (!png && png.error().code == ErrorCode::not_found)
+        return make_error(ErrorCode::not_found, "texton " + id +
+                                                    " was stored without its exemplar (before "
+                                                    "exemplars were kept)");
+    return png;
+}
+
+Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after, int limit) {
+    if (!m_shared) return m_local->list(after, limit);
+    auto metas = m_shared->list_meta(after, limit);
+    if (!metas) return metas.error();
+    // A verified local copy's metadata wins over what Redis says; Redis metadata naming another
+    // id than its key's is not listed (the key is the content address, the JSON is just text).
+    std::vector<api::TextonMeta> out;
+    for (const auto& [id, text] : metas.value()) {
+        if (auto held = m_local->meta(id)) {
+            out.push_back(std::move(*held));
+            continue;
+        }
+        try {
+            auto meta = nlohmann::json::parse(text).get<api::TextonMeta>();
+            if (meta.id != id) {
+                spdlog::error("store: the shared store's metadata of {} names {}; not listed", id,
+                              api::printable(meta.id, 80));
+                continue;
+            }
+            out.push_back(std::move(meta));
+        } catch (const std::exception& e) {
+            spdlog::error("store: unreadable metadata of {} in the shared store: {}", id, e.what());
+        }
+    }
+    return out;
+}
+
+Result<std::uint64_t> TextonStore::total() {
+    if (m_shared) return m_shared->count();
+    return static_cast<std::uint64_t>(m_local->count());
+}
+
+} // namespace textond::store

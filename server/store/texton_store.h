@@ -1,0 +1,96 @@
+#pragma once
+// The textons the service serves: this replica's TextonDirectory (texton_directory.h: the files,
+// atomic writes, verification, quarantine) and the prepared textons of recent renders.
+//
+// With a shared store (`--store redis://...`, server/store/redis_store.h) the directory is a
+// read-through cache of it: a texton this replica lacks is fetched, verified and kept; a texton
+// analysed here is written there first (write-once: when another replica stored the same id
+// first, that one is adopted). A local copy is rechecked against the shared store at most every
+// `recheck` (deleted elsewhere: dropped here; missing there, e.g. a flushed Redis: written back).
+// While the shared store is down, local copies keep being served and writes fail with
+// ErrorCode::unavailable.
+#include "api/texton_meta.h"
+#include "core/result.h"
+#include "render/prepared_texton.h"
+#include "server/io/texton_file.h"
+#include "server/store/redis_store.h"
+#include "server/store/texton_directory.h"
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace textond::store {
+
+class TextonStore {
+public:
+    // Opens the directory (creating it, removing the temporary files a crash left).
+    static Result<std::unique_ptr<TextonStore>>
+    open(const std::string& data_dir, std::size_t prepared_cache = 64,
+         std::unique_ptr<store::RedisStore> shared = nullptr,
+         std::chrono::milliseconds recheck = std::chrono::seconds(30));
+    ~TextonStore();
+    TextonStore(const TextonStore&) = delete;
+    TextonStore& operator=(const TextonStore&) = delete;
+
+    // The texton's metadata: local, else fetched from the shared store. not_found, or
+    // unavailable when only the (unreachable) shared store could tell.
+    Result<api::TextonMeta> find(const std::string& id);
+    // Verified and ready to render; kept in a small LRU of prepared textons.
+    Result<std::shared_ptr<const render::PreparedTexton>> prepared(const std::string& id);
+    // The file read and verified (fetched first when only the shared store holds it).
+    Result<io::TextonRecord> record(const std::string& id);
+    // The stored file's bytes (GET .../texton.exr), verified first.
+    Result<std::string> file_bytes(const std::string& id);
+
+    // Stores a new texton (and its exemplar when given); `created` is set here. Returns false
+    // when it already existed.
+    Result<bool> put(io::TextonRecord record, const core::Image* exemplar = nullptr);
+    // The stored exemplar PNG, or not_found.
+    Result<std::string> exemplar_png(const std::string& id);
+    Result<bool> remove(const std::string& id);
+
+    // Ids in ascending order after `after` (exclusive), at most `limit`: the shared store's when
+    // there is one.
+    Result<std::vector<api::TextonMeta>> list(const std::string& after, int limit);
+    Result<std::uint64_t> total();
+    // This replica's copy (counts, size, quarantine, the readiness probe).
+    const TextonDirectory& local() const { return *m_local; }
+    store::RedisStore* shared() const { return m_shared.get(); }
+
+private:
+    TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t prepared_cache,
+                std::unique_ptr<store::RedisStore> shared, std::chrono::milliseconds recheck);
+    Result<api::TextonMeta> fetch_shared(const std::string& id);
+    Result<api::TextonMeta> recheck(const std::string& id, api::TextonMeta local);
+    // Drops what this object remembers of a texton the directory no longer holds.
+    void forget(const std::string& id);
+    // Every --store-recheck-s, every held texton is rechecked against the shared store: written
+    // back when missing there (a flushed Redis: all of them, not only those asked for), dropped
+    // when deleted there.
+    void sweep_loop();
+    void sweep();
+
+    const std::unique_ptr<TextonDirectory> m_local;
+    const std::size_t m_prepared_capacity;
+    const std::unique_ptr<store::RedisStore> m_shared;
+    const std::chrono::milliseconds m_recheck;
+    mutable std::mutex m_mutex; // may be held while calling m_local, never taken inside it
+    std::map<std::string, std::chrono::steady_clock::time_point> m_checked; // against m_shared
+    // Most recently used first.
+    std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;
+    std::mutex m_sweep_mutex;
+    std::condition_variable m_sweep_cv;
+    bool m_stopping = false;
+    std::thread m_sweeper; // with a shared store only
+};
+
+} // namespace textond::store
