@@ -16,6 +16,7 @@
 #include <future>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <set>
 #include <thread>
 #include <utility>
@@ -121,7 +122,8 @@ Estimates the Gaussian model of EXEMPLAR (any format OpenImageIO reads), compute
 alternating projections and prints a JSON summary (id, RME, mean, timings) on stdout.
   -o, --output FILE     write the texton file (OpenEXR + metadata, see api/TEXTON_FORMAT.md)
   --export-v1 FILE      also write the authors' .texton v1 text format (their OpenGL viewer)
-Many exemplars in one process (several EXEMPLARs, --from-list, or -o ending in /): each texton
+Many exemplars in one process (several EXEMPLARs, --from-list, --jobs, or -o naming a directory
+or ending in /): each texton
 goes to DIR/NAME.exr (NAME from the exemplar's file name), and each exemplar gets one JSON line
 on stdout, in the order given: its summary, or {"exemplar": {"path"}, "error": {"code",
 "message"}}. A bad file does not stop the others; the exit status is 1 if any failed.
@@ -184,6 +186,66 @@ std::pair<nlohmann::json, bool> analyse_one(const std::string& path, const std::
     return {summary, true};
 }
 
+// An output that is one of the inputs would replace an exemplar by its texton.
+std::optional<std::string> overwrites_an_input(const std::vector<std::string>& inputs,
+                                               const std::vector<std::string>& outputs) {
+    for (const std::string& out : outputs)
+        for (const std::string& in : inputs) {
+            std::error_code ec;
+            if (!std::filesystem::equivalent(out, in, ec)) continue;
+            std::string why = out;
+            why += " is the exemplar ";
+            why += in;
+            why += ": choose another -o DIR/";
+            return why;
+        }
+    return std::nullopt;
+}
+
+nlohmann::json error_line(const std::string& path, const std::string& code,
+                          const std::string& message) {
+    nlohmann::json j;
+    j["exemplar"]["path"] = path;
+    j["error"] = {{"code", code}, {"message", message}};
+    return j;
+}
+
+// Analyses paths[i] into outputs[i] on `jobs` threads and prints a line each in the given order;
+// 1 if any failed.
+int run_batch(const std::vector<std::string>& paths, const std::vector<std::string>& outputs,
+              const core::AnalysisParams& params, const io::DecodeLimits& limits, int jobs) {
+    std::vector<std::promise<std::pair<nlohmann::json, bool>>> promises(paths.size());
+    std::vector<std::future<std::pair<nlohmann::json, bool>>> results;
+    results.reserve(promises.size());
+    for (auto& p : promises) results.push_back(p.get_future());
+    std::atomic<std::size_t> next{0};
+    auto work = [&] {
+        for (std::size_t i; (i = next++) < paths.size();) {
+            try {
+                promises[i].set_value(analyse_one(paths[i], outputs[i], params, limits));
+            } catch (const std::exception& e) { // out of memory, say: this file fails
+                promises[i].set_value({error_line(paths[i], "internal", e.what()), false});
+            } catch (...) {
+                promises[i].set_value({error_line(paths[i], "internal", "unknown error"), false});
+            }
+        }
+    };
+    std::vector<std::thread> workers; // this thread prints each line as soon as it is ready
+    for (int w = 0; w < std::min<int>(jobs, static_cast<int>(paths.size())); ++w)
+        workers.emplace_back(work);
+    int status = 0;
+    for (auto& r : results) {
+        const auto [line, ok] = r.get();
+        // A path need not be UTF-8: replaced, not thrown.
+        std::printf("%s\n",
+                    line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
+        std::fflush(stdout);
+        if (!ok) status = 1;
+    }
+    for (auto& t : workers) t.join();
+    return status;
+}
+
 int analyze_many(const Args& a, core::AnalysisParams params, const io::DecodeLimits& limits) {
     if (a.options.count("--export-v1"))
         return fail(2, "--export-v1 takes one exemplar (see textond analyze --help)");
@@ -192,47 +254,22 @@ int analyze_many(const Args& a, core::AnalysisParams params, const io::DecodeLim
     if (inputs.value().empty())
         return fail(2, "analyze needs an EXEMPLAR (or --from-list FILE; see textond analyze "
                        "--help)");
-    if (!a.options.count("--output")) return fail(2, "analyze of many exemplars needs -o DIR/");
+    const std::string dir = a.options.count("--output") ? a.get("--output") : "";
+    std::error_code ec;
+    if (dir.empty() || (dir.back() != '/' && !std::filesystem::is_directory(dir, ec)))
+        return fail(2, "analyze of many exemplars needs -o DIR/ (a directory, or a name ending "
+                       "in /)");
     auto jobs = a.get_int("--jobs", 1, 1, 64);
     if (!jobs) return fail(2, jobs.error().message);
-    const std::string dir = a.get("--output");
-    std::error_code ec;
     std::filesystem::create_directories(dir, ec);
-    if (!std::filesystem::is_directory(dir))
+    if (!std::filesystem::is_directory(dir, ec))
         return fail(1, dir + ": not a directory" + (ec ? " (" + ec.message() + ")" : ""));
     const auto n = static_cast<int>(jobs.value());
     if (params.threads == 0) // the cores shared out: the result never depends on them
         params.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / n);
-    const std::vector<std::string>& paths = inputs.value();
-    const std::vector<std::string> outputs = batch_outputs(paths, dir);
-    // Lines in the order given: each waits for its own result, the workers take the next file.
-    std::vector<std::future<std::pair<nlohmann::json, bool>>> results(paths.size());
-    std::vector<std::promise<std::pair<nlohmann::json, bool>>> promises(paths.size());
-    for (std::size_t i = 0; i < paths.size(); ++i) results[i] = promises[i].get_future();
-    std::atomic<std::size_t> next{0};
-    std::vector<std::thread> workers;
-    for (int w = 0; w < std::min<int>(n, static_cast<int>(paths.size())); ++w)
-        workers.emplace_back([&] {
-            for (std::size_t i; (i = next++) < paths.size();) {
-                try {
-                    promises[i].set_value(analyse_one(paths[i], outputs[i], params, limits));
-                } catch (const std::exception& e) { // out of memory, say: this file fails
-                    nlohmann::json j;
-                    j["exemplar"]["path"] = paths[i];
-                    j["error"] = {{"code", "internal"}, {"message", e.what()}};
-                    promises[i].set_value({j, false});
-                }
-            }
-        });
-    int status = 0;
-    for (auto& r : results) {
-        const auto [line, ok] = r.get();
-        std::printf("%s\n", line.dump().c_str());
-        std::fflush(stdout);
-        if (!ok) status = 1;
-    }
-    for (auto& t : workers) t.join();
-    return status;
+    const std::vector<std::string> outputs = batch_outputs(inputs.value(), dir);
+    if (auto clash = overwrites_an_input(inputs.value(), outputs)) return fail(2, *clash);
+    return run_batch(inputs.value(), outputs, params, limits, n);
 }
 } // namespace
 

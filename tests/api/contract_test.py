@@ -264,7 +264,8 @@ def run(c, spec, exemplar_dir):
             orders += sorted({subset, tuple(reversed(subset)), subset[1:] + subset[:1]})
     # Clients at once: the server is the bottleneck of a sequential run (it waits on each answer).
     with ThreadPoolExecutor(CLIENTS) as pool:
-        full_set = next((sid for sid in pool.map(material_set, orders) if sid), None)
+        sets = list(pool.map(material_set, orders))  # every task's exception surfaces here
+    full_set = next((sid for sid in sets if sid), None)
     # Mixes: a ramp (no body) and a mask.
     st, _, b = c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3")
     mix = json.loads(b)["id"] if st in (200, 201) else None

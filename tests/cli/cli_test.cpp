@@ -115,6 +115,10 @@ TEST(Cli, AnalyzeManyWritesEachTextonAndKeepsGoingPastABadFile) {
     const std::string alone = (dir / "alone.exr").string();
     ASSERT_EQ(test::run("analyze " + sand + opts + " --threads 1 -o " + alone).code, 0);
     EXPECT_EQ(file_bytes(alone), file_bytes(lines[0].at("output").get<std::string>()));
+    // An output that is an input would replace the exemplar: refused, the file untouched.
+    const std::string made = lines[0].at("output").get<std::string>(), before = file_bytes(made);
+    EXPECT_EQ(test::run("analyze " + made + opts + " -o " + (dir / "out").string() + "/").code, 2);
+    EXPECT_EQ(file_bytes(made), before);
     EXPECT_EQ(test::run("analyze " + sand + " " + sand + opts).code, 2); // no -o DIR/
     EXPECT_EQ(test::run("analyze --from-list " + (dir / "none.txt").string() + opts + " -o " +
                         (dir / "out").string())

@@ -48,7 +48,9 @@ def main():
     os.makedirs(work)
     os.symlink(os.path.realpath(os.path.join(root, "..", "shared")), os.path.join(tmp, "shared"))
     os.makedirs(os.path.join(work, "build"))
-    os.symlink(build, os.path.join(work, "build", os.path.basename(build)))
+    # The blocks name build/release/textond: the build under test stands there, whatever preset.
+    for name in {"release", os.path.basename(build)}:
+        os.symlink(build, os.path.join(work, "build", name))
     data = os.path.join(tmp, "data")
     server = subprocess.Popen([binary, "serve", "--port", "0", "--data", data, "--backend", "cpu",
                                "--log-level", "warn", "--no-access-log"],
@@ -64,6 +66,10 @@ def main():
             where = f"{doc}:{line_no}"
             if text is None:
                 print(f"FAIL {where}: '{MARK}' is not followed by a ```sh block")
+                failed += 1
+                continue
+            if re.search(r"&&|\|\|", text):  # set -e ignores the left side of either
+                print(f"FAIL {where}: && or || in a runnable block hides a failing command")
                 failed += 1
                 continue
             script = PREAMBLE + text.replace("127.0.0.1:8080", "127.0.0.1:" + port)

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Which of FILES clang-tidy must check again: those whose translation unit changed since their
 last clean pass. A file's key is the hash of clang-tidy's version, every .clang-tidy of the tree,
-its compile command and its preprocessed text (so an edited header re-checks every file that
-includes it, and a changed flag re-checks what it compiles). Clean passes leave the key in
+its compile command and its preprocessed text with comments and macro definitions (so an edited
+header re-checks every file that includes it, a removed NOLINT or a new macro re-checks, and a
+changed flag re-checks what it compiles). Clean passes leave the key in
 CACHE_DIR; `tidy_check.sh` writes it.
 
     tidy_changed.py COMPILE_COMMANDS ROOT CACHE_DIR TIDY FILE...   # prints "FILE KEY" to check
@@ -29,7 +30,7 @@ def preprocess(entry):
         if a == "-c":
             continue
         out.append(a)
-    r = subprocess.run(out + ["-E", "-P"], cwd=entry["directory"], capture_output=True)
+    r = subprocess.run(out + ["-E", "-P", "-C", "-dD"], cwd=entry["directory"], capture_output=True)
     # A file that does not preprocess has no stable key: check it every time.
     return r.stdout if r.returncode == 0 else os.urandom(16)
 
