@@ -27,7 +27,7 @@ test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # The inner loop: every test but clang-tidy (label style), the libFuzzer smoke run (fuzz) and the
-# browser test (browser); about 5½ minutes on 2 cores. `make test` is the full suite CI runs.
+# browser test (browser); about 6 minutes on 2 cores. `make test` is the full suite CI runs.
 check: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -LE '^(style|fuzz|browser)$$'
 

@@ -156,7 +156,7 @@ std::string ImageService::etag(const std::string& key) const {
     return "\"" + h.hex().substr(0, 40) + "\"";
 }
 
-Result<int> ImageService::order(const std::string& id, bool mix) const {
+Result<int> ImageService::interpolation_order(const std::string& id, bool mix) const {
     if (mix) {
         auto found = m_mixes.meta(id);
         if (!found) return found.error();

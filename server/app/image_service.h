@@ -62,8 +62,9 @@ public:
     // The strong ETag of a key's bytes: the build, the renderer's identity and the key.
     std::string etag(const std::string& key) const;
 
-    // The stored texton's (or mix's) order: what admission costs a window at (not_found).
-    Result<int> order(const std::string& id, bool mix) const;
+    // The stored texton's (or mix's) interpolation order, which admission costs a window at;
+    // not_found when there is none, so it is also the routes' first existence check.
+    Result<int> interpolation_order(const std::string& id, bool mix) const;
     // The job of a tileable texture: the nearest whole number of cells, resampled to w x h.
     Result<Job> tileable(const api::TileableRequest& t) const;
 

@@ -47,7 +47,7 @@ struct ServeConfig {
     int max_headers = 100;
     int header_timeout_s = 10;
     int body_timeout_s = 120;
-    // Admission (server/http/admission.h): how long a request may wait for a render slot, how
+    // Admission (server/http/request_body.h): how long a request may wait for a render slot, how
     // many may wait, the most estimated CPU seconds one request may cost, and the request bodies
     // held in memory by all requests together.
     int queue_timeout_ms = 10'000;

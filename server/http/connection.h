@@ -8,7 +8,7 @@
 //   - the request head (request line and headers): at most max_header_bytes, all of it within
 //     header_timeout from its first byte (slow-header clients get 408 and are dropped);
 //   - the body: at most max_body_bytes on the wire (chunked framing included) within
-//     body_timeout; the routes count the decoded bytes exactly (server/http/admission.h).
+//     body_timeout; the routes count the decoded bytes exactly (server/http/request_body.h).
 // Parsing stays the library's: this layer only counts, times and buffers bytes.
 #include <httplib.h>
 

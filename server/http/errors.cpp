@@ -30,7 +30,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"signing_unavailable", 403},
         {"preset_required", 403},
         {"not_found", 404},
-        // The connection (server/http/connection.cpp, admission.cpp).
+        // The connection (server/http/connection.cpp, request_body.cpp).
         {"header_timeout", 408},
         {"body_timeout", 408},
         {"client_gone", 408},

@@ -1,15 +1,16 @@
 #pragma once
-// The service's admission control (the primitives are in admission.h): whether a request's
-// work fits the CPU budget, a render or decoder slot to do it in, a share of the byte budget for
-// a large answer, a body read within the upload limit, and what stops admitted work. Each method
-// that refuses has already sent its answer (413, 408 client_gone, 429 with Retry-After).
+// The service's admission control (what work costs: server/app/work_cost.h; slots:
+// server/app/slots.h; bodies: request_body.h): whether a request's work fits the CPU budget, a
+// render or decoder slot to do it in, a share of the byte budget for a large answer, a body read
+// within the upload limit, and what stops admitted work. Each method that refuses has already sent
+// its answer (413, 408 client_gone, 429 with Retry-After).
 #include "core/result.h"
 #include "render/cancel.h"
 #include "server/app/analysis_pool.h"
 #include "server/app/metrics.h"
-#include "server/http/admission.h"
 #include "server/http/config.h"
 #include "server/http/layers.h"
+#include "server/http/request_body.h"
 
 #include <httplib.h>
 
@@ -31,7 +32,7 @@ public:
     std::optional<SlotGuard> admit(httplib::Response& res, double work_s, double cpu_share = 0);
     bool within_budget(httplib::Response& res, double work_s,
                        double cpu_share = 0); // 413 sent when not
-    // Estimates are the CPU path's (server/http/admission.h); a backend that does the same
+    // Estimates are the CPU path's (server/http/request_body.h); a backend that does the same
     // work slower (llvmpipe) multiplies them, so admission counts what will really run.
     void set_work_factor(double factor) { m_work_factor = factor > 0 ? factor : 1.0; }
     double work_factor() const { return m_work_factor; }

@@ -71,7 +71,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
                                const std::string& id, const std::string& key,
                                api::ImageFormat format, const Produce& produce, bool mix,
                                std::int64_t pixels, double mni, int quality, double cpu_share) {
-    auto order = m_images.order(id, mix);
+    auto order = m_images.interpolation_order(id, mix);
     if (!order) return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
@@ -256,7 +256,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
     if (png)
         return serve_cached(req, res, id, ImageService::quality_key(id, noise),
                             api::ImageFormat::png, produce, false, 2 * 256 * 256, noise.mni);
-    auto order = m_images.order(id, false);
+    auto order = m_images.interpolation_order(id, false);
     if (!order) return send_error(res, to_api_error(order.error()));
     if (!within_rate(req, res)) return; // a render every time
     auto slot = m_gate.admit(res, noise_work_s(2 * 256 * 256, noise.mni, order.value()));

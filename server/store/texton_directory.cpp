@@ -190,17 +190,20 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
 }
 
 Result<bool> TextonDirectory::erase(const std::string& id, bool regardless) {
-    std::lock_guard lock(m_mutex);
-    if (!m_index.count(id)) return false;
-    std::error_code ec;
-    fs::remove(file_of(m_dir, id, kExtension), ec);
-    if (ec && !regardless)
-        return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
-    fs::remove(file_of(m_exemplars, id, ".png"), ec);
-    fs::remove(file_of(m_provenance, id, ".json"), ec);
+    {
+        std::lock_guard lock(m_mutex);
+        if (!m_index.count(id)) return false;
+        std::error_code ec;
+        fs::remove(file_of(m_dir, id, kExtension), ec);
+        if (ec && !regardless)
+            return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
+        fs::remove(file_of(m_exemplars, id, ".png"), ec);
+        fs::remove(file_of(m_provenance, id, ".json"), ec);
+        m_index.erase(id);
+        m_sizes.erase(id);
+    }
+    // Outside the lock: every lookup waited on this disk flush before.
     fsync_directory(m_dir);
-    m_index.erase(id);
-    m_sizes.erase(id);
     return true;
 }
 

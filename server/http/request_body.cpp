@@ -1,4 +1,4 @@
-#include "server/http/admission.h"
+#include "server/http/request_body.h"
 
 #include "api/safe_text.h"
 #include "server/http/connection.h"
