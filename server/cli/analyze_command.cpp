@@ -165,15 +165,20 @@ Result<std::vector<std::string>> batch_inputs(const Args& a) {
     return inputs;
 }
 
+nlohmann::json error_line(const std::string& path, const std::string& code,
+                          const std::string& message) {
+    nlohmann::json j;
+    j["exemplar"]["path"] = path;
+    j["error"] = {{"code", code}, {"message", message}};
+    return j;
+}
+
 // One exemplar of a batch: its JSON line (a summary or an error) and whether it succeeded.
 std::pair<nlohmann::json, bool> analyse_one(const std::string& path, const std::string& output,
                                             const core::AnalysisParams& params,
                                             const io::DecodeLimits& limits) {
     auto failed = [&](const Error& e) {
-        nlohmann::json j;
-        j["exemplar"]["path"] = path;
-        j["error"] = {{"code", to_string(e.code)}, {"message", e.message}};
-        return std::make_pair(j, false);
+        return std::make_pair(error_line(path, to_string(e.code), e.message), false);
     };
     auto image = io::decode_image_file(path, limits);
     if (!image) return failed(image.error());
@@ -200,14 +205,6 @@ std::optional<std::string> overwrites_an_input(const std::vector<std::string>& i
             return why;
         }
     return std::nullopt;
-}
-
-nlohmann::json error_line(const std::string& path, const std::string& code,
-                          const std::string& message) {
-    nlohmann::json j;
-    j["exemplar"]["path"] = path;
-    j["error"] = {{"code", code}, {"message", message}};
-    return j;
 }
 
 // Analyses paths[i] into outputs[i] on `jobs` threads and prints a line each in the given order;
@@ -284,8 +281,9 @@ int analyze_command(const Argv& argv) {
     auto limits = decode_limits_from(a);
     if (!limits) return fail(2, limits.error().message);
     const std::string out = a.options.count("--output") ? a.get("--output") : "";
+    std::error_code ec; // a directory we cannot stat is not one: the one-file form reports it
     if (a.positional.size() != 1 || a.options.count("--from-list") || a.options.count("--jobs") ||
-        (!out.empty() && (out.back() == '/' || std::filesystem::is_directory(out))))
+        (!out.empty() && (out.back() == '/' || std::filesystem::is_directory(out, ec))))
         return analyze_many(a, params.value(), limits.value());
 
     const std::string& path = a.positional[0];
