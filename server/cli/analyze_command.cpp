@@ -154,8 +154,10 @@ Result<std::vector<std::string>> batch_inputs(const Args& a) {
     const std::string list = a.get("--from-list");
     std::ifstream file;
     if (list != "-") {
+        std::error_code ec; // a directory opens, and reads as an empty list
         file.open(list);
-        if (!file) return make_error(ErrorCode::not_found, "--from-list: cannot read " + list);
+        if (!file || std::filesystem::is_directory(list, ec))
+            return make_error(ErrorCode::not_found, "--from-list: cannot read " + list);
     }
     std::istream& in = list == "-" ? std::cin : file;
     for (std::string line; std::getline(in, line);) {
@@ -258,6 +260,10 @@ int analyze_many(const Args& a, core::AnalysisParams params, const io::DecodeLim
                        "in /)");
     auto jobs = a.get_int("--jobs", 1, 1, 64);
     if (!jobs) return fail(2, jobs.error().message);
+    std::string bare = dir; // "file/" does not stat as the file it names
+    while (bare.size() > 1 && bare.back() == '/') bare.pop_back();
+    if (std::filesystem::exists(bare, ec) && !std::filesystem::is_directory(bare, ec))
+        return fail(2, dir + ": not a directory (-o DIR/ of many exemplars)");
     std::filesystem::create_directories(dir, ec);
     if (!std::filesystem::is_directory(dir, ec))
         return fail(1, dir + ": not a directory" + (ec ? " (" + ec.message() + ")" : ""));

@@ -120,6 +120,12 @@ TEST(Cli, AnalyzeManyWritesEachTextonAndKeepsGoingPastABadFile) {
     EXPECT_EQ(test::run("analyze " + made + opts + " -o " + (dir / "out").string() + "/").code, 2);
     EXPECT_EQ(file_bytes(made), before);
     EXPECT_EQ(test::run("analyze " + sand + " " + sand + opts).code, 2); // no -o DIR/
+    // A list that is a directory, an -o that is a file: usage errors, not empty or failed runs.
+    EXPECT_EQ(test::run("analyze " + sand + " --from-list " + dir.string() + opts + " -o " +
+                        (dir / "out").string() + "/")
+                  .code,
+              2);
+    EXPECT_EQ(test::run("analyze " + sand + opts + " -o " + list + "/").code, 2);
     EXPECT_EQ(test::run("analyze --from-list " + (dir / "none.txt").string() + opts + " -o " +
                         (dir / "out").string())
                   .code,
