@@ -1,5 +1,7 @@
 #include "api/requests.h"
 
+#include "api/noise_fields.h"
+
 #include "core/grid_poisson.h"
 #include "core/noise_levels.h"
 
@@ -10,7 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <initializer_list>
-#include <set>
+#include <vector>
 
 namespace textond::api {
 
@@ -21,13 +23,18 @@ ApiError bad(std::string code, std::string message) {
 }
 
 // Refuses fields the endpoint does not know and fields given twice: a typo or an ambiguous URL
-// must not silently fall back to a default (and one image must have one URL, for caches).
-std::optional<ApiError> check_fields(const Query& q, std::initializer_list<const char*> known) {
-    const std::set<std::string> allowed(known.begin(), known.end());
+// must not silently fall back to a default (and one image must have one URL, for caches). The
+// endpoint takes its own fields (`own`) and the noise fields kNoiseFields gives `route`.
+std::optional<ApiError> check_fields(const Query& q, std::initializer_list<const char*> own,
+                                     unsigned route = 0) {
+    std::vector<std::string> known(own.begin(), own.end());
+    if (route)
+        for (std::string& n : noise_field_names(static_cast<NoiseRoute>(route)))
+            known.push_back(std::move(n));
     for (auto it = q.begin(); it != q.end(); ++it) {
-        if (!allowed.count(it->first)) {
+        if (std::find(known.begin(), known.end(), it->first) == known.end()) {
             std::string list;
-            for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+            for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
             return bad("unknown_parameter", "unknown parameter '" + it->first +
                                                 "' (this endpoint takes " +
                                                 (list.empty() ? "none" : list) + ")");
@@ -63,74 +70,6 @@ std::optional<ApiError> int_field(const Query& q, const char* name, std::int64_t
                                             canonical_hint(*s));
     out = *v;
     return std::nullopt;
-}
-
-// `light_anywhere` (mesh previews): light= needs no map=lit, as every mesh is lit, and strength=
-// needs none either, as a set's mesh shows its relief by default.
-std::optional<ApiError> map_fields(const Query& q, MapChoice& out, bool light_anywhere = false) {
-    if (const std::string* s = field(q, "map")) {
-        bool known = *s == core::kNormalMap || *s == core::kLitMap;
-        for (const char* n : core::kMapNames) known = known || *s == n;
-        if (!known)
-            return bad("invalid_parameter",
-                       "map must be albedo, height, roughness, ao, metallic, normal or lit, not '" +
-                           s->substr(0, 40) + "'");
-        out.name = *s;
-    }
-    if (const std::string* s = field(q, "strength")) {
-        auto v = parse_decimal(*s);
-        if (!v || !(*v > 0.0) || *v > core::kMaxNormalStrength)
-            return bad("invalid_parameter",
-                       "strength (texels a height step of 1 spans) must be a number in (0, " +
-                           number_text(core::kMaxNormalStrength) + "], not '" + s->substr(0, 40) +
-                           "'");
-        if (!out.uses_normals() && !(light_anywhere && out.name.empty()))
-            return bad("invalid_parameter", "strength applies to map=normal and map=lit only");
-        out.strength = *v;
-    }
-    if (const std::string* s = field(q, "light")) {
-        const auto comma = s->find(',');
-        const auto az = parse_decimal(s->substr(0, comma));
-        const auto el =
-            comma == std::string::npos ? std::nullopt : parse_decimal(s->substr(comma + 1));
-        if (!az || !el || *az < 0.0 || *az > 360.0 || !(*el > 0.0) || *el > 90.0)
-            return bad("invalid_parameter",
-                       "light must be AZIMUTH,ELEVATION in degrees (azimuth 0..360 counter-"
-                       "clockwise from +x, elevation in (0, 90]), not '" +
-                           s->substr(0, 40) + "'");
-        if (out.name != core::kLitMap && !light_anywhere)
-            return bad("invalid_parameter", "light applies to map=lit only");
-        out.azimuth = *az;
-        out.elevation = *el;
-    }
-    return std::nullopt;
-}
-
-std::optional<ApiError> noise_fields(const Query& q, NoiseParams& out) {
-    if (const std::string* s = field(q, "seed")) {
-        auto v = parse_u64(*s);
-        if (!v)
-            return bad("invalid_parameter", "seed must be an unsigned 64-bit integer, not '" +
-                                                s->substr(0, 40) + "'" + canonical_hint(*s));
-        out.seed = *v;
-    }
-    if (const std::string* s = field(q, "mni")) {
-        auto v = parse_decimal(*s);
-        if (!v || *v < core::noise::kMinMni || *v > core::noise::kMaxMni)
-            return bad("invalid_parameter",
-                       "mni (mean number of impacts per pixel) must be a number in [" +
-                           number_text(core::noise::kMinMni) + ", " +
-                           number_text(core::noise::kMaxMni) + "], not '" + s->substr(0, 40) + "'" +
-                           canonical_hint(*s));
-        out.mni = *v;
-    }
-    if (const std::string* s = field(q, "marginals")) {
-        if (*s != "gaussian" && *s != "exemplar")
-            return bad("invalid_parameter",
-                       "marginals must be gaussian or exemplar, not '" + s->substr(0, 40) + "'");
-        out.exemplar_marginals = *s == "exemplar";
-    }
-    return map_fields(q, out.map);
 }
 
 std::optional<ApiError> format_of(std::string_view ext, ImageFormat& out) {
@@ -184,13 +123,14 @@ std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int6
     return std::nullopt;
 }
 
-// seed, mni and size: what every tile URL (and TileJSON) takes.
-std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
-    if (auto e = check_fields(
-            q, {"seed", "mni", "size", "marginals", "map", "strength", "light", "quality"}))
+// What every tile URL takes (a TileJSON too, but for quality: it writes PNG templates).
+std::optional<ApiError> tile_fields(const Query& q, bool mix, bool tilejson, TileRequest& out) {
+    const NoiseRoute route = mix ? kMixTileRoute : kTileRoute;
+    if (auto e = tilejson ? check_fields(q, {"size"}, route)
+                          : check_fields(q, {"size", "quality"}, route))
         return e;
     if (auto e = quality_of(q, out.format, out.quality)) return e;
-    if (auto e = noise_fields(q, out.noise)) return e;
+    if (auto e = read_noise_fields(q, route, out.noise)) return e;
     if (const std::string* s = field(q, "size")) {
         auto v = parse_i64(*s);
         if (!v || (*v != 256 && *v != 512))
@@ -202,11 +142,12 @@ std::optional<ApiError> tile_fields(const Query& q, TileRequest& out) {
 }
 
 std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std::string_view y,
-                                    std::string_view ext, const Query& q, TileRequest& out) {
+                                    std::string_view ext, const Query& q, bool mix,
+                                    TileRequest& out) {
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = tile_fields(q, out)) return e;
+    if (auto e = tile_fields(q, mix, false, out)) return e;
     // {y}@2x: the same square of the plane at twice the pixels, one level finer.
     constexpr std::string_view kRetina = "@2x";
     if (y.size() > kRetina.size() && y.substr(y.size() - kRetina.size()) == kRetina) {
@@ -328,14 +269,6 @@ const char* extension(ImageFormat f) {
     return "";
 }
 
-std::string MapChoice::query() const {
-    if (name.empty()) return "";
-    std::string q = "&map=" + name;
-    if (uses_normals()) q += "&strength=" + query_text(strength);
-    if (name == core::kLitMap) q += "&light=" + query_text(azimuth) + "," + query_text(elevation);
-    return q;
-}
-
 bool is_texton_id(std::string_view s) {
     if (s.size() != 64) return false;
     for (char c : s)
@@ -432,34 +365,33 @@ std::optional<double> parse_finite(std::string_view s) {
 
 std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
                                    std::string_view y, std::string_view ext, const Query& q,
-                                   TileRequest& out) {
+                                   TileRequest& out, bool mix) {
     if (auto e = check_texton_id(id)) return e;
     if (auto e = level_of(z, out.level)) return e;
-    return tile_common(id, x, y, ext, q, out);
+    return tile_common(id, x, y, ext, q, mix, out);
 }
 
 std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, std::string_view x,
                                        std::string_view y, std::string_view ext, const Query& q,
-                                       TileRequest& out) {
+                                       TileRequest& out, bool mix) {
     if (auto e = check_texton_id(id)) return e;
     auto zoom = parse_i64(z);
     if (!zoom || *zoom < 0 || *zoom > kMapMaxZoom)
         return bad("level_out_of_range",
                    "map zoom must be an integer in [0, " + std::to_string(kMapMaxZoom) + "]");
     out.level = kMapMaxLevel - static_cast<int>(*zoom);
-    return tile_common(id, x, y, ext, q, out);
+    return tile_common(id, x, y, ext, q, mix, out);
 }
 
 std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, const Query& q,
-                                     const Limits& limits, RegionRequest& out) {
+                                     const Limits& limits, RegionRequest& out, bool mix) {
+    const NoiseRoute route = mix ? kMixRegionRoute : kRegionRoute;
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "seed", "mni", "marginals", "map",
-                                  "strength", "light", "quality"}))
-        return e;
+    if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "quality"}, route)) return e;
     if (auto e = quality_of(q, out.format, out.quality)) return e;
-    if (auto e = noise_fields(q, out.noise)) return e;
+    if (auto e = read_noise_fields(q, route, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 1, 16384, w)) return e;
     if (auto e = int_field(q, "h", 1, 16384, h)) return e;
@@ -492,11 +424,9 @@ std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = check_fields(
-            q, {"w", "h", "seed", "mni", "marginals", "map", "strength", "light", "quality"}))
-        return e;
+    if (auto e = check_fields(q, {"w", "h", "quality"}, kTileableRoute)) return e;
     if (auto e = quality_of(q, out.format, out.quality)) return e;
-    if (auto e = noise_fields(q, out.noise)) return e;
+    if (auto e = read_noise_fields(q, kTileableRoute, out.noise)) return e;
     std::int64_t w = out.width, h = out.height;
     if (auto e = int_field(q, "w", 8, limits.max_tileable_side, w)) return e;
     if (auto e = int_field(q, "h", 8, limits.max_tileable_side, h)) return e;
@@ -524,16 +454,17 @@ std::optional<ApiError> parse_list(const Query& q, ListRequest& out) {
     return std::nullopt;
 }
 
-std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out) {
+std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out,
+                                       bool mix) {
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
-    return tile_fields(q, out);
+    return tile_fields(q, mix, true, out);
 }
 
 std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out) {
     if (auto e = check_texton_id(id)) return e;
-    if (auto e = check_fields(q, {"seed", "mni"})) return e;
-    return noise_fields(q, out);
+    if (auto e = check_fields(q, {}, kReportRoute)) return e;
+    return read_noise_fields(q, kReportRoute, out);
 }
 
 std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out) {
@@ -578,15 +509,21 @@ std::optional<ApiError> check_mix_id(std::string_view s) {
 std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool mesh,
                                       SurfaceParams& out) {
     if (auto e = check_texton_id(id)) return e;
+    const NoiseRoute route = mesh ? kMeshRoute : kSurfaceRoute;
     if (mesh) {
-        if (auto e = check_fields(q, {"seed", "mni", "scale", "width", "height", "fov", "eye",
-                                      "target", "marginals", "map", "strength", "light"}))
+        if (auto e = check_fields(q, {"scale", "width", "height", "fov", "eye", "target"}, route))
             return e;
         out.scale = 0; // automatic: the bounding box's diagonal spans 512 texels
-    } else if (auto e = check_fields(q, {"seed", "mni", "scale", "marginals", "map"})) {
+    } else if (auto e = check_fields(q, {"scale"}, route)) {
         return e;
     }
-    if (auto e = map_fields(q, out.map, true)) return e;
+    NoiseParams noise;
+    noise.mni = out.mni; // a surface's own default density
+    if (auto e = read_noise_fields(q, route, noise)) return e;
+    out.seed = noise.seed;
+    out.mni = noise.mni;
+    out.exemplar_marginals = noise.exemplar_marginals;
+    out.map = noise.map;
     out.light = field(q, "light") != nullptr;
     if (out.map.name == core::kNormalMap || (!mesh && out.map.name == core::kLitMap))
         return bad("invalid_parameter",
@@ -595,16 +532,6 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
                         : "surface colours come from a map of the set: albedo, height, roughness, "
                           "ao or metallic, not " +
                               out.map.name);
-    NoiseParams marginals; // the same values and message as the image endpoints
-    if (auto e =
-            noise_fields(Query{q.lower_bound("marginals"), q.upper_bound("marginals")}, marginals))
-        return e;
-    out.exemplar_marginals = marginals.exemplar_marginals;
-    if (const std::string* s = field(q, "seed")) {
-        auto v = parse_u64(*s);
-        if (!v) return bad("invalid_parameter", "seed must be an unsigned 64-bit integer");
-        out.seed = *v;
-    }
     auto number = [&](const char* name, double lo, double hi,
                       double& dst) -> std::optional<ApiError> {
         if (const std::string* s = field(q, name)) {
@@ -616,7 +543,6 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
         }
         return std::nullopt;
     };
-    if (auto e = number("mni", core::noise::kMinMni, core::noise::kMaxMni, out.mni)) return e;
     if (auto e = number("scale", mesh ? 0 : 1e-9, 1e9, out.scale)) return e;
     if (!mesh) return std::nullopt;
     if (auto e = number("fov", 5, 150, out.fov)) return e;
@@ -649,8 +575,8 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
 
 std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out) {
     if (auto e = check_texton_id(id)) return e;
-    if (auto e = check_fields(q, {"mni"})) return e;
-    return noise_fields(q, out);
+    if (auto e = check_fields(q, {}, kKitRoute)) return e;
+    return read_noise_fields(q, kKitRoute, out);
 }
 
 std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out) {

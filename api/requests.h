@@ -51,12 +51,10 @@ struct MapChoice {
     double azimuth = core::kDefaultLightAzimuth;
     double elevation = core::kDefaultLightElevation;
     bool uses_normals() const { return name == core::kNormalMap || name == core::kLitMap; }
-    // The query fields that ask for this view again ("" for the default view), every number
-    // exact: TileJSON's URLs and the image cache's keys.
-    std::string query() const;
 };
 
-// Noise parameters every image endpoint takes.
+// The noise parameters of the image endpoints; api/noise_fields.h reads and writes them, and
+// says which endpoint takes which.
 struct NoiseParams {
     std::uint64_t seed = 0;
     double mni = 30.0;
@@ -108,23 +106,25 @@ struct ListRequest {
 };
 
 // Path pieces arrive as the raw strings of the URL (already percent-decoded by the server).
+// `mix`: the id names a texture mix, which has no maps (api/noise_fields.h: its routes take no
+// map=, strength= or light=).
 std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
                                    std::string_view y, std::string_view ext, const Query& q,
-                                   TileRequest& out);
+                                   TileRequest& out, bool mix = false);
 // The web-map flavour (TileJSON): client zoom Z, larger = more detail, level = kMapMaxLevel - Z.
 inline constexpr int kMapMaxLevel = 24;
 inline constexpr int kMapMaxZoom = 28; // level -4
 std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, std::string_view x,
                                        std::string_view y, std::string_view ext, const Query& q,
-                                       TileRequest& out);
+                                       TileRequest& out, bool mix = false);
 std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, const Query& q,
-                                     const Limits& limits, RegionRequest& out);
+                                     const Limits& limits, RegionRequest& out, bool mix = false);
 std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext, const Query& q,
                                        const Limits& limits, TileableRequest& out);
 std::optional<ApiError> parse_list(const Query& q, ListRequest& out);
-// TileJSON: seed, mni and the tile size it will write into its template.
-std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out);
-// The spectra: seed and mni of the noise window.
+// TileJSON: the tile fields it will write into its templates (not quality: they are PNG).
+std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out,
+                                       bool mix = false);
 // POST /v1/mixes: two texton ids, the level count and the field. Without a body the field is a
 // ramp (x0, y0, dx, dy, width); with one (a mask image, decoded by the caller) it is the mask's
 // placement (x0, y0, scale).
@@ -159,6 +159,7 @@ std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool 
 
 // GET /v1/textons/{id}/kit.tar[?mni=M]
 std::optional<ApiError> parse_kit(std::string_view id, const Query& q, NoiseParams& out);
+// spectrum.png, quality.png and quality.json: seed and mni of the noise window.
 std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out);
 // Analysis parameters of POST /v1/textons (query or form fields): size, order, iterations, seed,
 // periodic. Unknown fields are refused so that a typo never silently analyses with defaults.

@@ -1,5 +1,7 @@
 #include "server/app/image_service.h"
 
+#include "api/noise_fields.h"
+
 #include "core/grid_poisson.h"
 #include "core/periodic_component.h"
 #include "core/periodic_resample.h"
@@ -133,21 +135,13 @@ std::string ImageService::key(const Job& job) {
            std::to_string(q.x0) + "/" + std::to_string(q.y0) + "/" + std::to_string(q.width) + "x" +
            std::to_string(q.height) + "/p" + std::to_string(q.period[0]) + "x" +
            std::to_string(q.period[1]) + "/o" + std::to_string(job.out_width) + "x" +
-           std::to_string(job.out_height) + "/s" + std::to_string(q.seed) + "/m" +
-           api::exact_text(q.mni) +
-           (q.marginals == render::Marginals::exemplar ? "/exemplar" : "") +
-           (job.map.name.empty() ? "" : "/map=" + job.map.name) +
-           (job.map.uses_normals() ? "/strength=" + api::exact_text(job.map.strength) : "") +
-           (job.map.name == core::kLitMap ? "/light=" + api::exact_text(job.map.azimuth) + "," +
-                                                api::exact_text(job.map.elevation)
-                                          : "") +
+           std::to_string(job.out_height) + "/" + api::noise_query(job.noise, api::kTileRoute) +
            (job.quality != api::kDefaultQuality ? "/q" + std::to_string(job.quality) : "") + "." +
            api::extension(job.format);
 }
 
 std::string ImageService::spectrum_key(const std::string& id, const api::NoiseParams& noise) {
-    return "spectrum/" + id + "/s" + std::to_string(noise.seed) + "/m" +
-           api::exact_text(noise.mni) + ".png";
+    return "spectrum/" + id + "/" + api::noise_query(noise, api::kReportRoute) + ".png";
 }
 
 std::string ImageService::etag(const std::string& key) const {
@@ -177,8 +171,7 @@ Result<ImageService::Job> ImageService::tileable(const api::TileableRequest& t) 
     render::NoiseRequest q =
         noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
     q.period = {cells(t.width), cells(t.height)};
-    return Job{t.id,     "tileable", t.format, q,           t.width,
-               t.height, true,       false,    t.noise.map, t.quality};
+    return Job{t.id, "tileable", t.format, q, t.width, t.height, true, false, t.noise, t.quality};
 }
 
 Result<core::Image> ImageService::evaluate(const std::string& id, const render::NoiseRequest& q,
@@ -225,11 +218,11 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
         q.precision = job.format == api::ImageFormat::png16 ? render::Precision::u16
                       : job.format == api::ImageFormat::exr ? render::Precision::f32
                                                             : render::Precision::u8;
-    auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.map);
+    auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.noise.map);
     if (!image || !resampled) return image;
     core::Image out = core::resample_periodic(image.value(), job.out_width, job.out_height);
     // Resampling mixes neighbouring normals: unit length again.
-    if (job.map.name == core::kNormalMap) render::renormalise_normal_map(out);
+    if (job.noise.map.name == core::kNormalMap) render::renormalise_normal_map(out);
     return out;
 }
 
@@ -253,8 +246,7 @@ Result<core::Image> ImageService::spectrum(const std::string& id, const api::Noi
 }
 
 std::string ImageService::quality_key(const std::string& id, const api::NoiseParams& noise) {
-    return "quality/" + id + "/s" + std::to_string(noise.seed) + "/m" + api::exact_text(noise.mni) +
-           ".png";
+    return "quality/" + id + "/" + api::noise_query(noise, api::kReportRoute) + ".png";
 }
 
 Result<QualityReport> ImageService::quality(const std::string& id, const api::NoiseParams& noise,

@@ -49,10 +49,10 @@ public:
         const char* kind = "tile"; // tile | region | tileable (metrics label)
         api::ImageFormat format = api::ImageFormat::png;
         render::NoiseRequest request;
-        int out_width = 0, out_height = 0;  // tileable textures are resampled to the asked size
-        bool whole_machine = false;         // regions and tileables: the frame backend
-        bool mix = false;                   // id names a texture mix
-        api::MapChoice map;                 // a material set's map, normals or lit view
+        int out_width = 0, out_height = 0; // tileable textures are resampled to the asked size
+        bool whole_machine = false;        // regions and tileables: the frame backend
+        bool mix = false;                  // id names a texture mix
+        api::NoiseParams noise; // seed, mni, marginals (also in request) and the view (map=)
         int quality = api::kDefaultQuality; // of lossy WebP and AVIF
         std::int64_t pixels() const { return std::int64_t{request.width} * request.height; }
     };

@@ -2,6 +2,7 @@
 // PMTiles archive for offline builds and static hosting. Tiles render in parallel and land in
 // OUT.partial (an MBTiles database, committed every second), so an interrupted export resumes
 // where it stopped; OUT appears only when every tile is in it.
+#include "api/noise_fields.h"
 #include "render/renderer.h"
 #include "server/app/image_service.h"
 #include "server/cli/args.h"
@@ -25,9 +26,11 @@
 #include <filesystem>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <system_error>
 #include <thread>
 #include <unordered_set>
+#include <vector>
 
 namespace textond::cli {
 
@@ -122,8 +125,10 @@ Result<Options> options_from(const Args& a) {
     if (o.ext != "png" && o.ext != "png16" && o.ext != "webp" && o.ext != "avif")
         return make_error(ErrorCode::invalid_argument,
                           "--tile-format is png, png16, webp or avif, not '" + o.ext + "'");
-    for (const char* f : {"seed", "mni", "marginals", "map", "strength", "light", "quality"})
-        if (a.has(std::string("--") + f)) o.query.emplace(f, a.get(std::string("--") + f));
+    std::vector<std::string> fields = api::noise_field_names(api::kTileRoute);
+    fields.emplace_back("quality");
+    for (const std::string& f : fields)
+        if (a.has("--" + f)) o.query.emplace(f, a.get("--" + f));
     auto size = a.get_int("--tile-size", 256, 256, 512);
     if (!size || (size.value() != 256 && size.value() != 512))
         return make_error(ErrorCode::invalid_argument, "--tile-size is 256 or 512");
@@ -496,11 +501,13 @@ int run_export(const Context& c, const ExportPlan& plan) {
 } // namespace
 
 int export_command(const Argv& argv) {
-    auto a = parse_args(argv,
-                        {"--zooms", "--bbox", "--format", "--output", "--tile-format", "--quality",
-                         "--tile-size", "--seed", "--mni", "--marginals", "--map", "--strength",
-                         "--light", "--png-compression", "--jobs", "--backend"},
-                        {"--help", "--quiet"});
+    // The noise options are the tile URL's noise fields (api/noise_fields.h), checked by the
+    // tile parser itself.
+    std::set<std::string> options = {
+        "--zooms",   "--bbox",      "--format",          "--output", "--tile-format",
+        "--quality", "--tile-size", "--png-compression", "--jobs",   "--backend"};
+    for (const std::string& f : api::noise_field_names(api::kTileRoute)) options.insert("--" + f);
+    auto a = parse_args(argv, options, {"--help", "--quiet"});
     if (!a) return fail(2, a.error().message);
     if (a.value().flags.count("--help")) {
         std::fputs(kHelp, stdout);

@@ -2,6 +2,7 @@
 // work, admitted through the Gate.
 #include "server/http/image_routes.h"
 
+#include "api/noise_fields.h"
 #include "render/image_buffers.h"
 #include "render/prepared_texton.h"
 #include "server/app/engine_kit.h"
@@ -149,13 +150,13 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
 void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
                         const ImageService::Job& job) {
     // Admission's estimate: normals take two CPU gradient passes, the lit view a render more.
-    const std::int64_t passes = job.map.name == core::kLitMap      ? 3
-                                : job.map.name == core::kNormalMap ? 2
-                                                                   : 1;
+    const std::int64_t passes = job.noise.map.name == core::kLitMap      ? 3
+                                : job.noise.map.name == core::kNormalMap ? 2
+                                                                         : 1;
     // Normals are made on the CPU whatever the backend (the lit view's albedo is rendered).
-    const double cpu_share = job.map.name == core::kLitMap      ? 2.0 / 3.0
-                             : job.map.name == core::kNormalMap ? 1.0
-                                                                : 0.0;
+    const double cpu_share = job.noise.map.name == core::kLitMap      ? 2.0 / 3.0
+                             : job.noise.map.name == core::kNormalMap ? 1.0
+                                                                      : 0.0;
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
         [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, job.mix,
@@ -180,14 +181,14 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool
             res.set_header("Vary", "Accept");
         }
         if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
-                           req.matches[4].str(), ext, *params, t))
+                           req.matches[4].str(), ext, *params, t, mix))
             return send_error(res, *e);
         ImageService::Job job{
-            t.id,        "tile",
-            t.format,    noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
-            t.size,      t.size,
-            false,       mix,
-            t.noise.map, t.quality};
+            t.id,     "tile",
+            t.format, noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
+            t.size,   t.size,
+            false,    mix,
+            t.noise,  t.quality};
         serve(req, res, job);
     };
 }
@@ -199,14 +200,14 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
         const auto params = served_query(req, res, req.matches[2].str());
         if (!params) return;
         if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), *params,
-                                       m_config.limits, r))
+                                       m_config.limits, r, mix))
             return send_error(res, *e);
         ImageService::Job job{
-            r.id,        "region",
-            r.format,    noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
-            r.width,     r.height,
-            true,        mix,
-            r.noise.map, r.quality};
+            r.id,     "region",
+            r.format, noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
+            r.width,  r.height,
+            true,     mix,
+            r.noise,  r.quality};
         serve(req, res, job);
     };
 }
@@ -269,8 +270,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
         {"png", signed_link(req, "/v1/textons/" + id + "/quality.png" +
                                      (!m_config.presets.empty() && preset != req.params.end()
                                           ? "?preset=" + preset->second
-                                          : "?seed=" + std::to_string(noise.seed) +
-                                                "&mni=" + api::query_text(noise.mni)))}};
+                                          : "?" + api::noise_query(noise, api::kReportRoute)))}};
     send_json(res, 200, report.value().json, "no-cache");
 }
 
@@ -430,7 +430,7 @@ std::string ImageRoutes::base_url(const httplib::Request& req) const {
 }
 
 // What the tiles of a TileJSON would refuse, refused once here: marginals a texton does not
-// keep, a map it does not have, any map of a mix.
+// keep, a map it does not have (a mix's routes take no map=: api/noise_fields.h).
 std::optional<api::ApiError>
 ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& probe, bool mix) {
     const api::ApiError no_marginals{
@@ -440,8 +440,6 @@ ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& pro
     if (mix) {
         if (auto meta = m_mixes.meta(id); !meta) return to_api_error(meta.error());
         if (probe.noise.exemplar_marginals) return no_marginals;
-        if (!probe.noise.map.name.empty())
-            return api::ApiError{"invalid_parameter", "a texture mix has no maps: drop map="};
         return std::nullopt;
     }
     if (auto meta = m_textons.find(id); !meta)
@@ -464,11 +462,8 @@ std::pair<std::string, std::string> ImageRoutes::tile_suffix(const httplib::Requ
         const std::string& f = m_config.presets.at(name).format;
         return {f.empty() ? "png" : f, "?preset=" + name};
     }
-    return {"png", "?seed=" + std::to_string(probe.noise.seed) +
-                       "&mni=" + api::query_text(probe.noise.mni) +
-                       (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "") +
-                       (probe.noise.exemplar_marginals ? "&marginals=exemplar" : "") +
-                       probe.noise.map.query()};
+    return {"png", "?" + api::noise_query(probe.noise, api::kTileRoute) +
+                       (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "")};
 }
 
 void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, bool mix) {
@@ -477,11 +472,11 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
     api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
     const auto params = served_query(req, res, "");
     if (!params) return;
-    if (!m_config.presets.empty()) // the preset's format: its quality belongs to it
-        if (auto f = api::parse_image_format(
-                m_config.presets.at(req.params.find("preset")->second).format))
-            probe.format = *f;
-    if (auto e = api::parse_tilejson(id, *params, probe)) return send_error(res, *e);
+    // A preset's quality belongs to its format and its tiles, which the templates name by the
+    // preset; a TileJSON takes none of its own (its templates are PNG).
+    api::Query fields = *params;
+    if (!m_config.presets.empty()) fields.erase("quality");
+    if (auto e = api::parse_tilejson(id, fields, probe, mix)) return send_error(res, *e);
     if (auto e = tilejson_refusal(id, probe, mix)) return send_error(res, *e);
     const std::string prefix = mix ? "/v1/mixes/" : "/v1/textons/";
     const auto [ext, query] = tile_suffix(req, probe);

@@ -7,7 +7,10 @@ every documented request body type, and for POST /v1/textons every documented mu
 the exemplar alone and material sets of every non-empty subset of the maps in three part orders.
 
 Each answer must be documented for its operation (status listed), never 5xx, of a documented
-content type, and a JSON answer must validate against the schema its status documents.
+content type, and a JSON answer must validate against the schema its status documents. A
+documented query parameter is never refused as unknown_parameter, and every query parameter the
+document names for other operations but not for this one is (the parsers and the document agree
+route by route).
 
 usage: contract_test.py TEXTOND_BINARY EXEMPLAR_DIR OPENAPI_YAML
 Prints a line per operation and "N passed, M failed" (N, M: operations); exits non-zero on any
@@ -318,6 +321,38 @@ def run(c, spec, exemplar_dir):
                     for v in c.values(p):
                         variants.append((c, path, method, tid, dict(first), dict(required),
                                          (p, v), content))
+    # The other direction: a query field documented for some operation but not for this one is
+    # refused as unknown_parameter, so that the document and the parsers (api/noise_fields.h and
+    # api/requests.cpp's allow-lists) name the same fields route by route. Uploads are left out:
+    # their fields are form fields too, and tests/server covers them.
+    universe = {}
+    for path, ops in spec["paths"].items():
+        for method in ops:
+            if method in ("get", "post", "delete"):
+                for p in c.parameters(path, method):
+                    if p["in"] == "query":
+                        universe.setdefault(p["name"], (c.values(p) or ["x"])[0])
+    for path, ops in spec["paths"].items():
+        for method in ops:
+            if method not in ("get", "post") or (path, method) == ("/v1/textons", "post"):
+                continue
+            params = c.parameters(path, method)
+            documented = {p["name"] for p in params if p["in"] == "query"}
+            if not documented:
+                continue
+            if path == "/v1/mixes":
+                required = {"u": plain, "v": other, "levels": 3}
+            else:
+                required = {p["name"]: c.values(p)[0] for p in params
+                            if p["in"] == "query" and p.get("required")}
+            first = {p["name"]: (path_values.get(p["name"]) or c.values(p))[0]
+                     for p in params if p["in"] == "path" and p["name"] != "id"}
+            content = list(ops[method].get("requestBody", {}).get("content", {}).keys()) or [None]
+            tid = mix if path.startswith("/v1/mixes/") else plain
+            for name in sorted(set(universe) - documented):
+                variants.append((c, path, method, tid, dict(first), dict(required),
+                                 ({"in": "query", "name": name, "undocumented": True},
+                                  universe[name]), content))
     with ThreadPoolExecutor(CLIENTS) as pool:
         list(pool.map(lambda a: send_variant(*a), variants))
     # Bodies: every documented content type of every operation with a body.
@@ -368,7 +403,19 @@ def send_variant(c, path, method, tid, path_args, query, extra, content):
         else:
             body = b""
             headers["Content-Length"] = "0"
-    c.exchange(path, method, target, body, headers)
+    status, _, answer = c.exchange(path, method, target, body, headers)
+    if not extra or extra[0]["in"] != "query":
+        return
+    try:
+        code = json.loads(answer)["error"]["code"] if status == 400 else None
+    except (ValueError, KeyError, TypeError):
+        code = None
+    op = f"{method.upper()} {path}"
+    if extra[0].get("undocumented") and code != "unknown_parameter":
+        c.fail(op, f"{target}: {extra[0]['name']} is not documented here, yet the answer was "
+                   f"{status} {answer[:160]!r}, not unknown_parameter")
+    elif not extra[0].get("undocumented") and code == "unknown_parameter":
+        c.fail(op, f"{target}: documented parameter {extra[0]['name']} refused: {answer[:160]!r}")
 
 
 if __name__ == "__main__":

@@ -2,12 +2,14 @@
 // code it must give ("" = accepted). Bounds are tested on both sides (the last accepted value
 // and the first refused one), so moving any limit by one step fails a row. The HTTP table in
 // tests/server/bad_requests_test.cpp stays the end-to-end check.
+#include "api/noise_fields.h"
 #include "api/requests.h"
 #include "core/grid_poisson.h"
 #include "core/noise_levels.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -367,6 +369,134 @@ TEST(Requests, NumbersInUrlsHaveOneSpellingAndTheMessageNamesIt) {
     }
     EXPECT_EQ(query_text(30.0), "30");
     EXPECT_EQ(query_text(1.1), "1.1");
+}
+
+Query split_query(const std::string& text) {
+    Query q;
+    std::size_t at = 0;
+    while (at < text.size()) {
+        const std::size_t amp = std::min(text.find('&', at), text.size());
+        const std::string item = text.substr(at, amp - at);
+        const std::size_t eq = item.find('=');
+        q.emplace(item.substr(0, eq), item.substr(eq + 1));
+        at = amp + 1;
+    }
+    return q;
+}
+
+// Every field a URL writes reads back to the same value: TileJSON's templates and the cache's
+// keys name the image the parser will make.
+TEST(NoiseFields, WhatAUrlWritesReadsBack) {
+    NoiseParams lit;
+    lit.seed = 18446744073709551615ULL;
+    lit.mni = 12.5;
+    lit.exemplar_marginals = true;
+    lit.map = {core::kLitMap, 2.25, 30.5, 45};
+    NoiseParams normal;
+    normal.mni = 1.5;
+    normal.map.name = core::kNormalMap;
+    normal.map.strength = 0.000001;
+    for (const NoiseParams& p : {lit, normal, NoiseParams{}})
+        for (NoiseRoute route : {kTileRoute, kRegionRoute, kTileableRoute}) {
+            const std::string text = noise_query(p, route);
+            SCOPED_TRACE(text);
+            NoiseParams back;
+            const auto e = read_noise_fields(split_query(text), route, back);
+            ASSERT_FALSE(e) << e->message;
+            EXPECT_EQ(back.seed, p.seed);
+            EXPECT_EQ(back.mni, p.mni);
+            EXPECT_EQ(back.exemplar_marginals, p.exemplar_marginals);
+            EXPECT_EQ(back.map.name, p.map.name);
+            if (p.map.uses_normals()) {
+                EXPECT_EQ(back.map.strength, p.map.strength);
+            }
+            if (p.map.name == core::kLitMap) {
+                EXPECT_EQ(back.map.azimuth, p.map.azimuth);
+                EXPECT_EQ(back.map.elevation, p.map.elevation);
+            }
+        }
+    EXPECT_EQ(noise_query(lit, kReportRoute), "seed=18446744073709551615&mni=12.5");
+    EXPECT_EQ(noise_query(lit, kKitRoute), "mni=12.5");
+}
+
+// Each parser takes exactly the noise fields the table gives its route: a row's field is read
+// (its bad value gives invalid_parameter) where the row names the route and is unknown elsewhere.
+TEST(NoiseFields, EachParserTakesItsRoutesRows) {
+    const Limits limits;
+    const std::vector<std::pair<NoiseRoute, std::function<std::optional<ApiError>(const Query&)>>>
+        parsers = {
+            {kTileRoute,
+             [](const Query& q) {
+                 TileRequest t;
+                 return parse_tile(kId, "0", "0", "0", "png", q, t);
+             }},
+            {kTileRoute,
+             [](const Query& q) {
+                 TileRequest t;
+                 return parse_tilejson(kId, q, t);
+             }},
+            {kRegionRoute,
+             [&](const Query& q) {
+                 RegionRequest r;
+                 return parse_region(kId, "png", q, limits, r);
+             }},
+            {kMixTileRoute,
+             [](const Query& q) {
+                 TileRequest t;
+                 return parse_map_tile(kId, "0", "0", "0", "png", q, t, true);
+             }},
+            {kMixTileRoute,
+             [](const Query& q) {
+                 TileRequest t;
+                 return parse_tilejson(kId, q, t, true);
+             }},
+            {kMixRegionRoute,
+             [&](const Query& q) {
+                 RegionRequest r;
+                 return parse_region(kId, "png", q, limits, r, true);
+             }},
+            {kTileableRoute,
+             [&](const Query& q) {
+                 TileableRequest t;
+                 return parse_tileable(kId, "png", q, limits, t);
+             }},
+            {kReportRoute,
+             [](const Query& q) {
+                 NoiseParams n;
+                 return parse_spectrum(kId, q, n);
+             }},
+            {kKitRoute,
+             [](const Query& q) {
+                 NoiseParams n;
+                 return parse_kit(kId, q, n);
+             }},
+            {kSurfaceRoute,
+             [](const Query& q) {
+                 SurfaceParams p;
+                 return parse_surface(kId, q, false, p);
+             }},
+            {kMeshRoute,
+             [](const Query& q) {
+                 SurfaceParams p;
+                 return parse_surface(kId, q, true, p);
+             }},
+        };
+    int taken = 0;
+    for (const auto& [route, parse] : parsers)
+        for (const NoiseField& f : kNoiseFields) {
+            SCOPED_TRACE(std::string(f.name) + " on route bit " + std::to_string(route));
+            const auto e = parse(Query{{f.name, "x!"}});
+            ASSERT_TRUE(e);
+            EXPECT_EQ(e->code, (f.routes & route) ? "invalid_parameter" : "unknown_parameter")
+                << e->message;
+            if (f.routes & route) {
+                EXPECT_NE(e->message.find(f.name), std::string::npos) << e->message;
+                ++taken;
+            }
+        }
+    // 6 fields on the tile, TileJSON, region and tileable parsers; 3 on a mix's; 4 on the
+    // surface; 6 on the mesh; 2 on the reports; 1 on the kit.
+    EXPECT_EQ(taken, 46);
 }
 
 } // namespace

@@ -1,6 +1,7 @@
 // `textond export` end to end: archives whose tiles are the windows `textond render` draws at the
 // same place and level, MBTiles rows counted from the bottom, PMTiles read back by the spec-built
 // reader, a killed export resumed into the same bytes, and bad options refused in words.
+#include "api/noise_fields.h"
 #include "server/io/image_io.h"
 #include "tests/support/pmtiles_reader.h"
 #include "tests/support/test_support.h"
@@ -200,6 +201,23 @@ TEST(Export, RefusesBadOptionsInWordsAndAPartialOfOtherOptions) {
                   test::temp_path("no-such-dir") + "/a.pmtiles");
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find("no directory"), std::string::npos) << r.err;
+}
+
+// The export takes every noise field a tile URL takes (api/noise_fields.h), as --NAME, reads it
+// with the tile parser (a bad value is refused naming the field) and lists it in its help.
+TEST(Export, TakesEveryNoiseFieldOfATileUrl) {
+    const std::string help = test::run("export --help").out;
+    const std::string out = test::temp_path("fields.pmtiles");
+    for (const std::string& name : api::noise_field_names(api::kTileRoute)) {
+        EXPECT_NE(help.find("--" + name + " "), std::string::npos) << name;
+        const test::RunResult r =
+            test::run("export " + sand_texton() + " --zooms 24 --bbox 0,0,256,256 --" + name +
+                      " x! -o " + out);
+        EXPECT_EQ(r.code, 2) << name;
+        EXPECT_EQ(r.err.find("unknown"), std::string::npos) << name << ": " << r.err;
+        EXPECT_NE(r.err.find(name), std::string::npos) << name << ": " << r.err;
+        EXPECT_FALSE(fs::exists(out)) << name;
+    }
 }
 
 // Someone else's SQLite file where the partial would be is neither taken over nor changed (nor
