@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fcntl.h>
@@ -246,20 +247,33 @@ std::optional<Error> exr_header_check(std::string_view b, std::uint64_t max_pixe
 
 } // namespace
 
-Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits) {
+// A file goes through the upload's path (decode_image_memory): the same sniffing, allow-list,
+// header checks and JPEG metadata stripping, so a photo gives the same pixels (and texton)
+// whether it was uploaded or named on the command line.
+Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits,
+                                      int* bits) {
     std::error_code ec;
-    if (!fs::is_regular_file(path, ec))
-        return make_error(ErrorCode::not_found, "no such file: " + path);
-    if (fs::file_size(path, ec) == 0) return unprocessable("file is empty: " + path);
-    auto in = ImageInput::open(path, &read_config());
-    if (!in) {
-        const std::string err = oiio_message(OIIO::geterror());
-        if (err.find("not a file format") != std::string::npos ||
-            err.find("format") != std::string::npos)
-            return make_error(ErrorCode::unsupported, "not an image format we read: " + err);
-        return unprocessable("cannot open image: " + err);
-    }
-    return read_opened(*in, limits);
+    const fs::file_status status = fs::status(path, ec);
+    if (!fs::exists(status)) return make_error(ErrorCode::not_found, "no such file: " + path);
+    if (!fs::is_regular_file(status))
+        return make_error(ErrorCode::invalid_argument,
+                          "not a regular file (a directory, FIFO or device): " + path);
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec) return make_error(ErrorCode::io, "cannot read " + path + ": " + ec.message());
+    if (size == 0) return unprocessable("file is empty: " + path);
+    // No image within the pixel budget is larger: 4 channels of 64-bit samples, uncompressed,
+    // and room for headers and metadata.
+    constexpr std::uint64_t kSlack = 16U << 20;
+    const std::uint64_t cap = limits.max_pixels > (UINT64_MAX - kSlack) / 32
+                                  ? UINT64_MAX
+                                  : limits.max_pixels * 32 + kSlack;
+    if (size > cap)
+        return make_error(ErrorCode::too_large, path + " has " + std::to_string(size) +
+                                                    " bytes, more than any image of at most " +
+                                                    std::to_string(limits.max_pixels) + " pixels");
+    auto bytes = read_file(path);
+    if (!bytes) return bytes.error();
+    return decode_image_memory(bytes.value(), limits, bits);
 }
 
 std::string sniff_format(std::string_view b) {

@@ -18,9 +18,8 @@ namespace textond::io {
 
 struct DecodeLimits {
     std::uint64_t max_pixels = 16'777'216; // 16.8 MP (4096 x 4096)
-    // OpenImageIO format names decode_image_memory accepts ("png", "jpeg", "tiff", "openexr",
-    // "bmp"); empty = whatever sniff_format recognises. Files named on the command line are
-    // trusted more and may be any format OpenImageIO reads.
+    // OpenImageIO format names the decoders accept ("png", "jpeg", "tiff", "openexr", "bmp");
+    // empty = whatever sniff_format recognises (the command line's choice).
     std::vector<std::string> formats;
 };
 
@@ -28,12 +27,16 @@ struct DecodeLimits {
 // when none of the formats we accept for uploads starts that way.
 std::string sniff_format(std::string_view bytes);
 
-Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits = {});
 // Uploads, decoded in memory: the format is sniffed from the bytes and must be in
 // `limits.formats` (else ErrorCode::unsupported), and only that format's reader sees the bytes.
 // `bits`, when given, receives the file's bits per channel (8, 16, 32).
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits = {},
                                         int* bits = nullptr);
+// A file: read whole (refused when larger than any image within the pixel budget could be) and
+// decoded by decode_image_memory, with the same refusals as an upload. not_found when there is
+// no such file, invalid_argument for a directory, FIFO or device.
+Result<core::Image> decode_image_file(const std::string& path, const DecodeLimits& limits = {},
+                                      int* bits = nullptr);
 
 enum class Encoding { png8, png16, exr };
 

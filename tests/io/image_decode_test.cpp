@@ -188,6 +188,43 @@ TEST(Decode, BadFilesGiveClearErrorsNotCrashes) {
     EXPECT_EQ(missing.error().code, ErrorCode::not_found);
 }
 
+// A file takes the upload's path: a format uploads refuse (here Targa and Radiance HDR, which
+// OpenImageIO reads) is refused from a file too, with the upload's words; so is a PNG cut short,
+// before the decoder sees it. A directory is said to be one, not a missing file.
+TEST(Decode, FilesAreRefusedAsUploadsAre) {
+    const auto px = pattern(16, 16, 3);
+    for (const char* name : {"rgb.tga", "rgb.hdr"}) {
+        const std::string path = write_with_oiio(name, 16, 16, 3, OIIO::TypeDesc::UINT8, px);
+        const auto from_file = io::decode_image_file(path);
+        const auto from_memory = io::decode_image_memory(io::read_file(path).value());
+        ASSERT_FALSE(from_file.ok()) << name;
+        ASSERT_FALSE(from_memory.ok()) << name;
+        EXPECT_EQ(from_file.error().code, ErrorCode::unsupported) << name;
+        EXPECT_EQ(from_file.error().message, from_memory.error().message) << name;
+    }
+    const std::string png = io::read_file(test::exemplar_path("etr_sand01.png")).value();
+    const std::string cut = png.substr(0, png.size() - 100);
+    const auto from_file = io::decode_image_file(write_bytes("cut.png", cut));
+    ASSERT_FALSE(from_file.ok());
+    EXPECT_EQ(from_file.error().message, io::decode_image_memory(cut).error().message);
+    EXPECT_NE(from_file.error().message.find("truncated"), std::string::npos);
+
+    const auto dir = io::decode_image_file(temp_dir().string());
+    ASSERT_FALSE(dir.ok());
+    EXPECT_EQ(dir.error().code, ErrorCode::invalid_argument);
+    EXPECT_NE(dir.error().message.find("not a regular file"), std::string::npos);
+}
+
+// A file larger than any image within the pixel budget is refused before it is read.
+TEST(Decode, AFileLargerThanTheBudgetAllowsIsNotRead) {
+    io::DecodeLimits tiny;
+    tiny.max_pixels = 1;
+    const std::string path = write_bytes("big.png", std::string((16U << 20) + 64, '\0'));
+    const auto r = io::decode_image_file(path, tiny);
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::too_large) << r.error().message;
+}
+
 TEST(Encode, WritesPng8Png16AndExrAtomically) {
     core::Image img = test::white_noise(20, 10, 3, 1);
     for (auto& v : img.data) v = 0.5f + 0.1f * v;
