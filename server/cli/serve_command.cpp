@@ -34,6 +34,8 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --store-timeout-ms N     shared store connect and command timeout            [1000]
   --store-recheck-s N      seconds before a local copy is rechecked against the shared store
                            (a texton deleted on one replica is gone from all after this) [30]
+  --meta-cache N           textons whose metadata stays in memory, most recently used (the
+                           others are read from their files when asked for)   [10000]
   --backend B              auto | cpu | osmesa | egl (auto: GPU via EGL, else CPU) [auto]
   --public-url URL         base of the absolute URLs in TileJSON      [from the Host header]
   --api-key KEY            require "Authorization: Bearer KEY" for POST and DELETE  [none]
@@ -89,6 +91,7 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--store",
                                                 "--store-timeout-ms",
                                                 "--store-recheck-s",
+                                                "--meta-cache",
                                                 "--backend",
                                                 "--public-url",
                                                 "--api-key",
@@ -165,6 +168,7 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
           num("--http-threads", c.http_threads, 1, 4096, c.http_threads),
           num("--store-timeout-ms", c.store_timeout_ms, 10, 60000, c.store_timeout_ms),
           num("--store-recheck-s", c.store_recheck_s, 0, 86400, c.store_recheck_s),
+          num("--meta-cache", c.meta_cache, 1, 100'000'000, c.meta_cache),
           num("--render-slots", c.render_slots, 0, 1024, c.render_slots),
           num("--gpu-batch-tiles", c.gpu_batch_tiles, 1, 1024, c.gpu_batch_tiles),
           num("--gpu-batch-wait-us", c.gpu_batch_wait_us, 0, 100000, c.gpu_batch_wait_us),

@@ -23,6 +23,7 @@ struct ServeConfig {
     std::string store_url;
     int store_timeout_ms = 1000; // connect and command timeout
     int store_recheck_s = 30;    // how stale a local copy may get (deletes reach other replicas)
+    int meta_cache = 10000;      // textons whose metadata stays in memory (most recently used)
     render::BackendKind backend = render::BackendKind::automatic;
     std::string public_url; // base of TileJSON URLs; empty = from the request's Host header
 

@@ -76,7 +76,8 @@ std::optional<Error> Service::open_parts() {
             spdlog::warn("{}; starting anyway", ping.error().message);
     }
     auto store = TextonStore::open(m_config.data_dir, 64, std::move(shared),
-                                   std::chrono::milliseconds(1000LL * m_config.store_recheck_s));
+                                   std::chrono::milliseconds(1000LL * m_config.store_recheck_s),
+                                   static_cast<std::size_t>(m_config.meta_cache));
     if (!store) return store.error();
     m_store = std::move(store.value());
     auto mixes = MixStore::open(m_config.data_dir);

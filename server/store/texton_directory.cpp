@@ -6,6 +6,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fcntl.h>
 #include <filesystem>
@@ -52,20 +53,23 @@ bool unfinished(const std::string& name) {
 
 } // namespace
 
-TextonDirectory::TextonDirectory(const std::string& data_dir)
+TextonDirectory::TextonDirectory(const std::string& data_dir, std::size_t meta_cache)
     : m_dir((fs::path(data_dir) / "textons").string()),
       m_exemplars((fs::path(data_dir) / "exemplars").string()),
       m_provenance((fs::path(data_dir) / "provenance").string()),
-      m_quarantine((fs::path(data_dir) / "quarantine").string()) {}
+      m_quarantine((fs::path(data_dir) / "quarantine").string()),
+      m_meta_capacity(meta_cache == 0 ? 1 : meta_cache) {}
 
-Result<std::unique_ptr<TextonDirectory>> TextonDirectory::open(const std::string& data_dir) {
-    std::unique_ptr<TextonDirectory> d(new TextonDirectory(data_dir));
+Result<std::unique_ptr<TextonDirectory>> TextonDirectory::open(const std::string& data_dir,
+                                                               std::size_t meta_cache) {
+    std::unique_ptr<TextonDirectory> d(new TextonDirectory(data_dir, meta_cache));
     std::error_code ec;
     for (const std::string& dir : {d->m_dir, d->m_exemplars, d->m_provenance, d->m_quarantine}) {
         fs::create_directories(dir, ec);
         if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
     }
     std::lock_guard lock(d->m_mutex);
+    // Names and sizes only: the files are verified when first read (meta, load).
     for (const auto& entry : fs::directory_iterator(d->m_dir, ec)) {
         const std::string name = entry.path().filename().string();
         if (unfinished(name)) { // a write a crash interrupted: never complete, never referenced
@@ -78,24 +82,45 @@ Result<std::unique_ptr<TextonDirectory>> TextonDirectory::open(const std::string
             spdlog::warn("store: ignoring {} (not a texton file name)", name);
             continue;
         }
-        auto r = io::read_texton_file(entry.path().string());
-        if (!r || r.value().meta.id != stem) {
-            d->quarantine_locked(stem, r ? "its metadata names another id" : r.error().message);
-            continue;
-        }
-        d->m_sizes[stem] = fs::file_size(entry.path(), ec);
-        d->m_index[stem] =
-            with_provenance(file_of(d->m_provenance, stem, ".json"), std::move(r.value().meta));
+        std::error_code size_ec;
+        const std::uint64_t bytes = entry.file_size(size_ec);
+        d->m_files[stem] = size_ec ? 0 : bytes;
+        d->m_bytes += size_ec ? 0 : bytes;
     }
     if (ec) return make_error(ErrorCode::io, "cannot list " + d->m_dir + ": " + ec.message());
     // Exemplars and provenance of textons that were never completed (a crash between the
-    // writes) or whose texton was quarantined, and unfinished writes.
+    // writes), and unfinished writes.
     for (const std::string& dir : {d->m_exemplars, d->m_provenance})
         for (const auto& entry : fs::directory_iterator(dir, ec))
             if (unfinished(entry.path().filename().string()) ||
-                !d->m_index.count(entry.path().stem().string()))
+                !d->m_files.count(entry.path().stem().string()))
                 fs::remove(entry, ec);
     return d;
+}
+
+void TextonDirectory::drop_locked(const std::string& id) {
+    if (auto it = m_files.find(id); it != m_files.end()) {
+        m_bytes -= std::min(m_bytes, it->second);
+        m_files.erase(it);
+    }
+    if (auto it = m_meta.find(id); it != m_meta.end()) {
+        m_ages.erase(it->second.age);
+        m_meta.erase(it);
+    }
+}
+
+void TextonDirectory::remember_locked(const std::string& id, api::TextonMeta meta) {
+    if (auto it = m_meta.find(id); it != m_meta.end()) {
+        it->second.meta = std::move(meta);
+        m_ages.splice(m_ages.begin(), m_ages, it->second.age);
+        return;
+    }
+    m_ages.push_front(id);
+    m_meta.emplace(id, Cached{std::move(meta), m_ages.begin()});
+    while (m_meta.size() > m_meta_capacity) {
+        m_meta.erase(m_ages.back());
+        m_ages.pop_back();
+    }
 }
 
 void TextonDirectory::quarantine_locked(const std::string& id, const std::string& why) {
@@ -108,22 +133,38 @@ void TextonDirectory::quarantine_locked(const std::string& id, const std::string
     if (ec) fs::remove(from, ec); // never leave it where it could be served
     fs::remove(file_of(m_exemplars, id, ".png"), ec);
     fs::remove(file_of(m_provenance, id, ".json"), ec);
-    m_index.erase(id);
-    m_sizes.erase(id);
+    drop_locked(id);
     m_quarantined.push_back(name);
     spdlog::error("store: texton {} is damaged ({}); moved to {}/{}", id, why, m_quarantine, name);
 }
 
-std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) const {
+std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) {
+    {
+        std::lock_guard lock(m_mutex);
+        if (!m_files.count(id)) return std::nullopt;
+        if (auto it = m_meta.find(id); it != m_meta.end()) {
+            m_ages.splice(m_ages.begin(), m_ages, it->second.age);
+            return it->second.meta;
+        }
+    }
+    // First sight (or evicted): read and verified outside the lock, as load() does.
+    auto r = io::read_texton_file(file_of(m_dir, id, kExtension));
+    std::optional<api::TextonMeta> meta;
+    if (r && r.value().meta.id == id)
+        meta = with_provenance(file_of(m_provenance, id, ".json"), std::move(r.value().meta));
     std::lock_guard lock(m_mutex);
-    auto it = m_index.find(id);
-    if (it == m_index.end()) return std::nullopt;
-    return it->second;
+    if (!m_files.count(id)) return std::nullopt; // erased meanwhile
+    if (!meta) {
+        quarantine_locked(id, r ? "its metadata names another id" : r.error().message);
+        return std::nullopt;
+    }
+    remember_locked(id, *meta);
+    return meta;
 }
 
 bool TextonDirectory::contains(const std::string& id) const {
     std::lock_guard lock(m_mutex);
-    return m_index.count(id) != 0;
+    return m_files.count(id) != 0;
 }
 
 Result<io::TextonRecord> TextonDirectory::load(const std::string& id) {
@@ -131,7 +172,7 @@ Result<io::TextonRecord> TextonDirectory::load(const std::string& id) {
     auto r = io::read_texton_file(file_of(m_dir, id, kExtension));
     if (!r || r.value().meta.id != id) {
         std::lock_guard lock(m_mutex);
-        if (m_index.count(id))
+        if (m_files.count(id))
             quarantine_locked(id, r ? "its metadata names another id" : r.error().message);
         return make_error(ErrorCode::not_found,
                           "texton " + id + " was damaged on disk and has been quarantined");
@@ -183,49 +224,64 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
     }
     api::TextonMeta meta = std::move(r.value().meta);
     api::read_provenance(provenance, meta);
+    const std::uint64_t bytes = fs::file_size(path, ec);
     std::lock_guard lock(m_mutex);
-    m_sizes[id] = fs::file_size(path, ec);
-    m_index[id] = std::move(meta);
+    drop_locked(id); // a rewrite of the same id (content-addressed: the same texton)
+    m_files[id] = ec ? 0 : bytes;
+    m_bytes += ec ? 0 : bytes;
+    remember_locked(id, std::move(meta));
     return true;
 }
 
 Result<bool> TextonDirectory::erase(const std::string& id, bool regardless) {
     {
         std::lock_guard lock(m_mutex);
-        if (!m_index.count(id)) return false;
+        if (!m_files.count(id)) return false;
         std::error_code ec;
         fs::remove(file_of(m_dir, id, kExtension), ec);
         if (ec && !regardless)
             return make_error(ErrorCode::io, "cannot delete texton " + id + ": " + ec.message());
         fs::remove(file_of(m_exemplars, id, ".png"), ec);
         fs::remove(file_of(m_provenance, id, ".json"), ec);
-        m_index.erase(id);
-        m_sizes.erase(id);
+        drop_locked(id);
     }
     // Outside the lock: every lookup waited on this disk flush before.
     fsync_directory(m_dir);
     return true;
 }
 
-std::vector<api::TextonMeta> TextonDirectory::list(const std::string& after, int limit) const {
-    std::vector<api::TextonMeta> out;
+std::vector<std::string> TextonDirectory::ids(const std::string& after, int limit) const {
+    std::vector<std::string> out;
     std::lock_guard lock(m_mutex);
-    for (auto it = after.empty() ? m_index.begin() : m_index.upper_bound(after);
-         it != m_index.end() && static_cast<int>(out.size()) < limit; ++it)
-        out.push_back(it->second);
+    for (auto it = after.empty() ? m_files.begin() : m_files.upper_bound(after);
+         it != m_files.end() && static_cast<int>(out.size()) < limit; ++it)
+        out.push_back(it->first);
+    return out;
+}
+
+std::vector<api::TextonMeta> TextonDirectory::list(const std::string& after, int limit) {
+    std::vector<api::TextonMeta> out;
+    std::string cursor = after;
+    // A damaged file found on the way is quarantined and the page filled from the next ids, so
+    // a short page still means the end.
+    while (static_cast<int>(out.size()) < limit) {
+        const std::vector<std::string> page = ids(cursor, limit - static_cast<int>(out.size()));
+        if (page.empty()) break;
+        for (const std::string& id : page)
+            if (auto m = meta(id)) out.push_back(std::move(*m));
+        cursor = page.back();
+    }
     return out;
 }
 
 std::size_t TextonDirectory::count() const {
     std::lock_guard lock(m_mutex);
-    return m_index.size();
+    return m_files.size();
 }
 
 std::uint64_t TextonDirectory::bytes() const {
     std::lock_guard lock(m_mutex);
-    std::uint64_t total = 0;
-    for (const auto& [id, n] : m_sizes) total += n;
-    return total;
+    return m_bytes;
 }
 
 std::vector<std::string> TextonDirectory::quarantined() const {

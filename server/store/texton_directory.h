@@ -5,11 +5,16 @@
 // predates them), and how this copy came to be (`created`, the analysis' `timings_ms`) as
 // <data>/provenance/<id>.json, outside the file so that the file is the same bytes whoever analysed
 // it. Writes are atomic (temporary file, fsync, rename, fsync of the directory), so after a crash a
-// texton is complete or absent. Every file is verified (metadata, coefficient checksum, id = file
-// name) when the directory opens and again whenever it is loaded; a file that fails is moved to
-// <data>/quarantine/ and reported, never served. Ids are checked against ^[0-9a-f]{64}$ before
-// they are joined to a path. TextonStore (texton_store.h) adds the shared store and the prepared
-// textons on top.
+// texton is complete or absent.
+//
+// Opening reads file names only (a few microseconds a texton: readiness does not wait on the
+// store's size); a file is verified (metadata, coefficient checksum, id = file name) the first
+// time its metadata is asked for and again whenever it is loaded, and one that fails is moved to
+// <data>/quarantine/ and reported, never served. Memory: the sorted ids (about 100 bytes a
+// texton, which is what keeps a listing paginated by id without touching the disk) and the
+// metadata of at most `meta_cache` textons, most recently used. Ids are checked against
+// ^[0-9a-f]{64}$ before they are joined to a path. TextonStore (texton_store.h) adds the shared
+// store and the prepared textons on top.
 #include "api/texton_meta.h"
 #include "core/result.h"
 #include "server/io/texton_file.h"
@@ -17,21 +22,28 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <list>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace textond::store {
 
 class TextonDirectory {
 public:
-    // Creates the directories, removes temporary files left by a crash and indexes the rest.
-    static Result<std::unique_ptr<TextonDirectory>> open(const std::string& data_dir);
+    static constexpr std::size_t kDefaultMetaCache = 10000;
+    // Creates the directories, removes temporary files left by a crash and indexes the rest by
+    // name.
+    static Result<std::unique_ptr<TextonDirectory>>
+    open(const std::string& data_dir, std::size_t meta_cache = kDefaultMetaCache);
 
-    std::optional<api::TextonMeta> meta(const std::string& id) const;
+    // Verified on first sight (a file that fails is quarantined: nullopt), then cached.
+    std::optional<api::TextonMeta> meta(const std::string& id);
+    // A file of that name is held (not yet verified, perhaps).
     bool contains(const std::string& id) const;
     // The file read and verified; a file that fails is quarantined (not_found).
     Result<io::TextonRecord> load(const std::string& id);
@@ -48,8 +60,11 @@ public:
     // elsewhere: never served here again; a restart indexes the file and rechecks it).
     Result<bool> erase(const std::string& id, bool regardless = false);
 
-    // Ids in ascending order after `after` (exclusive), at most `limit`.
-    std::vector<api::TextonMeta> list(const std::string& after, int limit) const;
+    // Ids in ascending order after `after` (exclusive), at most `limit`: the metadata of verified
+    // files (a damaged one is quarantined and passed over).
+    std::vector<api::TextonMeta> list(const std::string& after, int limit);
+    // The ids alone, unverified.
+    std::vector<std::string> ids(const std::string& after, int limit) const;
     std::size_t count() const;
     std::uint64_t bytes() const;
     std::vector<std::string> quarantined() const; // file names moved aside since start
@@ -58,13 +73,22 @@ public:
     const std::string& path() const { return m_dir; }
 
 private:
-    explicit TextonDirectory(const std::string& data_dir);
+    TextonDirectory(const std::string& data_dir, std::size_t meta_cache);
     void quarantine_locked(const std::string& id, const std::string& why);
+    void remember_locked(const std::string& id, api::TextonMeta meta);
+    void drop_locked(const std::string& id); // from the index and the cache
 
     const std::string m_dir, m_exemplars, m_provenance, m_quarantine;
+    const std::size_t m_meta_capacity;
     mutable std::mutex m_mutex;
-    std::map<std::string, api::TextonMeta> m_index;
-    std::map<std::string, std::uint64_t> m_sizes;
+    std::map<std::string, std::uint64_t> m_files; // id -> the file's bytes
+    std::uint64_t m_bytes = 0;
+    struct Cached {
+        api::TextonMeta meta;
+        std::list<std::string>::iterator age;
+    };
+    std::unordered_map<std::string, Cached> m_meta;
+    std::list<std::string> m_ages; // most recently used first
     std::vector<std::string> m_quarantined;
 };
 

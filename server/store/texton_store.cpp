@@ -58,8 +58,9 @@ void TextonStore::sweep() {
 Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_dir,
                                                        std::size_t prepared_cache,
                                                        std::unique_ptr<store::RedisStore> shared,
-                                                       std::chrono::milliseconds recheck) {
-    auto local = TextonDirectory::open(data_dir);
+                                                       std::chrono::milliseconds recheck,
+                                                       std::size_t meta_cache) {
+    auto local = TextonDirectory::open(data_dir, meta_cache);
     if (!local) return local.error();
     std::unique_ptr<TextonStore> s(
         new TextonStore(std::move(local.value()), prepared_cache, std::move(shared), recheck));
@@ -197,8 +198,9 @@ Result<std::string> TextonStore::file_bytes(const std::string& id) {
 
 Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exemplar) {
     const std::string id = record.meta.id;
-    // Held here; a copy only the shared store holds is found by its write-if-absent below.
-    if (m_local->contains(id)) return false;
+    // Held here (and whole: a damaged copy is quarantined by the check and written afresh); a
+    // copy only the shared store holds is found by its write-if-absent below.
+    if (m_local->meta(id)) return false;
     record.meta.created = api::rfc3339_now();
     std::string png;
     if (exemplar) {

@@ -36,7 +36,8 @@ public:
     static Result<std::unique_ptr<TextonStore>>
     open(const std::string& data_dir, std::size_t prepared_cache = 64,
          std::unique_ptr<store::RedisStore> shared = nullptr,
-         std::chrono::milliseconds recheck = std::chrono::seconds(30));
+         std::chrono::milliseconds recheck = std::chrono::seconds(30),
+         std::size_t meta_cache = TextonDirectory::kDefaultMetaCache);
     ~TextonStore();
     TextonStore(const TextonStore&) = delete;
     TextonStore& operator=(const TextonStore&) = delete;
