@@ -68,13 +68,50 @@ Result<std::unique_ptr<TextonDirectory>> TextonDirectory::open(const std::string
         fs::create_directories(dir, ec);
         if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
     }
-    std::lock_guard lock(d->m_mutex);
-    // Names and sizes only: the files are verified when first read (meta, load).
-    for (const auto& entry : fs::directory_iterator(d->m_dir, ec)) {
+    if (::access(d->m_dir.c_str(), R_OK | X_OK) != 0)
+        return make_error(ErrorCode::io, "cannot list " + d->m_dir);
+    d->m_scanner = std::thread([p = d.get()] { p->scan(); });
+    return d;
+}
+
+TextonDirectory::~TextonDirectory() {
+    {
+        std::lock_guard lock(m_mutex);
+        m_stopping = true;
+    }
+    if (m_scanner.joinable()) m_scanner.join();
+}
+
+bool TextonDirectory::index_locked(const std::string& id) {
+    if (m_files.count(id)) return true;
+    // Under the lock: an erase (which removes the file under it too) is seen, never undone.
+    std::error_code ec;
+    const std::uint64_t bytes = fs::file_size(file_of(m_dir, id, kExtension), ec);
+    if (ec) return false;
+    m_files.emplace(id, bytes);
+    m_bytes += bytes;
+    return true;
+}
+
+void TextonDirectory::scan() {
+    // What a crash left is older than this process; a write of this one may be under way.
+    const auto opened = fs::file_time_type::clock::now();
+    auto left_by_a_crash = [&](const fs::directory_entry& e) {
+        std::error_code ec;
+        const auto t = e.last_write_time(ec);
+        return !ec && t < opened;
+    };
+    std::error_code ec;
+    std::size_t names = 0;
+    const auto started = std::chrono::steady_clock::now();
+    for (const auto& entry : fs::directory_iterator(m_dir, ec)) {
         const std::string name = entry.path().filename().string();
         if (unfinished(name)) { // a write a crash interrupted: never complete, never referenced
-            fs::remove(entry.path(), ec);
-            spdlog::warn("store: removed an unfinished write {}", name);
+            if (left_by_a_crash(entry)) {
+                std::error_code rm;
+                fs::remove(entry.path(), rm);
+                spdlog::warn("store: removed an unfinished write {}", name);
+            }
             continue;
         }
         const std::string stem = entry.path().stem().string();
@@ -82,20 +119,34 @@ Result<std::unique_ptr<TextonDirectory>> TextonDirectory::open(const std::string
             spdlog::warn("store: ignoring {} (not a texton file name)", name);
             continue;
         }
-        std::error_code size_ec;
-        const std::uint64_t bytes = entry.file_size(size_ec);
-        d->m_files[stem] = size_ec ? 0 : bytes;
-        d->m_bytes += size_ec ? 0 : bytes;
+        std::lock_guard lock(m_mutex);
+        if (m_stopping) return;
+        names += index_locked(stem);
     }
-    if (ec) return make_error(ErrorCode::io, "cannot list " + d->m_dir + ": " + ec.message());
+    if (ec) spdlog::error("store: cannot list {}: {}", m_dir, ec.message());
     // Exemplars and provenance of textons that were never completed (a crash between the
     // writes), and unfinished writes.
-    for (const std::string& dir : {d->m_exemplars, d->m_provenance})
-        for (const auto& entry : fs::directory_iterator(dir, ec))
-            if (unfinished(entry.path().filename().string()) ||
-                !d->m_files.count(entry.path().stem().string()))
+    for (const std::string& dir : {m_exemplars, m_provenance})
+        for (const auto& entry : fs::directory_iterator(dir, ec)) {
+            const std::string name = entry.path().filename().string();
+            const std::string stem = entry.path().stem().string();
+            std::lock_guard lock(m_mutex);
+            if (m_stopping) return;
+            if ((unfinished(name) || !m_files.count(stem)) && left_by_a_crash(entry))
                 fs::remove(entry, ec);
-    return d;
+        }
+    std::lock_guard lock(m_mutex);
+    m_indexed = true;
+    m_indexed_cv.notify_all();
+    spdlog::info("store: {} texton files indexed in {} ms", names,
+                 std::chrono::duration_cast<std::chrono::milliseconds>(
+                     std::chrono::steady_clock::now() - started)
+                     .count());
+}
+
+void TextonDirectory::wait_indexed() const {
+    std::unique_lock lock(m_mutex);
+    m_indexed_cv.wait(lock, [this] { return m_indexed || m_stopping; });
 }
 
 void TextonDirectory::drop_locked(const std::string& id) {
@@ -139,9 +190,10 @@ void TextonDirectory::quarantine_locked(const std::string& id, const std::string
 }
 
 std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) {
+    if (!api::is_texton_id(id)) return std::nullopt;
     {
         std::lock_guard lock(m_mutex);
-        if (!m_files.count(id)) return std::nullopt;
+        if (!m_files.count(id) && (m_indexed || !index_locked(id))) return std::nullopt;
         if (auto it = m_meta.find(id); it != m_meta.end()) {
             m_ages.splice(m_ages.begin(), m_ages, it->second.age);
             return it->second.meta;
@@ -162,9 +214,10 @@ std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) {
     return meta;
 }
 
-bool TextonDirectory::contains(const std::string& id) const {
+bool TextonDirectory::contains(const std::string& id) {
+    if (!api::is_texton_id(id)) return false;
     std::lock_guard lock(m_mutex);
-    return m_files.count(id) != 0;
+    return m_files.count(id) != 0 || (!m_indexed && index_locked(id));
 }
 
 Result<io::TextonRecord> TextonDirectory::load(const std::string& id) {
@@ -234,9 +287,10 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
 }
 
 Result<bool> TextonDirectory::erase(const std::string& id, bool regardless) {
+    if (!api::is_texton_id(id)) return false;
     {
         std::lock_guard lock(m_mutex);
-        if (!m_files.count(id)) return false;
+        if (!m_files.count(id) && (m_indexed || !index_locked(id))) return false;
         std::error_code ec;
         fs::remove(file_of(m_dir, id, kExtension), ec);
         if (ec && !regardless)
@@ -251,6 +305,7 @@ Result<bool> TextonDirectory::erase(const std::string& id, bool regardless) {
 }
 
 std::vector<std::string> TextonDirectory::ids(const std::string& after, int limit) const {
+    wait_indexed();
     std::vector<std::string> out;
     std::lock_guard lock(m_mutex);
     for (auto it = after.empty() ? m_files.begin() : m_files.upper_bound(after);

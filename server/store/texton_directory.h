@@ -7,12 +7,13 @@
 // it. Writes are atomic (temporary file, fsync, rename, fsync of the directory), so after a crash a
 // texton is complete or absent.
 //
-// Opening reads file names only (a few microseconds a texton: readiness does not wait on the
-// store's size); a file is verified (metadata, coefficient checksum, id = file name) the first
-// time its metadata is asked for and again whenever it is loaded, and one that fails is moved to
-// <data>/quarantine/ and reported, never served. Memory: the sorted ids (about 100 bytes a
-// texton, which is what keeps a listing paginated by id without touching the disk) and the
-// metadata of at most `meta_cache` textons, most recently used. Ids are checked against
+// Opening starts a scan of the file names on a thread of its own, so readiness does not wait on
+// the store's size: until it ends, an id not seen yet is looked up on disk, and a listing waits
+// for it (a few microseconds a texton). A file is verified (metadata, coefficient checksum, id =
+// file name) the first time its metadata is asked for and again whenever it is loaded, and one that
+// fails is moved to <data>/quarantine/ and reported, never served. Memory: the sorted ids (about
+// 100 bytes a texton, which is what keeps a listing paginated by id without touching the disk) and
+// the metadata of at most `meta_cache` textons, most recently used. Ids are checked against
 // ^[0-9a-f]{64}$ before they are joined to a path. TextonStore (texton_store.h) adds the shared
 // store and the prepared textons on top.
 #include "api/texton_meta.h"
@@ -21,6 +22,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <condition_variable>
 #include <cstdint>
 #include <list>
 #include <map>
@@ -28,6 +30,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
@@ -40,11 +43,16 @@ public:
     // name.
     static Result<std::unique_ptr<TextonDirectory>>
     open(const std::string& data_dir, std::size_t meta_cache = kDefaultMetaCache);
+    ~TextonDirectory();
+    TextonDirectory(const TextonDirectory&) = delete;
+    TextonDirectory& operator=(const TextonDirectory&) = delete;
+    // Blocks until the scan of the names has ended (listings call it; so may tests).
+    void wait_indexed() const;
 
     // Verified on first sight (a file that fails is quarantined: nullopt), then cached.
     std::optional<api::TextonMeta> meta(const std::string& id);
     // A file of that name is held (not yet verified, perhaps).
-    bool contains(const std::string& id) const;
+    bool contains(const std::string& id);
     // The file read and verified; a file that fails is quarantined (not_found).
     Result<io::TextonRecord> load(const std::string& id);
     // The stored bytes, unverified (not_found when absent).
@@ -65,7 +73,7 @@ public:
     std::vector<api::TextonMeta> list(const std::string& after, int limit);
     // The ids alone, unverified.
     std::vector<std::string> ids(const std::string& after, int limit) const;
-    std::size_t count() const;
+    std::size_t count() const; // so far, while the scan runs
     std::uint64_t bytes() const;
     std::vector<std::string> quarantined() const; // file names moved aside since start
     // Can we create a file here right now? (readiness probe)
@@ -77,6 +85,10 @@ private:
     void quarantine_locked(const std::string& id, const std::string& why);
     void remember_locked(const std::string& id, api::TextonMeta meta);
     void drop_locked(const std::string& id); // from the index and the cache
+    void scan();                             // the names, then what crashes left
+    // Indexes the file of `id` when it is on disk (the scan's step, and a lookup's before the
+    // scan has reached it); false when there is none.
+    bool index_locked(const std::string& id);
 
     const std::string m_dir, m_exemplars, m_provenance, m_quarantine;
     const std::size_t m_meta_capacity;
@@ -90,6 +102,9 @@ private:
     std::unordered_map<std::string, Cached> m_meta;
     std::list<std::string> m_ages; // most recently used first
     std::vector<std::string> m_quarantined;
+    bool m_indexed = false, m_stopping = false;
+    mutable std::condition_variable m_indexed_cv;
+    std::thread m_scanner;
 };
 
 } // namespace textond::store

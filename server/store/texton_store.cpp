@@ -64,10 +64,8 @@ Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_d
     if (!local) return local.error();
     std::unique_ptr<TextonStore> s(
         new TextonStore(std::move(local.value()), prepared_cache, std::move(shared), recheck));
-    const std::size_t quarantined = s->m_local->quarantined().size();
-    spdlog::info("store: {} textons in {}{}{}", s->m_local->count(), s->m_local->path(),
-                 s->m_shared ? " (a cache of " + s->m_shared->describe() + ")" : "",
-                 quarantined == 0 ? "" : ", " + std::to_string(quarantined) + " quarantined");
+    spdlog::info("store: {}{}", s->m_local->path(),
+                 s->m_shared ? " (a cache of " + s->m_shared->describe() + ")" : "");
     return s;
 }
 
