@@ -4,7 +4,7 @@ BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 ARGS   ?= serve
 
-.PHONY: deps build run run-edge test check bench load load-replicas image-check format tidy mutation clean
+.PHONY: deps build run run-edge test check bench load load-replicas image-check container-check format tidy mutation clean
 
 deps:
 	bash docker/install-deps.sh
@@ -29,7 +29,7 @@ test: build
 # The inner loop: every test but clang-tidy (label style), the libFuzzer smoke run (fuzz) and the
 # browser test (browser); about 6 minutes on 2 cores. `make test` is the full suite CI runs.
 check: build
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -LE '^(style|fuzz|browser)$$'
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) -LE '^(style|fuzz|browser|container)$$'
 
 bench: build
 	./$(BUILD)/textond bench analyze
@@ -45,6 +45,10 @@ load-replicas: build
 # The Dockerfile's two stages in debootstrapped chroots (root, network, 10-20 minutes).
 image-check:
 	docker/chroot_build_test.sh
+
+# The image built and run by podman against the host build (tests/deploy/container_test.sh).
+container-check: build
+	tests/deploy/container_test.sh $(BUILD)/textond ../shared/data/exemplars
 
 format:
 	clang-format -i $$(git ls-files '*.h' '*.cpp')

@@ -5,18 +5,28 @@
 #include <httplib.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <regex>
+#include <string>
 
 namespace textond::cli {
 
 int probe_command(const Argv& args) {
     if (args.size() == 1 && (args[0] == "--help" || args[0] == "-h")) {
         std::puts("usage: textond probe [URL]\n\nGETs URL (default "
-                  "http://127.0.0.1:8080/healthz) with a 3 s timeout; exit 0 on 2xx, else 1.");
+                  "http://127.0.0.1:$TEXTOND_PORT/healthz, port 8080 when unset: the port serve "
+                  "listens on) with a 3 s timeout; exit 0 on 2xx, else 1.");
         return 0;
     }
     if (args.size() > 1) return fail(2, "probe takes one URL");
-    const std::string url = args.empty() ? "http://127.0.0.1:8080/healthz" : args[0];
+    // Without a URL: the port `serve` takes from the same environment, so an image's health
+    // check follows TEXTOND_PORT.
+    const char* env_port = std::getenv("TEXTOND_PORT");
+    const std::string url =
+        !args.empty()
+            ? args[0]
+            : "http://127.0.0.1:" + std::string(env_port && *env_port ? env_port : "8080") +
+                  "/healthz";
     static const std::regex kUrl(R"(^http://([^/:]+|\[[0-9a-fA-F:]+\])(?::(\d{1,5}))?(/.*)?$)");
     std::smatch m;
     if (!std::regex_match(url, m, kUrl)) return fail(2, "probe: not an http:// URL: " + url);

@@ -883,8 +883,12 @@ class HostileClients(unittest.TestCase):
 
 
 if __name__ == "__main__":
+    # TEXTOND EXEMPLARS [NAME...]: those tests only; [--without NAME...]: all but those.
     names = sys.argv[3:]
     loader = unittest.TestLoader()
+    if names and names[0] == "--without":
+        every = loader.getTestCaseNames(HostileClients)
+        names = [n for n in every if n not in names[1:]]
     suite = (loader.loadTestsFromNames([f"HostileClients.{n}" for n in names], sys.modules[__name__])
              if names else loader.loadTestsFromTestCase(HostileClients))
     result = unittest.TextTestRunner(verbosity=2).run(suite)
