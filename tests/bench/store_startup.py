@@ -111,7 +111,7 @@ def main():
                     t = time.monotonic()
                     get(port, f"/v1/textons?limit=1000&after={ids[len(ids) // 2]}")
                     mid_ms = (time.monotonic() - t) * 1000
-                sample = random.Random(3).sample(ids, min(READS, len(ids)))
+                sample = random.Random(3).sample(ids, min(READS if not check else 200, len(ids)))
                 t = time.monotonic()
                 bad = sum(get(port, f"/v1/textons/{tid}")[0] != 200 for tid in sample[:2000])
                 meta_ms = (time.monotonic() - t) * 1000 / max(1, min(2000, len(sample)))
@@ -123,12 +123,12 @@ def main():
                 more_rss = rss_mb(proc.pid)
                 if check:  # the whole listing, page by page: every id once, in order
                     seen, after = [], ""
-                    while True:
-                        st, body = get(port, "/v1/textons?limit=1000" +
+                    while True:  # pages of 300: several, and a short last one
+                        st, body = get(port, "/v1/textons?limit=300" +
                                        (f"&after={after}" if after else ""))
                         items = json.loads(body)["items"]
                         seen += [i["id"] for i in items]
-                        if len(items) < 1000:
+                        if len(items) < 300:
                             break
                         after = items[-1]["id"]
                     if seen != ids or bad:
