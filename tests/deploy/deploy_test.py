@@ -392,7 +392,12 @@ class Packaging(unittest.TestCase):
         for stage in (build, runtime):
             self.assertTrue(stage["FROM"].startswith("debian:bookworm"), stage["FROM"])
         self.assertTrue(any(k == "RUN" and "install-deps.sh --build" in v for k, v in build["_all"]))
+        # The runtime stage holds what the binary loads, gathered in the build stage from the
+        # runtime packages (docker/runtime_closure.sh), not the packages themselves.
         self.assertTrue(any(k == "RUN" and "install-deps.sh --runtime" in v
+                            for k, v in build["_all"]))
+        self.assertTrue(any(k == "RUN" and "runtime_closure.sh" in v for k, v in build["_all"]))
+        self.assertTrue(any(k == "COPY" and "--from=build /opt/closure/" in v
                             for k, v in runtime["_all"]))
         for k, v in runtime["_all"]:
             if k == "COPY" and "--from=" in v:
