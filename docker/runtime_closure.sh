@@ -33,6 +33,11 @@ copy() { # the file and, for a symbolic link, what it names, at the same paths
 # The binary's libraries (not the binary: the Dockerfile places it), then the opened ones.
 for f in "$bin" "${opened[@]}"; do
     [ "$f" = "$bin" ] || copy "$f"
+    if ldd "$f" | grep -q "not found"; then
+        echo "runtime_closure: $f needs what is not installed:" >&2
+        ldd "$f" | grep "not found" >&2
+        exit 1
+    fi
     while read -r dep; do copy "$dep"; done < <(ldd "$f" | awk '$2 == "=>" && $3 ~ /^\// {print $3}
         $1 ~ /^\/.*ld-linux/ {print $1}')
 done

@@ -254,6 +254,8 @@ Result<core::Image> decode_image_file(const std::string& path, const DecodeLimit
                                       int* bits) {
     std::error_code ec;
     const fs::file_status status = fs::status(path, ec);
+    if (ec && ec != std::errc::no_such_file_or_directory)
+        return make_error(ErrorCode::io, "cannot read " + path + ": " + ec.message());
     if (!fs::exists(status)) return make_error(ErrorCode::not_found, "no such file: " + path);
     if (!fs::is_regular_file(status))
         return make_error(ErrorCode::invalid_argument,
@@ -261,12 +263,13 @@ Result<core::Image> decode_image_file(const std::string& path, const DecodeLimit
     const std::uintmax_t size = fs::file_size(path, ec);
     if (ec) return make_error(ErrorCode::io, "cannot read " + path + ": " + ec.message());
     if (size == 0) return unprocessable("file is empty: " + path);
-    // No image within the pixel budget is larger: 4 channels of 64-bit samples, uncompressed,
-    // and room for headers and metadata.
+    // No image within the pixel budget is larger: the 16 channels the reader takes, of 64-bit
+    // samples, uncompressed, and room for headers and metadata.
     constexpr std::uint64_t kSlack = 16U << 20;
-    const std::uint64_t cap = limits.max_pixels > (UINT64_MAX - kSlack) / 32
+    constexpr std::uint64_t kPixelBytes = 16 * 8;
+    const std::uint64_t cap = limits.max_pixels > (UINT64_MAX - kSlack) / kPixelBytes
                                   ? UINT64_MAX
-                                  : limits.max_pixels * 32 + kSlack;
+                                  : limits.max_pixels * kPixelBytes + kSlack;
     if (size > cap)
         return make_error(ErrorCode::too_large, path + " has " + std::to_string(size) +
                                                     " bytes, more than any image of at most " +

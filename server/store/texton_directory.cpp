@@ -10,6 +10,7 @@
 #include <chrono>
 #include <fcntl.h>
 #include <filesystem>
+#include <fstream>
 #include <unistd.h>
 
 namespace textond::store {
@@ -68,8 +69,10 @@ Result<std::unique_ptr<TextonDirectory>> TextonDirectory::open(const std::string
         fs::create_directories(dir, ec);
         if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
     }
-    if (::access(d->m_dir.c_str(), R_OK | X_OK) != 0)
-        return make_error(ErrorCode::io, "cannot list " + d->m_dir);
+    std::error_code list_ec;
+    fs::directory_iterator probe(d->m_dir, list_ec);
+    if (list_ec)
+        return make_error(ErrorCode::io, "cannot list " + d->m_dir + ": " + list_ec.message());
     d->m_scanner = std::thread([p = d.get()] { p->scan(); });
     return d;
 }
@@ -78,6 +81,7 @@ TextonDirectory::~TextonDirectory() {
     {
         std::lock_guard lock(m_mutex);
         m_stopping = true;
+        m_indexed_cv.notify_all();
     }
     if (m_scanner.joinable()) m_scanner.join();
 }
@@ -88,53 +92,32 @@ bool TextonDirectory::index_locked(const std::string& id) {
     std::error_code ec;
     const std::uint64_t bytes = fs::file_size(file_of(m_dir, id, kExtension), ec);
     if (ec) return false;
-    m_files.emplace(id, bytes);
+    m_files.emplace(id, File{bytes, ++m_generations});
     m_bytes += bytes;
     return true;
 }
 
+std::uint64_t TextonDirectory::generation_locked(const std::string& id) const {
+    const auto it = m_files.find(id);
+    return it == m_files.end() ? 0 : it->second.generation;
+}
+
 void TextonDirectory::scan() {
-    // What a crash left is older than this process; a write of this one may be under way.
-    const auto opened = fs::file_time_type::clock::now();
-    auto left_by_a_crash = [&](const fs::directory_entry& e) {
-        std::error_code ec;
-        const auto t = e.last_write_time(ec);
-        return !ec && t < opened;
-    };
+    // What a crash left is older than this process. The filesystem's own clock says what is
+    // older (a file written now, on a server whose clock differs, must not look old): a marker's
+    // time, written as the scan starts.
+    const std::string marker = (fs::path(m_dir) / (".scan-" + std::to_string(::getpid()))).string();
+    { std::ofstream(marker).put('\n'); }
     std::error_code ec;
-    std::size_t names = 0;
+    const auto opened = fs::last_write_time(marker, ec);
+    if (!ec) m_opened = opened;
+    fs::remove(marker, ec);
     const auto started = std::chrono::steady_clock::now();
-    for (const auto& entry : fs::directory_iterator(m_dir, ec)) {
-        const std::string name = entry.path().filename().string();
-        if (unfinished(name)) { // a write a crash interrupted: never complete, never referenced
-            if (left_by_a_crash(entry)) {
-                std::error_code rm;
-                fs::remove(entry.path(), rm);
-                spdlog::warn("store: removed an unfinished write {}", name);
-            }
-            continue;
-        }
-        const std::string stem = entry.path().stem().string();
-        if (entry.path().extension() != kExtension || !api::is_texton_id(stem)) {
-            spdlog::warn("store: ignoring {} (not a texton file name)", name);
-            continue;
-        }
-        std::lock_guard lock(m_mutex);
-        if (m_stopping) return;
-        names += index_locked(stem);
-    }
-    if (ec) spdlog::error("store: cannot list {}: {}", m_dir, ec.message());
-    // Exemplars and provenance of textons that were never completed (a crash between the
-    // writes), and unfinished writes.
-    for (const std::string& dir : {m_exemplars, m_provenance})
-        for (const auto& entry : fs::directory_iterator(dir, ec)) {
-            const std::string name = entry.path().filename().string();
-            const std::string stem = entry.path().stem().string();
-            std::lock_guard lock(m_mutex);
-            if (m_stopping) return;
-            if ((unfinished(name) || !m_files.count(stem)) && left_by_a_crash(entry))
-                fs::remove(entry, ec);
-        }
+    std::size_t names = 0;
+    const bool listed = index_names(names);
+    // Exemplars and provenance of textons never completed (a crash between the writes): only
+    // after a whole listing, which says what is complete.
+    if (listed) clear_orphans();
     std::lock_guard lock(m_mutex);
     m_indexed = true;
     m_indexed_cv.notify_all();
@@ -144,6 +127,57 @@ void TextonDirectory::scan() {
                      .count());
 }
 
+bool TextonDirectory::left_by_a_crash(const fs::directory_entry& e) const {
+    std::error_code ec;
+    const auto t = e.last_write_time(ec);
+    return m_opened && !ec && t < *m_opened;
+}
+
+bool TextonDirectory::index_names(std::size_t& names) {
+    std::error_code ec;
+    for (fs::directory_iterator it(m_dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        if (unfinished(name)) { // a write a crash interrupted: never complete, never referenced
+            if (left_by_a_crash(*it)) {
+                std::error_code rm;
+                fs::remove(it->path(), rm);
+                spdlog::warn("store: removed an unfinished write {}", name);
+            }
+            continue;
+        }
+        const std::string stem = it->path().stem().string();
+        if (it->path().extension() != kExtension || !api::is_texton_id(stem)) {
+            spdlog::warn("store: ignoring {} (not a texton file name)", name);
+            continue;
+        }
+        std::lock_guard lock(m_mutex);
+        if (m_stopping) return false;
+        names += index_locked(stem) ? 1 : 0;
+    }
+    if (ec)
+        spdlog::error("store: cannot list {}: {}; what crashes left stays until a restart", m_dir,
+                      ec.message());
+    return !ec;
+}
+
+void TextonDirectory::clear_orphans() {
+    for (const std::string& dir : {m_exemplars, m_provenance}) {
+        std::error_code ec;
+        for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+            const std::string name = it->path().filename().string();
+            const std::string stem = it->path().stem().string();
+            std::lock_guard lock(m_mutex);
+            if (m_stopping) return;
+            const bool writing =
+                std::find(m_writing.begin(), m_writing.end(), stem) != m_writing.end();
+            if ((unfinished(name) || !m_files.count(stem)) && !writing && left_by_a_crash(*it)) {
+                std::error_code rm;
+                fs::remove(it->path(), rm);
+            }
+        }
+    }
+}
+
 void TextonDirectory::wait_indexed() const {
     std::unique_lock lock(m_mutex);
     m_indexed_cv.wait(lock, [this] { return m_indexed || m_stopping; });
@@ -151,7 +185,7 @@ void TextonDirectory::wait_indexed() const {
 
 void TextonDirectory::drop_locked(const std::string& id) {
     if (auto it = m_files.find(id); it != m_files.end()) {
-        m_bytes -= std::min(m_bytes, it->second);
+        m_bytes -= std::min(m_bytes, it->second.bytes);
         m_files.erase(it);
     }
     if (auto it = m_meta.find(id); it != m_meta.end()) {
@@ -191,6 +225,7 @@ void TextonDirectory::quarantine_locked(const std::string& id, const std::string
 
 std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) {
     if (!api::is_texton_id(id)) return std::nullopt;
+    std::uint64_t generation = 0;
     {
         std::lock_guard lock(m_mutex);
         if (!m_files.count(id) && (m_indexed || !index_locked(id))) return std::nullopt;
@@ -198,6 +233,7 @@ std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) {
             m_ages.splice(m_ages.begin(), m_ages, it->second.age);
             return it->second.meta;
         }
+        generation = generation_locked(id);
     }
     // First sight (or evicted): read and verified outside the lock, as load() does.
     auto r = io::read_texton_file(file_of(m_dir, id, kExtension));
@@ -205,7 +241,7 @@ std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) {
     if (r && r.value().meta.id == id)
         meta = with_provenance(file_of(m_provenance, id, ".json"), std::move(r.value().meta));
     std::lock_guard lock(m_mutex);
-    if (!m_files.count(id)) return std::nullopt; // erased meanwhile
+    if (generation_locked(id) != generation) return std::nullopt; // erased or rewritten meanwhile
     if (!meta) {
         quarantine_locked(id, r ? "its metadata names another id" : r.error().message);
         return std::nullopt;
@@ -222,10 +258,15 @@ bool TextonDirectory::contains(const std::string& id) {
 
 Result<io::TextonRecord> TextonDirectory::load(const std::string& id) {
     if (!contains(id)) return make_error(ErrorCode::not_found, "no texton " + id);
+    std::uint64_t generation = 0;
+    {
+        std::lock_guard lock(m_mutex);
+        generation = generation_locked(id);
+    }
     auto r = io::read_texton_file(file_of(m_dir, id, kExtension));
     if (!r || r.value().meta.id != id) {
         std::lock_guard lock(m_mutex);
-        if (m_files.count(id))
+        if (generation != 0 && generation_locked(id) == generation)
             quarantine_locked(id, r ? "its metadata names another id" : r.error().message);
         return make_error(ErrorCode::not_found,
                           "texton " + id + " was damaged on disk and has been quarantined");
@@ -248,6 +289,18 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
     const std::string exemplar = file_of(m_exemplars, id, ".png");
     const std::string told = file_of(m_provenance, id, ".json");
     std::error_code ec;
+    {
+        std::lock_guard lock(m_mutex);
+        m_writing.push_back(id); // the scan's clean-up leaves its exemplar and provenance be
+    }
+    struct Done {
+        TextonDirectory& d;
+        const std::string& id;
+        ~Done() {
+            std::lock_guard lock(d.m_mutex);
+            d.m_writing.erase(std::find(d.m_writing.begin(), d.m_writing.end(), id));
+        }
+    } done{*this, id};
     auto undo = [&] {
         fs::remove(exemplar, ec);
         fs::remove(told, ec);
@@ -265,6 +318,11 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
         undo();
         return w.error();
     }
+    {
+        // From here a reader of the old file must not quarantine the new one it may now see.
+        std::lock_guard lock(m_mutex);
+        drop_locked(id);
+    }
     fsync_directory(m_dir);
     io::crash_point("texton-synced");
     auto r = io::read_texton_file(path);
@@ -280,7 +338,7 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
     const std::uint64_t bytes = fs::file_size(path, ec);
     std::lock_guard lock(m_mutex);
     drop_locked(id); // a rewrite of the same id (content-addressed: the same texton)
-    m_files[id] = ec ? 0 : bytes;
+    m_files[id] = File{ec ? 0 : bytes, ++m_generations};
     m_bytes += ec ? 0 : bytes;
     remember_locked(id, std::move(meta));
     return true;

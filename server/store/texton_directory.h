@@ -24,6 +24,7 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <filesystem>
 #include <list>
 #include <map>
 #include <memory>
@@ -86,14 +87,28 @@ private:
     void remember_locked(const std::string& id, api::TextonMeta meta);
     void drop_locked(const std::string& id); // from the index and the cache
     void scan();                             // the names, then what crashes left
+    bool index_names(std::size_t& names);    // false when the listing failed
+    void clear_orphans();
+    // Older than this process, by the filesystem's clock (m_opened).
+    bool left_by_a_crash(const std::filesystem::directory_entry& e) const;
     // Indexes the file of `id` when it is on disk (the scan's step, and a lookup's before the
     // scan has reached it); false when there is none.
     bool index_locked(const std::string& id);
+    // The generation of the file of `id` held now; 0 when none.
+    std::uint64_t generation_locked(const std::string& id) const;
 
     const std::string m_dir, m_exemplars, m_provenance, m_quarantine;
     const std::size_t m_meta_capacity;
     mutable std::mutex m_mutex;
-    std::map<std::string, std::uint64_t> m_files; // id -> the file's bytes
+    struct File {
+        std::uint64_t bytes = 0;
+        // Which write of the id this is: a read that began on an older one must not
+        // quarantine the newer (an upload that replaced a damaged copy).
+        std::uint64_t generation = 0;
+    };
+    std::map<std::string, File> m_files;
+    std::uint64_t m_generations = 0;
+    std::vector<std::string> m_writing; // ids whose files are being written now
     std::uint64_t m_bytes = 0;
     struct Cached {
         api::TextonMeta meta;
@@ -103,6 +118,7 @@ private:
     std::list<std::string> m_ages; // most recently used first
     std::vector<std::string> m_quarantined;
     bool m_indexed = false, m_stopping = false;
+    std::optional<std::filesystem::file_time_type> m_opened; // the scan's start, on disk
     mutable std::condition_variable m_indexed_cv;
     std::thread m_scanner;
 };

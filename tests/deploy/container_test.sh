@@ -19,14 +19,17 @@ exemplars=$(realpath "$2")
 bash "$root/tests/deploy/podman_setup.sh"
 
 tag=localhost/textond:container-test
-name=textond-container-test
-volume=textond-container-test
+name=textond-container-test-$$
+volume=textond-container-test-$$
 tmp=$(mktemp -d)
 host_pid=""
 cleanup() {
     podman rm -f -t 0 "$name" >/dev/null 2>&1 || true
     podman volume rm -f "$volume" >/dev/null 2>&1 || true
-    [ -n "$host_pid" ] && kill "$host_pid" 2>/dev/null || true
+    if [ -n "$host_pid" ]; then
+        kill "$host_pid" 2>/dev/null || true
+        wait "$host_pid" 2>/dev/null || true
+    fi
     rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -45,7 +48,8 @@ host_port=$(free_port)
 "$host_bin" serve --port "$host_port" --data "$tmp/host" --backend cpu --log-level warn >/dev/null &
 host_pid=$!
 host="http://127.0.0.1:$host_port"
-for _ in $(seq 100); do curl -sf "$host/healthz" >/dev/null && break; sleep 0.1; done
+for _ in $(seq 300); do curl -sf "$host/healthz" >/dev/null && break; sleep 0.1; done
+curl -sf "$host/healthz" >/dev/null || fail "the host build's server does not answer"
 build=$(curl -sf "$host/healthz" | python3 -c 'import json,sys; print(json.load(sys.stdin)["build"])')
 commit=$(echo "$build" | sed -E 's|^textond/[^+]*\+([^ ]*) .*|\1|')
 
@@ -63,7 +67,7 @@ podman volume create "$volume" >/dev/null
 podman run -d --name "$name" --network host --read-only --tmpfs /tmp \
     -v "$volume:/var/lib/textond" -e TEXTOND_PORT=$port -e TEXTOND_BACKEND=cpu "$tag" >/dev/null
 box="http://127.0.0.1:$port"
-for _ in $(seq 100); do curl -sf "$box/healthz" >/dev/null && break; sleep 0.1; done
+for _ in $(seq 300); do curl -sf "$box/healthz" >/dev/null && break; sleep 0.1; done
 t2=$(ms)
 curl -sf "$box/healthz" >/dev/null || fail "the container does not answer /healthz"
 echo "container healthy $((t2 - t1)) ms after the build"
@@ -103,7 +107,12 @@ curl -s -o "$tmp/slow.json" -w '%{http_code}' -X POST -H 'Content-Type: image/pn
     --data-binary "@$exemplars/mypaint_HR_Cork.png" "$box/v1/textons?size=64&iterations=150" \
     >"$tmp/slow.status" &
 slow=$!
-sleep 0.5
+for _ in $(seq 200); do # until the analysis runs
+    curl -sf "$box/metrics" | grep -q '^textond_analysis_running 1' && break
+    sleep 0.05
+done
+curl -sf "$box/metrics" | grep -q '^textond_analysis_running 1' ||
+    fail "the upload to stop the container under was not seen running"
 podman stop -t 60 "$name" >/dev/null
 wait "$slow" || true
 [ "$(cat "$tmp/slow.status")" = 201 ] ||

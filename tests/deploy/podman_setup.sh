@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Podman on a Debian 12 machine that reaches Debian's archive but no image registry, as root
-# without CAP_SYS_RESOURCE (these CI machines). Idempotent; sourced by the container tests.
+# without CAP_SYS_RESOURCE (these CI machines). Idempotent; run by the container tests.
 #   - packages: podman, runc (crun refuses the hybrid cgroup layout here), mmdebstrap,
 #     podman-compose;
-#   - /etc/containers/containers.conf: runc with cgroupfs, and rlimits root may set here (podman's
+#   - /etc/containers/containers.conf.d/textond.conf: runc with cgroupfs, and rlimits root may set here (podman's
 #     defaults ask for more and fail with "setrlimit RLIMIT_NOFILE: Operation not permitted");
 #   - docker.io/library/debian:bookworm-slim, made from Debian's packages by mmdebstrap (about
 #     30 s) when it is not in podman's store, so `FROM debian:bookworm-slim` builds with
@@ -19,11 +19,11 @@ if [ ${#need[@]} -ne 0 ]; then
     apt-get update -qq
     apt-get install -y -qq --no-install-recommends "${need[@]}" >/dev/null
 fi
-conf=/etc/containers/containers.conf
-if ! grep -q "textond: podman_setup" "$conf" 2>/dev/null; then
-    mkdir -p /etc/containers
-    cat >> "$conf" <<'CONF'
-# textond: podman_setup.sh (tests/deploy)
+conf=/etc/containers/containers.conf.d/textond.conf
+if [ ! -s "$conf" ]; then
+    mkdir -p "$(dirname "$conf")"
+    cat > "$conf" <<'CONF'
+# textond: tests/deploy/podman_setup.sh
 [containers]
 default_ulimits = ["nofile=4096:4096", "nproc=4096:4096"]
 
@@ -37,6 +37,8 @@ if ! podman image exists docker.io/library/debian:bookworm-slim; then
     tmp=$(mktemp -d)
     echo "podman_setup: making debian:bookworm-slim with mmdebstrap" >&2
     mmdebstrap --quiet --variant=minbase --format=tar bookworm "$tmp/base.tar"
+    # Under the official image's name, so that docker/Dockerfile builds unchanged; on a machine
+    # that can pull, the official image is used instead.
     podman import --quiet "$tmp/base.tar" docker.io/library/debian:bookworm-slim >/dev/null
     rm -rf "$tmp"
 fi

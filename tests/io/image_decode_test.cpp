@@ -219,7 +219,7 @@ TEST(Decode, FilesAreRefusedAsUploadsAre) {
 TEST(Decode, AFileLargerThanTheBudgetAllowsIsNotRead) {
     io::DecodeLimits tiny;
     tiny.max_pixels = 1;
-    const std::string path = write_bytes("big.png", std::string((16U << 20) + 64, '\0'));
+    const std::string path = write_bytes("big.png", std::string((16U << 20) + 4096, '\0'));
     const auto r = io::decode_image_file(path, tiny);
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.error().code, ErrorCode::too_large) << r.error().message;
