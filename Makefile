@@ -29,7 +29,7 @@ test: build
 # The inner loop: every test but clang-tidy (label style), the libFuzzer smoke run (fuzz) and the
 # browser test (browser); about 6 minutes on 2 cores. `make test` is the full suite CI runs.
 # One more test than cores: the end-to-end tests wait on servers and processes as much as they
-# compute (2 cores: 300 s at -j 3 against 330 s at -j 2, same tests).
+# compute (2 cores: 268-300 s at -j 3 against 330 s at -j 2, same tests).
 CHECK_JOBS ?= $(shell echo $$(( $$(nproc) + 1 )))
 check: build
 	cd $(BUILD) && ctest --output-on-failure -j $(CHECK_JOBS) -LE '^(style|fuzz|browser|container)$$'
