@@ -286,6 +286,18 @@ def run(c, spec, exemplar_dir):
         "image/*": sand,
         "multipart/form-data": None,  # above
     }
+    def base_query(path, params):
+        """The fields every request to `path` carries: its required ones, and a small frame for
+        mesh.png (a 512 x 512 preview costs seconds of CPU; the fields' checks do not depend on
+        the frame, and width and height themselves still take each of their values)."""
+        if path == "/v1/mixes":
+            return {"u": plain, "v": other, "levels": 3}
+        query = {p["name"]: c.values(p)[0] for p in params
+                 if p["in"] == "query" and p.get("required")}
+        if path.endswith("/mesh.png"):
+            query.update({"width": 64, "height": 64})
+        return query
+
     path_values = {"z": [0, -1, 3], "x": [0, -3, 4000000000], "y": [0, 7]}
     variants = []  # arguments of send_variant, sent by CLIENTS threads
     for path, ops in spec["paths"].items():
@@ -299,16 +311,7 @@ def run(c, spec, exemplar_dir):
             path_params = [p for p in params if p["in"] == "path" and p["name"] != "id"]
             optional = [p for p in params if p["in"] in ("query", "header")
                         and not p.get("required")]
-            if path == "/v1/mixes":
-                required = {"u": plain, "v": other, "levels": 3}
-            else:
-                required = {p["name"]: c.values(p)[0] for p in params
-                            if p["in"] == "query" and p.get("required")}
-            if path.endswith("/mesh.png"):
-                # A small frame beside each field: a 512 x 512 preview costs seconds of CPU, and
-                # the fields' checks do not depend on the frame (width and height themselves
-                # still take each of their values).
-                required.update({"width": 64, "height": 64})
+            required = base_query(path, params)
             if path == "/v1/textons" and method == "post":
                 continue  # the uploads above
             content = list(op.get("requestBody", {}).get("content", {}).keys()) or [None]
@@ -345,13 +348,7 @@ def run(c, spec, exemplar_dir):
             documented = {p["name"] for p in params if p["in"] == "query"}
             if not documented:
                 continue
-            if path == "/v1/mixes":
-                required = {"u": plain, "v": other, "levels": 3}
-            else:
-                required = {p["name"]: c.values(p)[0] for p in params
-                            if p["in"] == "query" and p.get("required")}
-            if path.endswith("/mesh.png"):
-                required.update({"width": 64, "height": 64})
+            required = base_query(path, params)
             first = {p["name"]: (path_values.get(p["name"]) or c.values(p))[0]
                      for p in params if p["in"] == "path" and p["name"] != "id"}
             content = list(ops[method].get("requestBody", {}).get("content", {}).keys()) or [None]
