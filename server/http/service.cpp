@@ -1,5 +1,7 @@
 #include "server/http/service.h"
 
+#include "api/query_text.h"
+
 #include "api/openapi_spec.h"
 #include "api/safe_text.h"
 #include "core/texton_analysis.h"
@@ -258,6 +260,12 @@ httplib::Server::HandlerResponse Service::pre_route(const httplib::Request& req,
         send_error(res, *e);
         return httplib::Server::HandlerResponse::Handled;
     }
+    if (const auto q = req.target.find('?'); q != std::string::npos)
+        if (auto e = api::check_query_text(std::string_view(req.target).substr(q + 1))) {
+            set_route("query");
+            send_error(res, *e);
+            return httplib::Server::HandlerResponse::Handled;
+        }
     // Ranges past the limit are ignored, as nginx does past max_ranges: the whole answer, once.
     if (!ranges_allowed(req.ranges)) current_request().request->ranges.clear();
     if (req.method == "OPTIONS") { // CORS preflight

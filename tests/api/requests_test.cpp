@@ -3,6 +3,7 @@
 // and the first refused one), so moving any limit by one step fails a row. The HTTP table in
 // tests/server/bad_requests_test.cpp stays the end-to-end check.
 #include "api/noise_fields.h"
+#include "api/query_text.h"
 #include "api/requests.h"
 #include "core/grid_poisson.h"
 #include "core/noise_levels.h"
@@ -497,6 +498,18 @@ TEST(NoiseFields, EachParserTakesItsRoutesRows) {
     // 6 fields on the tile, TileJSON, region and tileable parsers; 3 on a mix's; 4 on the
     // surface; 6 on the mesh; 2 on the reports; 1 on the kit.
     EXPECT_EQ(taken, 46);
+}
+
+// An item with two '=' would be read as what follows the last one: refused, whole.
+TEST(QueryText, AnItemWithTwoEqualsIsRefused) {
+    for (const char* bad : {"seed=1=5", "seed=1;mni=2", "mni=30&seed==1", "a=b=c&x=1"}) {
+        const auto e = check_query_text(bad);
+        ASSERT_TRUE(e) << bad;
+        EXPECT_EQ(e->code, "invalid_parameter");
+    }
+    for (const char* good :
+         {"", "seed=1&mni=30", "light=30,45&map=lit", "seed=1%3D5", "flag", "a=&b="})
+        EXPECT_FALSE(check_query_text(good)) << good;
 }
 
 } // namespace
