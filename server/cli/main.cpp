@@ -1,3 +1,4 @@
+#include "server/app/build_id.h"
 #include "server/cli/commands.h"
 
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -69,7 +70,9 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (cmd == "--version") {
-            std::puts("textond 0.1.0");
+            // The build id (as /healthz's "build") names what made a tile's bytes: an image
+            // built for the same bytes as a host build takes its commit from here.
+            std::printf("textond 0.1.0\nbuild: %s\n", textond::app::build_id().c_str());
             return 0;
         }
         if (cmd == "analyze") return textond::cli::analyze_command(rest);

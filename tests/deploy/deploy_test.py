@@ -15,7 +15,8 @@
 - The Dockerfile: stages, non-root user (the same uid as the pod's securityContext), EXPOSE and
   the port variable, HEALTHCHECK, the install script's modes; its runtime package list covers
   every library the built binary needs (NEEDED and dlopen'ed).
-- docker/compose.yaml validates with docker-compose.
+- docker/compose.yaml (and its GPU override) validates with docker-compose: two replicas with
+  a data directory each, Redis, and the edge on deploy/base's config with the replicas upstream.
 """
 import os
 import re
@@ -435,21 +436,34 @@ class Packaging(unittest.TestCase):
 
     @unittest.skipUnless(shutil.which("docker-compose"), "docker-compose is not installed")
     def test_compose_file_validates(self):
-        for profile in ([], ["--profile", "gpu"]):
-            out = subprocess.run(["docker-compose", "-f", os.path.join(ROOT, "docker/compose.yaml")]
-                                 + profile + ["config"], capture_output=True, text=True)
+        base = ["-f", os.path.join(ROOT, "docker/compose.yaml")]
+        gpu = base + ["-f", os.path.join(ROOT, "docker/compose.gpu.yaml")]
+        for files in (base, gpu):
+            out = subprocess.run(["docker-compose"] + files + ["config"], capture_output=True,
+                                 text=True)
             self.assertEqual(out.returncode, 0, out.stderr)
             conf = yaml.safe_load(out.stdout)
-            textond = conf["services"]["textond"]
-            self.assertEqual(textond["build"]["dockerfile"], "docker/Dockerfile")
-            self.assertTrue(set(textond["environment"]) <= serve_flags())
-            self.assertTrue(textond["environment"]["TEXTOND_STORE"].startswith("redis://redis:"))
+            replicas = [conf["services"][f"textond-{i}"] for i in (1, 2)]
+            volumes = set()
+            for textond in replicas:
+                self.assertEqual(textond["build"]["dockerfile"], "docker/Dockerfile")
+                ours = {k for k in textond["environment"] if k.startswith("TEXTOND_")}
+                self.assertTrue(ours <= serve_flags(), ours - serve_flags())
+                self.assertTrue(textond["environment"]["TEXTOND_STORE"].startswith("redis://redis:"))
+                volumes |= {v.split(":")[0] for v in textond["volumes"]}
+                if files is gpu:
+                    self.assertEqual(textond["environment"]["TEXTOND_BACKEND"], "egl")
+                    devices = textond["deploy"]["resources"]["reservations"]["devices"]
+                    self.assertEqual(devices[0]["driver"], "nvidia")
+            # Each replica cleans up its own unfinished writes: no shared data directory.
+            self.assertEqual(len(volumes), 2)
             self.assertIn("redis", conf["services"])
-            if profile:
-                gpu = conf["services"]["textond-gpu"]
-                self.assertEqual(gpu["environment"]["TEXTOND_BACKEND"], "egl")
-                devices = gpu["deploy"]["resources"]["reservations"]["devices"]
-                self.assertEqual(devices[0]["driver"], "nvidia")
+            edge = conf["services"]["edge"]
+            mounts = {v.split(":")[1]: v.split(":")[0] for v in edge["volumes"]}
+            self.assertTrue(mounts["/etc/nginx/conf.d/default.conf"].endswith("deploy/base/nginx/edge.conf"))
+            upstreams = open(mounts["/etc/nginx/textond/upstream-servers.conf"]).read()
+            for i in (1, 2):
+                self.assertRegex(upstreams, rf"(?m)^server textond-{i}:8080\b")
 
 
 if __name__ == "__main__":
