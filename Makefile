@@ -49,9 +49,11 @@ load-replicas: build
 image-check:
 	docker/chroot_build_test.sh
 
-# The image built and run by podman against the host build (tests/deploy/container_test.sh).
+# What podman runs (label `container`): the image against the host build, the compose stack
+# and `kube play` of deploy/base (tests/deploy/: container_test.sh, compose_test.sh,
+# kube_play_test.py).
 container-check: build
-	tests/deploy/container_test.sh $(BUILD)/textond ../shared/data/exemplars
+	cd $(BUILD) && ctest --output-on-failure -L '^container$$'
 
 format:
 	clang-format -i $$(git ls-files '*.h' '*.cpp')

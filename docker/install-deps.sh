@@ -34,9 +34,10 @@ tests=(
     # the API schema and deployment tests (Debian's python, not whatever python3 is first on
     # PATH), load (wrk, nginx), the browser test (Debian's Chromium driven by playwright-core),
     # the shared store (redis-server), compose files validated without an engine
-    # (docker-compose), the engine kit's HLSL run under OSMesa (glslang-tools, spirv-cross)
-    python3 python3-yaml python3-jsonschema wrk curl nginx-light redis-server chromium
-    chromium-driver docker-compose glslang-tools spirv-cross
+    # (docker-compose), manifests against the Kubernetes API schema (python3-kubernetes), the
+    # engine kit's HLSL run under OSMesa (glslang-tools, spirv-cross)
+    python3 python3-yaml python3-jsonschema python3-kubernetes wrk curl nginx-light redis-server
+    chromium chromium-driver docker-compose glslang-tools spirv-cross
 )
 
 case "$mode" in

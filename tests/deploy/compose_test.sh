@@ -8,8 +8,7 @@
 #     (restart: unless-stopped);
 #   - Redis stopped: uploads 503, tiles of a texton the replicas hold still 200, /readyz 200
 #     with "degraded": true; Redis started again: uploads 201 and /readyz not degraded.
-# Set-up is tests/deploy/podman_setup.sh; the textond image is built as container_test.sh builds
-# it (same build arguments, so one build serves both).
+# Set-up is tests/deploy/podman_setup.sh; the images are built by tests/deploy/build_images.sh.
 #
 #   tests/deploy/compose_test.sh HOST_TEXTOND EXEMPLAR_DIR
 set -euo pipefail
@@ -43,17 +42,7 @@ free_port() {
 }
 
 t0=$(ms)
-podman build --quiet --network host --pull=never -f "$here/standins/redis.Containerfile" \
-    -t localhost/textond-standin/redis:7.0-bookworm "$here/standins" >/dev/null
-podman build --quiet --network host --pull=never -f "$here/standins/nginx.Containerfile" \
-    -t localhost/textond-standin/nginx:1.22-bookworm "$here/standins" >/dev/null
-commit=$("$host_bin" --version | sed -nE 's|^build: textond/[^+]*\+([^ ]*) .*|\1|p')
-secret=()
-ca=${BUILD_CA:-${NODE_EXTRA_CA_CERTS:-}}
-[ -n "$ca" ] && [ -s "$ca" ] && secret=(--secret "id=build_ca,src=$ca")
-podman build --quiet --network host --pull=never --format docker "${secret[@]}" \
-    --build-arg "TEXTOND_COMMIT=$commit" -f "$root/docker/Dockerfile" -t localhost/textond:local \
-    "$root" >/dev/null
+bash "$here/build_images.sh" "$host_bin"
 t1=$(ms)
 echo "images built in $(((t1 - t0) / 1000)) s"
 

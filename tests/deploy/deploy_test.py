@@ -15,9 +15,12 @@
 - The Dockerfile: stages, non-root user (the same uid as the pod's securityContext), EXPOSE and
   the port variable, HEALTHCHECK, the install script's modes; its runtime package list covers
   every library the built binary needs (NEEDED and dlopen'ed).
+- Every object of every kustomization against the Kubernetes API schema (schema_check.py): the
+  HPA, PDB and Services, which `podman kube play` (kube_play_test.py) cannot run, included.
 - docker/compose.yaml (and its GPU override) validates with docker-compose: two replicas with
   a data directory each, Redis, and the edge on deploy/base's config with the replicas upstream.
 """
+import copy
 import os
 import re
 import shutil
@@ -31,6 +34,9 @@ import unittest
 import urllib.request
 
 import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import schema_check  # noqa: E402
 
 BINARY = os.path.abspath(sys.argv[1])
 ROOT = os.path.abspath(sys.argv[2])
@@ -282,6 +288,26 @@ class Manifests(unittest.TestCase):
         c = find(ext, "Deployment", "textond")["spec"]["template"]["spec"]["containers"][0]
         store = next(e for e in c["env"] if e["name"] == "TEXTOND_STORE")
         self.assertIn("secretKeyRef", store["valueFrom"])
+
+    def test_every_object_matches_the_kubernetes_api_schema(self):
+        """What `podman kube play` cannot run (HPA, PDB, Services) is checked here, with the rest."""
+        names = ["base"] + [f"overlays/{o}" for o in sorted(os.listdir(os.path.join(DEPLOY, "overlays")))]
+        for name in names if KUSTOMIZE else ["base"]:
+            docs = render(name)
+            if not KUSTOMIZE:  # the hand rendering's ConfigMaps carry no apiVersion
+                docs = [d for d in docs if d["kind"] != "ConfigMap"]
+            kinds = {d["kind"] for d in docs}
+            self.assertTrue({"HorizontalPodAutoscaler", "PodDisruptionBudget"} <= kinds, name)
+            for d in docs:
+                self.assertEqual(schema_check.errors(d), [], name)
+        # and the check can fail: a misspelt field, a missing required one, a wrong type
+        hpa = copy.deepcopy(find(render("base"), "HorizontalPodAutoscaler", "textond"))
+        hpa["spec"]["minReplica"] = hpa["spec"].pop("minReplicas")
+        del hpa["spec"]["maxReplicas"]
+        hpa["spec"]["metrics"][0]["resource"]["name"] = 5
+        errors = " ".join(schema_check.errors(hpa))
+        for word in ("minReplica: unknown field", "max_replicas", "name: str expected"):
+            self.assertIn(word, errors)
 
     def test_gpu_overlay_asks_for_a_gpu_and_egl(self):
         docs = self.overlay("overlays/gpu")

@@ -2,7 +2,8 @@
 # Podman on a Debian 12 machine that reaches Debian's archive but no image registry, as root
 # without CAP_SYS_RESOURCE (these CI machines). Idempotent; run by the container tests.
 #   - packages: podman, runc (crun refuses the hybrid cgroup layout here), mmdebstrap,
-#     podman-compose, and CNI's dnsname plugin so that compose services find each other by name;
+#     podman-compose, CNI's dnsname plugin so that compose services find each other by name,
+#     catatonit for the pods of `podman kube play`;
 #   - /etc/containers/containers.conf.d/textond.conf: runc with cgroupfs, and rlimits root may set here (podman's
 #     defaults ask for more and fail with "setrlimit RLIMIT_NOFILE: Operation not permitted");
 #   - docker.io/library/debian:bookworm-slim, made from Debian's packages by mmdebstrap (about
@@ -10,7 +11,8 @@
 #     --pull=never.
 set -euo pipefail
 need=()
-for p in podman runc mmdebstrap podman-compose uidmap golang-github-containernetworking-plugin-dnsname; do
+for p in podman runc mmdebstrap podman-compose uidmap catatonit \
+    golang-github-containernetworking-plugin-dnsname; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || need+=("$p")
 done
 if [ ${#need[@]} -ne 0 ]; then

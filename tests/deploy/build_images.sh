@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# The images the compose and kube play tests run, built by podman (set-up: podman_setup.sh):
+#   localhost/textond:local                        docker/Dockerfile, as container_test.sh builds
+#                                                   it (same build arguments, so one build serves all)
+#   localhost/textond-standin/redis:7.0-bookworm   stand-ins for the official images, which no
+#   localhost/textond-standin/nginx:1.22-bookworm  registry serves here (tests/deploy/standins/)
+# A proxy's CA for the build's downloads: BUILD_CA, else NODE_EXTRA_CA_CERTS (build secret).
+#   tests/deploy/build_images.sh HOST_TEXTOND
+set -euo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+here=$root/tests/deploy
+podman build --quiet --network host --pull=never -f "$here/standins/redis.Containerfile" \
+    -t localhost/textond-standin/redis:7.0-bookworm "$here/standins" >/dev/null
+podman build --quiet --network host --pull=never -f "$here/standins/nginx.Containerfile" \
+    -t localhost/textond-standin/nginx:1.22-bookworm "$here/standins" >/dev/null
+commit=$("$1" --version | sed -nE 's|^build: textond/[^+]*\+([^ ]*) .*|\1|p')
+secret=()
+ca=${BUILD_CA:-${NODE_EXTRA_CA_CERTS:-}}
+[ -n "$ca" ] && [ -s "$ca" ] && secret=(--secret "id=build_ca,src=$ca")
+podman build --quiet --network host --pull=never --format docker "${secret[@]}" \
+    --build-arg "TEXTOND_COMMIT=$commit" -f "$root/docker/Dockerfile" -t localhost/textond:local \
+    "$root" >/dev/null
