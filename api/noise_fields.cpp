@@ -83,6 +83,21 @@ std::optional<ApiError> read_light(const std::string& s, NoiseParams& out) {
     return std::nullopt;
 }
 
+std::optional<ApiError> read_encoding(const std::string& s, NoiseParams& out) {
+    out.map.encoding = core::parse_elevation_encoding(s);
+    if (!out.map.encoding) return invalid("encoding must be terrarium or mapbox, not " + shown(s));
+    return std::nullopt;
+}
+
+std::optional<ApiError> read_height_scale(const std::string& s, NoiseParams& out) {
+    auto v = parse_decimal(s);
+    if (!v || !(*v > 0.0) || *v > kMaxHeightScale)
+        return invalid("height_scale (metres for the height map's 0..1) must be a number in (0, " +
+                       number_text(kMaxHeightScale) + "], not " + shown(s));
+    out.map.height_scale = *v;
+    return std::nullopt;
+}
+
 constexpr unsigned kImages = kTileRoute | kRegionRoute | kTileableRoute;
 constexpr unsigned kMixes = kMixTileRoute | kMixRegionRoute;
 constexpr unsigned kSurfaces = kSurfaceRoute | kMeshRoute;
@@ -90,7 +105,7 @@ constexpr unsigned kSurfaces = kSurfaceRoute | kMeshRoute;
 } // namespace
 
 // Seed and mni are always written: a TileJSON's template states the noise it shows.
-const std::array<NoiseField, 6> kNoiseFields = {{
+const std::array<NoiseField, 8> kNoiseFields = {{
     {"seed", kImages | kMixes | kReportRoute | kSurfaces, read_seed,
      [](const NoiseParams& p) { return std::to_string(p.seed); }},
     {"mni", kImages | kMixes | kReportRoute | kKitRoute | kSurfaces, read_mni,
@@ -107,6 +122,16 @@ const std::array<NoiseField, 6> kNoiseFields = {{
          return p.map.name == core::kLitMap
                     ? query_text(p.map.azimuth) + "," + query_text(p.map.elevation)
                     : std::string();
+     }},
+    // Elevation tiles: the web-map and game tiles (and export) of a set's height map.
+    {"encoding", kTileRoute, read_encoding,
+     [](const NoiseParams& p) {
+         return p.map.encoding ? std::string(core::elevation_encoding_name(*p.map.encoding))
+                               : std::string();
+     }},
+    {"height_scale", kTileRoute, read_height_scale,
+     [](const NoiseParams& p) {
+         return p.map.encoding ? query_text(p.map.height_scale) : std::string();
      }},
 }};
 
@@ -128,6 +153,12 @@ std::optional<ApiError> read_noise_fields(const Query& q, NoiseRoute route, Nois
         return invalid("strength applies to map=normal and map=lit only");
     if (q.count("light") && out.map.name != core::kLitMap && !mesh)
         return invalid("light applies to map=lit only");
+    if (out.map.encoding && out.map.name != core::kHeightMap)
+        return invalid("encoding applies to map=height only: elevation tiles of a material "
+                       "set's height map");
+    if (q.count("height_scale") && !out.map.encoding)
+        return invalid("height_scale applies to elevation tiles only (encoding=terrarium or "
+                       "encoding=mapbox)");
     return std::nullopt;
 }
 

@@ -37,7 +37,7 @@ struct NoiseField {
     std::string (*write)(const NoiseParams& p);
 };
 
-extern const std::array<NoiseField, 6> kNoiseFields;
+extern const std::array<NoiseField, 8> kNoiseFields;
 
 // The fields `route` takes, in table order.
 std::vector<std::string> noise_field_names(NoiseRoute route);

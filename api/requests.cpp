@@ -148,6 +148,10 @@ std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
     if (auto e = tile_fields(q, mix, false, out)) return e;
+    if (out.noise.map.encoding && out.format != ImageFormat::png)
+        return bad("invalid_parameter", "elevation tiles (encoding=) are 8-bit RGB PNG: ask for "
+                                        ".png, not ." +
+                                            std::string(ext));
     // {y}@2x: the same square of the plane at twice the pixels, one level finer.
     constexpr std::string_view kRetina = "@2x";
     if (y.size() > kRetina.size() && y.substr(y.size() - kRetina.size()) == kRetina) {

@@ -2,6 +2,7 @@
 // The v1 requests as plain structs, parsed and validated from path segments and query fields
 // (style.md: OSRM's *_parameters). No HTTP here: server/ hands in strings and maps ApiError to a
 // response. Every rule below is also written in api/openapi.yaml.
+#include "core/elevation_encoding.h"
 #include "core/material_set.h"
 #include "core/texton_analysis.h"
 #include "core/texture_mix.h"
@@ -45,11 +46,18 @@ struct Limits {
 // Which view of a material set an image shows: one of its maps (core/material_set.h; "" = albedo,
 // or the set's first map), "normal" (made from the height with `strength`, render/normal_map.h) or
 // "lit" (the albedo lit through that normal map by a light from `azimuth`, `elevation`, degrees).
+// encoding= of map=height tiles: metres for the height map's 0..1 (height_scale=) by default.
+inline constexpr double kDefaultHeightScale = 100.0;
+inline constexpr double kMaxHeightScale = 100000.0;
+
 struct MapChoice {
     std::string name;
     double strength = core::kDefaultNormalStrength;
     double azimuth = core::kDefaultLightAzimuth;
     double elevation = core::kDefaultLightElevation;
+    // map=height as elevation tiles (core/elevation_encoding.h): RGB PNG in metres.
+    std::optional<core::ElevationEncoding> encoding;
+    double height_scale = kDefaultHeightScale;
     bool uses_normals() const { return name == core::kNormalMap || name == core::kLitMap; }
 };
 

@@ -85,6 +85,15 @@ render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, 
 Result<core::Image> render_view(render::Renderer& renderer, const PreparedSet& set,
                                 const api::MapChoice& map, const render::NoiseRequest& q,
                                 render::Renderer::Work work, std::string* used) {
+    if (map.encoding) { // the height in floats, then its metres as RGB bytes
+        api::MapChoice height = map;
+        height.encoding.reset();
+        render::NoiseRequest f = q;
+        f.precision = render::Precision::f32;
+        auto h = render_view(renderer, set, height, f, work, used);
+        if (!h) return h;
+        return core::encode_elevation(h.value(), *map.encoding, map.height_scale);
+    }
     if (map.name == core::kLitMap) {
         if (set && set.value()->texton().maps.empty())
             return make_error(ErrorCode::invalid_argument,
@@ -220,6 +229,8 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
                                                             : render::Precision::u8;
     auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.noise.map);
     if (!image || !resampled) return image;
+    if (job.noise.map.encoding) // the parsers allow no resampled window of elevation bytes
+        return make_error(ErrorCode::internal, "elevation tiles are never resampled");
     core::Image out = core::resample_periodic(image.value(), job.out_width, job.out_height);
     // Resampling mixes neighbouring normals: unit length again.
     if (job.noise.map.name == core::kNormalMap) render::renormalise_normal_map(out);

@@ -176,6 +176,7 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool
             if (const auto p = req.params.find("preset");
                 p != req.params.end() && !m_config.presets.empty())
                 ext = m_config.presets.at(p->second).format;
+            if (ext.empty() && params->count("encoding")) ext = "png"; // elevation: RGB bytes
             if (ext.empty())
                 ext = api::extension(api::negotiate_format(req.get_header_value("Accept")));
             res.set_header("Vary", "Accept");
@@ -498,6 +499,8 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
          {{"tile_size", probe.size},
           {"marginals", probe.noise.exemplar_marginals ? "exemplar" : "gaussian"},
           {"map", probe.noise.map.name.empty() ? nullptr : nlohmann::json(probe.noise.map.name)},
+          {"height_scale",
+           probe.noise.map.encoding ? nlohmann::json(probe.noise.map.height_scale) : nullptr},
           {"level_of_zoom", "level = " + std::to_string(api::kMapMaxLevel) +
                                 " - z: zoom z shows 2^(24 - z) texels per pixel; z = 24 is "
                                 "the texton's own resolution"},
@@ -505,6 +508,11 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
           {"crs", "Leaflet L.CRS.Simple / OpenLayers pixel projection; y grows downwards"},
           {"game_tiles",
            base + signed_link(req, prefix + id + "/tiles/{level}/{x}/{y}." + ext + query)}}}};
+    // Elevation tiles: what a raster-dem source (MapLibre, Mapbox) reads to decode them.
+    if (probe.noise.map.encoding) {
+        j["encoding"] = core::elevation_encoding_name(*probe.noise.map.encoding);
+        j["tileSize"] = probe.size;
+    }
     // The absolute URLs come from the Host header unless --public-url is set.
     if (m_config.public_url.empty()) res.set_header("Vary", "Host");
     send_json(res, 200, j, "no-cache"); // gone with its texton, at the edge too

@@ -392,12 +392,19 @@ TEST(NoiseFields, WhatAUrlWritesReadsBack) {
     lit.seed = 18446744073709551615ULL;
     lit.mni = 12.5;
     lit.exemplar_marginals = true;
-    lit.map = {core::kLitMap, 2.25, 30.5, 45};
+    lit.map.name = core::kLitMap;
+    lit.map.strength = 2.25;
+    lit.map.azimuth = 30.5;
+    lit.map.elevation = 45;
     NoiseParams normal;
     normal.mni = 1.5;
     normal.map.name = core::kNormalMap;
     normal.map.strength = 0.000001;
-    for (const NoiseParams& p : {lit, normal, NoiseParams{}})
+    NoiseParams elevation;
+    elevation.map.name = core::kHeightMap;
+    elevation.map.encoding = core::ElevationEncoding::mapbox;
+    elevation.map.height_scale = 0.125;
+    for (const NoiseParams& p : {lit, normal, elevation, NoiseParams{}})
         for (NoiseRoute route : {kTileRoute, kRegionRoute, kTileableRoute}) {
             const std::string text = noise_query(p, route);
             SCOPED_TRACE(text);
@@ -415,7 +422,13 @@ TEST(NoiseFields, WhatAUrlWritesReadsBack) {
                 EXPECT_EQ(back.map.azimuth, p.map.azimuth);
                 EXPECT_EQ(back.map.elevation, p.map.elevation);
             }
+            if (route == kTileRoute) { // elevation tiles are tiles only
+                EXPECT_EQ(back.map.encoding, p.map.encoding);
+                EXPECT_EQ(back.map.height_scale, p.map.height_scale);
+            }
         }
+    EXPECT_EQ(noise_query(elevation, kTileRoute),
+              "seed=0&mni=30&map=height&encoding=mapbox&height_scale=0.125");
     EXPECT_EQ(noise_query(lit, kReportRoute), "seed=18446744073709551615&mni=12.5");
     EXPECT_EQ(noise_query(lit, kKitRoute), "mni=12.5");
 }
@@ -495,9 +508,10 @@ TEST(NoiseFields, EachParserTakesItsRoutesRows) {
                 ++taken;
             }
         }
-    // 6 fields on the tile, TileJSON, region and tileable parsers; 3 on a mix's; 4 on the
-    // surface; 6 on the mesh; 2 on the reports; 1 on the kit.
-    EXPECT_EQ(taken, 46);
+    // 8 fields on the tile and TileJSON parsers (encoding, height_scale: tiles only), 6 on the
+    // region and tileable parsers; 3 on a mix's; 4 on the surface; 6 on the mesh; 2 on the
+    // reports; 1 on the kit.
+    EXPECT_EQ(taken, 50);
 }
 
 // An item with two '=' would be read as what follows the last one: refused, whole.

@@ -1,6 +1,8 @@
 // Material sets over HTTP: a multipart upload of albedo and height (etr_pebbles04's RGB and its
 // luminance as a 16-bit PNG), the metadata's maps, map tiles, normal tiles stitched into their
 // region, and the refusals.
+#include "api/requests.h"
+#include "core/elevation_encoding.h"
 #include "server/io/image_io.h"
 #include "server/io/mbtiles.h"
 #include "tests/server/server_fixture.h"
@@ -9,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -144,6 +147,89 @@ TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
 // map=lit: the albedo times 0.35 + 0.65 max(0, n . l), with n from the normal tiles of the same
 // window and l from light=AZ,EL; lit tiles stitch into their region bit for bit; the light moves
 // the shading; the refusals.
+// Elevation tiles (encoding=terrarium|mapbox): each pixel is the float height tile's value times
+// height_scale in the encoding's bytes, so they decode to the float path within half a step,
+// stitch as the float tiles do (two neighbours are the region's encoding, bit for bit), and a
+// zoomed-out level encodes the box-averaged heights.
+TEST(MaterialSet, ElevationTilesDecodeToTheFloatHeightsAndStitch) {
+    TestServer server;
+    auto c = server.client();
+    const std::string base = upload_pebble_set(c);
+    ASSERT_FALSE(base.empty());
+    auto bytes = [](const core::Image& rgb, int x, int y) {
+        return std::array<int, 3>{static_cast<int>(std::lround(rgb.at(0, x, y) * 255.0f)),
+                                  static_cast<int>(std::lround(rgb.at(1, x, y) * 255.0f)),
+                                  static_cast<int>(std::lround(rgb.at(2, x, y) * 255.0f))};
+    };
+    for (const auto e : {core::ElevationEncoding::terrarium, core::ElevationEncoding::mapbox}) {
+        const std::string name = core::elevation_encoding_name(e);
+        for (const int z : {24, 22}) { // level 0, and level 2 (box averages of 4 x 4 texels)
+            const std::string at = "/map/" + std::to_string(z) + "/3/-2";
+            const core::Image h = decoded(c.Get(base + at + ".exr?seed=7&map=height"));
+            auto r =
+                c.Get(base + at + ".png?seed=7&map=height&encoding=" + name + "&height_scale=250");
+            const core::Image rgb = decoded(r);
+            ASSERT_EQ(rgb.channels, 3);
+            ASSERT_EQ(rgb.width, h.width);
+            const core::Image expected = core::encode_elevation(h, e, 250.0);
+            double worst = 0.0;
+            int differ = 0;
+            for (int y = 0; y < h.height; ++y)
+                for (int x = 0; x < h.width; ++x) {
+                    const auto b = bytes(rgb, x, y);
+                    differ += b != bytes(expected, x, y);
+                    worst = std::max(worst, std::fabs(core::decode_elevation(b[0], b[1], b[2], e) -
+                                                      250.0 * h.at(0, x, y)));
+                }
+            EXPECT_EQ(differ, 0) << name << " z=" << z;
+            EXPECT_LE(worst, core::elevation_step(e) / 2 + 1e-3) << name << " z=" << z;
+        }
+    }
+    // Two neighbours and their region, on the float path, then encoded: the same bytes.
+    const std::string q = "?seed=3&map=height&encoding=terrarium";
+    const core::Image left = decoded(c.Get(base + "/tiles/1/-1/3.png" + q));
+    const core::Image right = decoded(c.Get(base + "/tiles/1/0/3.png" + q));
+    const core::Image region = core::encode_elevation(
+        decoded(c.Get(base + "/region.exr?x=-256&y=768&w=512&h=256&z=1&seed=3&map=height")),
+        core::ElevationEncoding::terrarium, api::kDefaultHeightScale);
+    int seam = 0;
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x) {
+            seam += bytes(left, x, y) != bytes(region, x, y);
+            seam += bytes(right, x, y) != bytes(region, 256 + x, y);
+        }
+    EXPECT_EQ(seam, 0);
+    // Without an extension: PNG whatever the Accept header asks for.
+    auto plain = c.Get(base + "/tiles/0/0/0" + q, {{"Accept", "image/avif,image/webp"}});
+    ASSERT_TRUE(plain);
+    EXPECT_EQ(plain->status, 200);
+    EXPECT_EQ(plain->get_header_value("Content-Type"), "image/png");
+    // TileJSON: the encoding a raster-dem source needs, and templates that carry it.
+    const json tj = json::parse(
+        c.Get(base + "/tilejson.json?map=height&encoding=mapbox&height_scale=40")->body);
+    EXPECT_EQ(tj.at("encoding"), "mapbox");
+    EXPECT_EQ(tj.at("tileSize"), 256);
+    EXPECT_EQ(tj.at("textond").at("height_scale"), 40.0);
+    EXPECT_NE(
+        tj.at("tiles")[0].get<std::string>().find("map=height&encoding=mapbox&height_scale=40"),
+        std::string::npos);
+    EXPECT_FALSE(json::parse(c.Get(base + "/tilejson.json?map=height")->body).contains("encoding"));
+    // Refusals.
+    auto refused = [&](const std::string& path, const std::string& words) {
+        auto r = c.Get(path);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 400) << path;
+        EXPECT_NE(r->body.find(words), std::string::npos) << path << ": " << r->body;
+    };
+    refused(base + "/tiles/0/0/0.png?encoding=terrarium", "map=height only");
+    refused(base + "/tiles/0/0/0.png?map=albedo&encoding=mapbox", "map=height only");
+    refused(base + "/tiles/0/0/0.webp?map=height&encoding=mapbox", "ask for .png");
+    refused(base + "/tiles/0/0/0.png?map=height&encoding=srtm", "terrarium or mapbox");
+    refused(base + "/tiles/0/0/0.png?map=height&height_scale=3", "elevation tiles only");
+    refused(base + "/tiles/0/0/0.png?map=height&encoding=mapbox&height_scale=0", "height_scale");
+    refused(base + "/region.png?map=height&encoding=mapbox", "encoding");
+}
+
 TEST(MaterialSet, LitTilesShadeTheAlbedoThroughTheNormalsAndStitch) {
     TestServer server;
     auto c = server.client();
