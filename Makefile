@@ -4,7 +4,7 @@ BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 ARGS   ?= serve
 
-.PHONY: deps build run run-edge test check bench load load-replicas image-check container-check format tidy mutation clean
+.PHONY: deps build run run-edge test check bench load load-replicas load-game image-check container-check format tidy mutation clean
 
 deps:
 	bash docker/install-deps.sh
@@ -44,6 +44,11 @@ load: build
 # Two replicas sharing Redis behind the nginx edge, with a 60-second soak (deploy/README.md "Run at scale").
 load-replicas: build
 	tests/load/load_test.sh --replicas
+
+# A game client flying over the plane, three rings of tiles a frame (tests/load/game_client.py),
+# against one server and through the edge.
+load-game: build
+	tests/load/game_client_test.sh
 
 # The Dockerfile's two stages in debootstrapped chroots (root, network, 10-20 minutes).
 image-check:

@@ -106,6 +106,9 @@ function showMapViews(meta) {
   if (names.includes('lit')) select.value = 'lit';
   $('map-view-label').hidden = names.length === 0;
   $('light-label').hidden = select.value !== 'lit';
+  // A height map is terrain: its elevation tiles in the 3D view (terrain.html).
+  $('terrain-link').hidden = !names.includes('height');
+  $('terrain-link').href = `/static/terrain.html?texton=${meta.id}&seed=${Number($('seed').value) || 0}`;
 }
 
 // POSTs an upload (asking for an asynchronous analysis), follows its progress and shows the

@@ -276,6 +276,7 @@ try {
   // the height averages): the map shows the lit view by default, with the light in its URL; the
   // normals are another view; every tile 200; a single photo hides the selector.
   check(await page.locator('#map-view-label').isHidden(), 'a single photo has no map selector');
+  check(await page.locator('#terrain-link').isHidden(), 'a single photo has no terrain link');
   await page.click('#set-upload summary');
   await page.setInputFiles('#set-albedo', exemplar);
   await page.setInputFiles('#set-height', exemplar);
@@ -285,6 +286,9 @@ try {
     .some((t) => t.src.includes('map=lit')), null, { timeout: 60000 });
   check(!(await page.locator('#map-view-label').isHidden()), 'a set shows the map selector');
   check(!(await page.locator('#light-label').isHidden()), 'the lit view shows the light');
+  const terrain = await page.getAttribute('#terrain-link', 'href');
+  check(!(await page.locator('#terrain-link').isHidden()) && /^\/static\/terrain\.html\?texton=[0-9a-f]{64}&seed=\d+$/.test(terrain),
+        `a set with a height links its 3D terrain (${terrain})`);
   const views = await page.locator('#map-view option').allTextContents();
   check(JSON.stringify(views) === JSON.stringify(['albedo', 'height', 'normal', 'lit']),
         `the set's views are offered (${views})`);
