@@ -52,7 +52,8 @@ OUT.partial; run the same command again after an interruption and it resumes fro
   --tile-format T     png | png16 | webp | avif               [png]
   --quality Q         1..100 for lossy WebP and AVIF          [WebP lossless, AVIF 80]
   --tile-size S       256 | 512                               [256]
-  --seed N, --mni M, --marginals gaussian|exemplar, --map NAME, --strength S, --light AZ,EL
+  --seed N, --mni M, --marginals gaussian|exemplar, --map NAME, --strength S, --light AZ,EL,
+  --encoding terrarium|mapbox, --height_scale METRES (elevation tiles of --map height)
                       the noise, as the tile URLs take them (api/README.md "HTTP API")
   --png-compression N zlib level of PNG tiles, 0..9           [1]
   --jobs N            tiles rendered at once, 1..64           [one per core]

@@ -106,9 +106,14 @@ function showMapViews(meta) {
   if (names.includes('lit')) select.value = 'lit';
   $('map-view-label').hidden = names.length === 0;
   $('light-label').hidden = select.value !== 'lit';
-  // A height map is terrain: its elevation tiles in the 3D view (terrain.html).
-  $('terrain-link').hidden = !names.includes('height');
-  $('terrain-link').href = `/static/terrain.html?texton=${meta.id}&seed=${Number($('seed').value) || 0}`;
+}
+
+// A height map is terrain: its elevation tiles in the 3D view (terrain.html), with this seed and
+// MNI. Not on a server that signs its image URLs: the 3D view does not sign them.
+function showTerrainLink(meta) {
+  const link = $('terrain-link');
+  link.hidden = !(meta.maps || []).some((m) => m.name === 'height') || state.signing;
+  link.href = `/static/terrain.html?texton=${meta.id}&${seedQuery()}`;
 }
 
 // POSTs an upload (asking for an asynchronous analysis), follows its progress and shows the
@@ -206,6 +211,7 @@ async function refreshNoise() {
   const meta = state.meta;
   if (!meta) return;
   const tj = await tileJson(`${meta.links.tilejson}?${noiseQuery()}`);
+  showTerrainLink(meta); // after a first request: state.signing is known
   if (!state.map) {
     state.map = L.map('map', {
       crs: L.CRS.Simple, minZoom: tj.minzoom, maxZoom: tj.maxzoom, attributionControl: false,

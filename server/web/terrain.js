@@ -1,4 +1,4 @@
-// The 3D view of a material set: /static/terrain.html?texton=ID[&seed=0&height_scale=2&drape=lit]
+// The 3D view of a material set: /static/terrain.html?texton=ID[&seed=0&mni=30&height_scale=2&drape=lit]
 // MapLibre reads two TileJSONs of the texton: its height map as terrarium elevation tiles
 // (a raster-dem source, for the terrain and the hillshade) and its lit albedo (the drape).
 // Web-map zoom z is texton level 24 - z: zoom 22 shows 4 texels a pixel, and Web Mercator's
@@ -15,9 +15,11 @@
     return;
   }
   const seed = params.get('seed') || '0';
+  const mni = params.get('mni') || '30';
   const scale = params.get('height_scale') || '2';
   const drape = params.get('drape') === 'albedo' ? 'albedo' : 'lit';
-  const base = `/v1/textons/${id}/tilejson.json?seed=${encodeURIComponent(seed)}`;
+  const base = `/v1/textons/${id}/tilejson.json?seed=${encodeURIComponent(seed)}` +
+    `&mni=${encodeURIComponent(mni)}`;
   const dem = `${base}&map=height&encoding=terrarium&height_scale=${encodeURIComponent(scale)}`;
   // The CSP (default-src 'self') allows no blob: workers: the CSP build's worker file instead.
   maplibregl.setWorkerUrl('/static/maplibre/maplibre-gl-csp-worker.js');

@@ -25,9 +25,12 @@ compose() {
     podman-compose -p "$project" -f "$root/docker/compose.yaml" \
         -f "$here/compose.standins.yaml" "$@" >>"$tmp/compose.log" 2>&1
 }
+wrk_pid="" up_pid=""
 cleanup() {
+    for p in $wrk_pid $up_pid; do kill "$p" 2>/dev/null || true; done
     compose down -v -t 5 || true
-    podman volume prune -f >/dev/null 2>&1 || true
+    # podman-compose 1.0 removes the project's containers and volumes, not its network.
+    podman network rm -f "${project}_default" >/dev/null 2>&1 || true
     rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -58,6 +61,14 @@ wait_for() { # URL [tries of 0.1 s]
 }
 for u in "$r1/readyz" "$r2/readyz" "$edge/nginx-healthz"; do
     wait_for "$u" || fail "$u does not answer"
+done
+# Ready includes degraded (a replica serves what it holds while Redis is down), and
+# podman-compose 1.0 starts the replicas without waiting for Redis's health: wait until both
+# are connected to it.
+connected() { curl -sf "$1/readyz" | grep -q '"degraded": *false'; }
+for u in "$r1" "$r2"; do
+    for _ in $(seq 300); do connected "$u" && break; sleep 0.1; done
+    connected "$u" || fail "$u is not connected to Redis: $(curl -s "$u/readyz")"
 done
 t2=$(ms)
 echo "stack up and ready in $(((t2 - t1) / 1000)) s"
@@ -145,8 +156,7 @@ echo "Redis stopped: uploads 503, tiles 200, /readyz degraded"
 podman start "${project}_redis_1" >/dev/null
 ok=""
 for _ in $(seq 300); do
-    if ! curl -sf "$r1/readyz" | grep -q '"degraded": *true' &&
-        ! curl -sf "$r2/readyz" | grep -q '"degraded": *true'; then ok=1; break; fi
+    if connected "$r1" && connected "$r2"; then ok=1; break; fi
     sleep 0.1
 done
 [ -n "$ok" ] || fail "the replicas stay degraded after Redis came back"

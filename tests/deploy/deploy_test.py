@@ -308,6 +308,9 @@ class Manifests(unittest.TestCase):
         errors = " ".join(schema_check.errors(hpa))
         for word in ("minReplica: unknown field", "max_replicas", "name: str expected"):
             self.assertIn(word, errors)
+        core_deployment = copy.deepcopy(find(render("base"), "Deployment", "textond"))
+        core_deployment["apiVersion"] = "v1"  # Deployments are the apps group's
+        self.assertIn("no v1 Deployment", " ".join(schema_check.errors(core_deployment)))
 
     def test_gpu_overlay_asks_for_a_gpu_and_egl(self):
         docs = self.overlay("overlays/gpu")

@@ -23,6 +23,7 @@ from nginx), and the same tile bytes from both textond pods (one reads the texto
     tests/deploy/kube_play_test.py HOST_TEXTOND EXEMPLAR_DIR
 """
 import copy
+import http.client
 import json
 import os
 import re
@@ -122,7 +123,7 @@ def wait(what, probe, seconds=int(os.environ.get("WAIT", 120))):
         try:
             if probe():
                 return
-        except OSError:
+        except (OSError, ValueError, http.client.HTTPException):  # not up yet, half an answer
             pass
         time.sleep(0.5)
     raise SystemExit(f"FAIL: {what} within {seconds} s")
@@ -215,11 +216,11 @@ def main():
                 c.pop("_ports", None)
         yaml.safe_dump_all(out, f)
 
-    for d in played:  # a claim left by an earlier run that was killed
-        if d["kind"] == "PersistentVolumeClaim":
+    for d in played:  # claims and configMap volumes left by an earlier run that was killed
+        if d["kind"] in ("PersistentVolumeClaim", "ConfigMap"):
             sh("podman", "volume", "rm", "-f", d["metadata"]["name"], check=False)
-    sh("podman", "network", "create", "--subnet", f"{subnet}.0/24", net)
     try:
+        sh("podman", "network", "create", "--subnet", f"{subnet}.0/24", net)
         t1 = time.monotonic()
         cmd = ["podman", "kube", "play", "--network", net]
         for _, _, ip in pods:
@@ -231,6 +232,8 @@ def main():
             for c in d["spec"]["template"]["spec"]["containers"]:
                 probe = c.get("readinessProbe")
                 ctr = f"{pod}-{c['name']}"
+                if not probe:
+                    raise SystemExit(f"FAIL: {ctr} has no readiness probe (every container needs one)")
                 if "httpGet" in probe:
                     check = http_probe(ip, c, probe)
                 else:
@@ -280,8 +283,9 @@ def tear_down(playfile, net, played, files):
     for v in [d["metadata"]["name"] for d in played
               if d["kind"] in ("PersistentVolumeClaim", "ConfigMap")]:
         sh("podman", "volume", "rm", "-f", v, check=False)
-    os.unlink(playfile)
-    shutil.rmtree(files)
+    if os.path.exists(playfile):
+        os.unlink(playfile)
+    shutil.rmtree(files, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """Kubernetes objects against the API schema, offline: the typed models of the Kubernetes Python
 client (Debian's python3-kubernetes, generated from the API's OpenAPI document) name every field,
-its type and which fields are required. An unknown or misspelt field, a wrong type, a missing
+its type and which fields are required, and its API classes which group serves which kind. A kind
+under the wrong group or version, an unknown or misspelt field, a wrong type, a missing
 required field or a value outside an enumeration is an error, as the API server's strict field
 validation would report it.
 
@@ -25,11 +26,24 @@ def version():
     return kubernetes.__version__
 
 
+def _snake(name):
+    return re.sub(r"(?<!^)(?=[A-Z])", "_", name).lower()
+
+
+def _served(group, version, kind):
+    """Whether the API group and version serve the kind: the client's {Group}{Version}Api has
+    its create call (apps/v1 Deployment: AppsV1Api.create_namespaced_deployment; v1 is core)."""
+    api = getattr(client, "".join(p.capitalize() for p in (group or "core").split(".")[0].split("-"))
+                  + version.capitalize() + "Api", None)
+    return api is not None and any(hasattr(api, f"create{ns}_{_snake(kind)}")
+                                   for ns in ("_namespaced", ""))
+
+
 def model_for(api_version, kind):
-    group_version = api_version.split("/")[-1]
-    for v in [group_version] + (["v2beta2"] if api_version == "autoscaling/v2" else []):
+    group, _, version = api_version.rpartition("/")
+    for v in [version] + (["v2beta2"] if api_version == "autoscaling/v2" else []):
         cls = getattr(client, v[0].upper() + v[1:] + kind, None)
-        if cls is not None:
+        if cls is not None and _served(group, v, kind):
             return cls
     return None
 

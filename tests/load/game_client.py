@@ -4,7 +4,7 @@
 Each frame the camera moves, and the client wants the ring of tiles around it at three levels
 (near, middle, far: LEVEL, LEVEL + 2, LEVEL + 4, the far rings covering 4 and 16 times the
 ground). Tiles it holds in its LRU are used as they are, and revalidated with If-None-Match once
-they are older than --revalidate-s (a 304 keeps them); the rest are fetched by a pool of
+they are --revalidate-frames frames old (a 304 keeps them); the rest are fetched by a pool of
 keep-alive connections. A 429 or 503 is retried after its Retry-After. A frame set is done when
 every tile of the frame is in hand: its latency is what a player waits for a frame's ground.
 
@@ -56,7 +56,8 @@ class Client:
     def __init__(self, args):
         self.args = args
         self.conns = Connections(args.url)
-        self.lru = collections.OrderedDict()  # path -> (etag, fetched at, bytes)
+        self.lru = collections.OrderedDict()  # path -> (etag, frame it was fetched in, bytes)
+        self.frame_no = 0
         self.lock = threading.Lock()
         self.stats = collections.Counter()
         self.jobs = queue.Queue()
@@ -69,39 +70,50 @@ class Client:
 
     def fetch(self, path, etag):
         headers = {"If-None-Match": etag} if etag else {}
-        for _ in range(1 + self.args.retries):
+        for attempt in range(1 + self.args.retries):
             status, new_etag, retry_after, body = self.conns.get(path, headers)
-            if status in (429, 503):
-                self.count("retries")
-                time.sleep(min(float(retry_after or 1), 10.0))
-                continue
-            return status, new_etag, body
-        return status, None, b""
+            if status not in (429, 503) or attempt == self.args.retries:
+                return status, new_etag, body
+            self.count("retries")
+            try:  # delay-seconds; an HTTP-date (or nothing) waits a second
+                delay = float(retry_after)
+            except (TypeError, ValueError):
+                delay = 1.0
+            time.sleep(min(max(delay, 0.0), 10.0))
+        raise AssertionError("unreachable")
 
     def worker(self):
         while True:
             path, etag, done = self.jobs.get()
             try:
-                status, new_etag, body = self.fetch(path, etag)
-            except (http.client.HTTPException, OSError):
-                status, new_etag, body = 0, None, b""
-            with self.lock:
-                if status == 200:
-                    self.stats["fetched"] += 1
-                    self.stats["bytes"] += len(body)
-                    self.put(path, new_etag, body)
-                elif status == 304:
-                    self.stats["revalidated"] += 1
-                    held = self.lru.get(path)  # none if evicted meanwhile: fetched next time
-                    if held:
-                        self.put(path, etag, held[2])
-                else:
-                    self.stats["errors"] += 1
-                    self.stats[f"status {status}"] += 1
-            done.release()
+                self.handle(path, etag)
+            except Exception as e:  # counted; the frame must not wait forever
+                self.count(f"status {type(e).__name__}")
+                self.count("errors")
+            finally:
+                done.release()
+
+    def handle(self, path, etag):
+        try:
+            status, new_etag, body = self.fetch(path, etag)
+        except (http.client.HTTPException, OSError):
+            status, new_etag, body = 0, None, b""
+        with self.lock:
+            if status == 200:
+                self.stats["fetched"] += 1
+                self.stats["bytes"] += len(body)
+                self.put(path, new_etag, body)
+            elif status == 304:
+                self.stats["revalidated"] += 1
+                held = self.lru.get(path)  # none if evicted meanwhile: fetched next time
+                if held:
+                    self.put(path, etag, held[2])
+            else:
+                self.stats["errors"] += 1
+                self.stats[f"status {status}"] += 1
 
     def put(self, path, etag, body):
-        self.lru[path] = (etag, time.monotonic(), body)
+        self.lru[path] = (etag, self.frame_no, body)
         self.lru.move_to_end(path)
         while len(self.lru) > self.args.lru:
             self.lru.popitem(last=False)
@@ -122,11 +134,11 @@ class Client:
                        for i in range(-r, r + 1)]
         done = threading.Semaphore(0)
         sent = 0
-        now = time.monotonic()
         with self.lock:
+            self.frame_no += 1
             for p in wanted:
                 held = self.lru.get(p)
-                if held and now - held[1] < self.args.revalidate_s:
+                if held and self.frame_no - held[1] < self.args.revalidate_frames:
                     self.stats["lru hits"] += 1
                     self.lru.move_to_end(p)
                     continue
@@ -148,7 +160,8 @@ def main():
     ap.add_argument("--speed", type=float, default=48.0, help="texels the camera moves a frame")
     ap.add_argument("--connections", type=int, default=8)
     ap.add_argument("--lru", type=int, default=4096, help="tiles the client keeps")
-    ap.add_argument("--revalidate-s", type=float, default=5.0)
+    ap.add_argument("--revalidate-frames", type=int, default=30,
+                    help="frames after which a held tile is revalidated (If-None-Match)")
     ap.add_argument("--retries", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")

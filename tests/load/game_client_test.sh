@@ -4,7 +4,7 @@
 # frame-set latency p50/p99, tiles/s, 304s from ETag revalidation, retries after Retry-After.
 # It fails when a tile fails after its retries, or when no revalidation answered 304.
 #   tests/load/game_client_test.sh [FRAMES]    (make load-game; CTest game_client_smoke: 30)
-# Environment: BIN, EXEMPLAR, RING (2), CONNECTIONS (8), REVALIDATE_S (2).
+# Environment: BIN, EXEMPLAR, RING (2), CONNECTIONS (8), REVALIDATE_FRAMES (20).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -33,7 +33,7 @@ id=$(curl -sf -X POST -H 'Content-Type: image/png' --data-binary "@$EXEMPLAR" \
     "$server/v1/textons?size=32" | python3 -c 'import json,sys; print(json.load(sys.stdin)["id"])')
 run() {
     /usr/bin/python3 "$here/game_client.py" "$1" "$id" --frames "$FRAMES" --ring "${RING:-2}" \
-        --connections "${CONNECTIONS:-8}" --revalidate-s "${REVALIDATE_S:-2}" --seed "$2" --json
+        --connections "${CONNECTIONS:-8}" --revalidate-frames "${REVALIDATE_FRAMES:-20}" --seed "$2" --json
 }
 echo "| target | frames | frame-set p50 ms | p99 ms | tiles/s | 304s | LRU hits | retries | errors |"
 echo "|---|---|---|---|---|---|---|---|---|"

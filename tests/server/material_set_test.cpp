@@ -144,9 +144,6 @@ TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
               "invalid_parameter 400");
 }
 
-// map=lit: the albedo times 0.35 + 0.65 max(0, n . l), with n from the normal tiles of the same
-// window and l from light=AZ,EL; lit tiles stitch into their region bit for bit; the light moves
-// the shading; the refusals.
 // Elevation tiles (encoding=terrarium|mapbox): each pixel is the float height tile's value times
 // height_scale in the encoding's bytes, so they decode to the float path within half a step,
 // stitch as the float tiles do (two neighbours are the region's encoding, bit for bit), and a
@@ -230,6 +227,9 @@ TEST(MaterialSet, ElevationTilesDecodeToTheFloatHeightsAndStitch) {
     refused(base + "/region.png?map=height&encoding=mapbox", "encoding");
 }
 
+// map=lit: the albedo times 0.35 + 0.65 max(0, n . l), with n from the normal tiles of the same
+// window and l from light=AZ,EL; lit tiles stitch into their region bit for bit; the light moves
+// the shading; the refusals.
 TEST(MaterialSet, LitTilesShadeTheAlbedoThroughTheNormalsAndStitch) {
     TestServer server;
     auto c = server.client();

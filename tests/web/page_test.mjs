@@ -287,7 +287,7 @@ try {
   check(!(await page.locator('#map-view-label').isHidden()), 'a set shows the map selector');
   check(!(await page.locator('#light-label').isHidden()), 'the lit view shows the light');
   const terrain = await page.getAttribute('#terrain-link', 'href');
-  check(!(await page.locator('#terrain-link').isHidden()) && /^\/static\/terrain\.html\?texton=[0-9a-f]{64}&seed=\d+$/.test(terrain),
+  check(!(await page.locator('#terrain-link').isHidden()) && /^\/static\/terrain\.html\?texton=[0-9a-f]{64}&seed=\d+&mni=\d+$/.test(terrain),
         `a set with a height links its 3D terrain (${terrain})`);
   const views = await page.locator('#map-view option').allTextContents();
   check(JSON.stringify(views) === JSON.stringify(['albedo', 'height', 'normal', 'lit']),

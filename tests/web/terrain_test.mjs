@@ -32,13 +32,14 @@ const url = await new Promise((resolve, reject) => {
   proc.once('exit', (code) => reject(new Error(`server exited ${code}`)));
 });
 
-const browser = await chromium.launch({
-  executablePath: '/usr/bin/chromium', headless: true,
-  // WebGL in a headless browser without a GPU: ANGLE on SwiftShader.
-  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-         '--ignore-gpu-blocklist', '--disable-background-networking', '--no-first-run'],
-});
+let browser;
 try {
+  browser = await chromium.launch({
+    executablePath: '/usr/bin/chromium', headless: true,
+    // WebGL in a headless browser without a GPU: ANGLE on SwiftShader.
+    args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
+           '--ignore-gpu-blocklist', '--disable-background-networking', '--no-first-run'],
+  });
   const form = new FormData();
   const png = new Blob([readFileSync(photo)], { type: 'image/png' });
   form.append('albedo', png, 'albedo.png');
@@ -104,7 +105,7 @@ try {
   check((await page.textContent('#status')) === '', 'the page reports no error');
   check(errors.length === 0, `no console errors${errors.length ? ': ' + errors.slice(0, 3).join(' | ') : ''}`);
 } finally {
-  await browser.close();
+  if (browser) await browser.close();
   proc.kill('SIGTERM');
   rmSync(data, { recursive: true, force: true });
 }
