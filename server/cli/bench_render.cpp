@@ -29,7 +29,8 @@ also the GPU time of the dispatches alone (timer queries), where the rest is rea
 conversion, and (OpenGL) the same frame read back as 8-bit RGB, rounded on the GPU as the PNG
 encoder rounds. Then 64 tiles of 256x256 as 8-bit: one call each, and as one batch (OpenGL: one
 upload, one dispatch and one readback; the CPU renders them one after another). Also one
-256x256 tile at levels 0, 3 and 24, one 1024x1024 frame at interpolation orders 0, 1, 3, and (CPU,
+256x256 tile at every level 0..5 (exact box filtering), 6 and 8 (limit model), 24 and -2, with
+its ratio to level 0, one 1024x1024 frame at interpolation orders 0, 1, 3, and (CPU,
 one thread) a texture-mix tile and 65536 surface-noise points against a plain tile. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
   --exemplars DIR   texture photos                              [../shared/data/exemplars]
   --repeat N        frames per row; the table shows the median    [5]
@@ -214,7 +215,8 @@ Result<bool> levels_table(const Bench& b) {
     std::printf("| backend | level | ms/tile | ratio to level 0 |\n|---|---|---|---|\n");
     for (const auto& backend : b.backends) {
         double base = 0.0;
-        for (int level : {0, 3, 5, 6, 24}) {
+        // Every exact level of this texton (1..5), two limit-model levels and a magnified one.
+        for (int level : {0, 1, 2, 3, 4, 5, 6, 8, 24, -2}) {
             render::NoiseRequest q;
             q.level = level;
             q.x0 = 12345;

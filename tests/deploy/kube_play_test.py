@@ -23,7 +23,7 @@ from nginx), and the same tile bytes from both textond pods (one reads the texto
     tests/deploy/kube_play_test.py HOST_TEXTOND EXEMPLAR_DIR
 """
 import copy
-import http.client
+from http.client import HTTPException
 import json
 import os
 import re
@@ -123,7 +123,7 @@ def wait(what, probe, seconds=int(os.environ.get("WAIT", 120))):
         try:
             if probe():
                 return
-        except (OSError, ValueError, http.client.HTTPException):  # not up yet, half an answer
+        except (OSError, ValueError, HTTPException):  # not up yet, half an answer
             pass
         time.sleep(0.5)
     raise SystemExit(f"FAIL: {what} within {seconds} s")
