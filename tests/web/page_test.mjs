@@ -8,32 +8,16 @@
 //
 // usage: node page_test.mjs TEXTOND_BINARY EXEMPLAR.png ARTEFACT_DIR
 import { chromium } from 'playwright-core';
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import { mkdtempSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { createInterface } from 'node:readline';
+import { checker, startServer as startServerOf } from './harness.mjs';
 
 const [binary, exemplar, artefacts] = process.argv.slice(2);
 mkdirSync(artefacts, { recursive: true });
-const failures = [];
-const check = (ok, what) => {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures.push(what);
-};
-
-function startServer(data, extra = []) {
-  const proc = spawn(binary, ['serve', '--port', '0', '--data', data, '--backend', 'cpu',
-                              '--log-level', 'warn', ...extra], { stdio: ['ignore', 'pipe', 'inherit'] });
-  return new Promise((resolve, reject) => {
-    const lines = createInterface({ input: proc.stdout });
-    lines.once('line', (line) => {
-      const m = line.match(/listening on (http:\/\/[^ ]+?)\/?$/);
-      m ? resolve({ proc, url: m[1] }) : reject(new Error(`server said: ${line}`));
-    });
-    proc.once('exit', (code) => reject(new Error(`server exited ${code}`)));
-  });
-}
+const { check, failures } = checker();
+const startServer = (data, extra) => startServerOf(binary, data, extra);
 
 // Width and height from a PNG's IHDR, and its bit depth.
 function pngSize(buf) {

@@ -7,30 +7,17 @@
 //
 // usage: node terrain_test.mjs TEXTOND_BINARY HEIGHT_AND_ALBEDO.png ARTEFACT_DIR
 import { chromium } from 'playwright-core';
-import { spawn } from 'node:child_process';
 import { mkdirSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { createInterface } from 'node:readline';
+import { checker, startServer } from './harness.mjs';
 
 const [binary, photo, artefacts] = process.argv.slice(2);
 mkdirSync(artefacts, { recursive: true });
-const failures = [];
-const check = (ok, what) => {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures.push(what);
-};
+const { check, failures } = checker();
 
 const data = mkdtempSync(join(tmpdir(), 'textond-terrain-'));
-const proc = spawn(binary, ['serve', '--port', '0', '--data', data, '--backend', 'cpu',
-                            '--log-level', 'warn'], { stdio: ['ignore', 'pipe', 'inherit'] });
-const url = await new Promise((resolve, reject) => {
-  createInterface({ input: proc.stdout }).once('line', (line) => {
-    const m = line.match(/listening on (http:\/\/[^ ]+?)\/?$/);
-    m ? resolve(m[1]) : reject(new Error(`server said: ${line}`));
-  });
-  proc.once('exit', (code) => reject(new Error(`server exited ${code}`)));
-});
+const { proc, url } = await startServer(binary, data);
 
 let browser;
 try {
