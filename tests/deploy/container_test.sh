@@ -8,8 +8,8 @@
 #   - `textond --help` runs inside, and OSMesa renders there (--backend osmesa);
 #   - the image's size and its layers, printed.
 # Set-up (packages, podman's configuration, the base image) is tests/deploy/podman_setup.sh.
-# A proxy's CA for the build's downloads: BUILD_CA=/path/to/ca.pem (else NODE_EXTRA_CA_CERTS
-# when set), passed as the build secret `build_ca` (docker/Dockerfile).
+# The image is built by tests/deploy/build_images.sh (a proxy's CA: BUILD_CA=/path/to/ca.pem, else
+# NODE_EXTRA_CA_CERTS, passed as the build secret `build_ca` of docker/Dockerfile).
 #
 #   tests/deploy/container_test.sh HOST_TEXTOND EXEMPLAR_DIR
 set -euo pipefail
@@ -18,7 +18,7 @@ host_bin=$(realpath "$1")
 exemplars=$(realpath "$2")
 bash "$root/tests/deploy/podman_setup.sh"
 
-tag=localhost/textond:container-test
+tag=localhost/textond:local # tests/deploy/build_images.sh
 name=textond-container-test-$$
 volume=textond-container-test-$$
 tmp=$(mktemp -d)
@@ -51,14 +51,8 @@ host="http://127.0.0.1:$host_port"
 for _ in $(seq 300); do curl -sf "$host/healthz" >/dev/null && break; sleep 0.1; done
 curl -sf "$host/healthz" >/dev/null || fail "the host build's server does not answer"
 build=$(curl -sf "$host/healthz" | python3 -c 'import json,sys; print(json.load(sys.stdin)["build"])')
-commit=$(echo "$build" | sed -E 's|^textond/[^+]*\+([^ ]*) .*|\1|')
-
-secret=()
-ca=${BUILD_CA:-${NODE_EXTRA_CA_CERTS:-}}
-[ -n "$ca" ] && [ -s "$ca" ] && secret=(--secret "id=build_ca,src=$ca")
 t0=$(ms)
-podman build --quiet --network host --pull=never --format docker "${secret[@]}" \
-    --build-arg "TEXTOND_COMMIT=$commit" -f "$root/docker/Dockerfile" -t "$tag" "$root" >/dev/null
+bash "$root/tests/deploy/build_images.sh" "$host_bin" # the commit from the host build's id
 t1=$(ms)
 echo "image built in $(((t1 - t0) / 1000)) s"
 
