@@ -65,7 +65,8 @@ std::optional<ApiError> read_strength(const std::string& s, NoiseParams& out) {
     auto v = parse_decimal(s);
     if (!v || !(*v > 0.0) || *v > core::kMaxNormalStrength)
         return invalid("strength (texels a height step of 1 spans) must be a number in (0, " +
-                       number_text(core::kMaxNormalStrength) + "], not " + shown(s));
+                       number_text(core::kMaxNormalStrength) + "], not " + shown(s) +
+                       canonical_hint(s));
     out.map.strength = *v;
     return std::nullopt;
 }
@@ -93,7 +94,7 @@ std::optional<ApiError> read_height_scale(const std::string& s, NoiseParams& out
     auto v = parse_decimal(s);
     if (!v || !(*v > 0.0) || *v > kMaxHeightScale)
         return invalid("height_scale (metres for the height map's 0..1) must be a number in (0, " +
-                       number_text(kMaxHeightScale) + "], not " + shown(s));
+                       number_text(kMaxHeightScale) + "], not " + shown(s) + canonical_hint(s));
     out.map.height_scale = *v;
     return std::nullopt;
 }

@@ -356,6 +356,17 @@ TEST(Requests, NumbersInUrlsHaveOneSpellingAndTheMessageNamesIt) {
     EXPECT_NE(
         message(parse_tile(kId, "0", "0", "0", "png", {{"seed", "0042"}}, t)).find("write 42"),
         std::string::npos);
+    TileRequest elevation, normal; // fresh: a parser fills what it reads before it refuses
+    EXPECT_NE(
+        message(parse_tile(kId, "0", "0", "0", "png",
+                           {{"map", "height"}, {"encoding", "mapbox"}, {"height_scale", "5.0"}},
+                           elevation))
+            .find("write 5"),
+        std::string::npos);
+    EXPECT_NE(message(parse_tile(kId, "0", "0", "0", "png", {{"map", "normal"}, {"strength", "05"}},
+                                 normal))
+                  .find("write 5"),
+              std::string::npos);
     EXPECT_EQ(message(parse_tile(kId, "0", "0", "0", "png", {{"mni", "2.5"}, {"seed", "42"}}, t)),
               "accepted");
     EXPECT_NE(message(parse_tile(kId, "0", "0", "0", "png", {{"mni", "30.00000000000000001"}}, t))
