@@ -1,9 +1,12 @@
 #include "api/requests.h"
 
+#include "api/json_body.h"
 #include "api/noise_fields.h"
 
 #include "core/grid_poisson.h"
 #include "core/noise_levels.h"
+
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -507,6 +510,135 @@ std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out
 }
 
 std::optional<ApiError> check_mix_id(std::string_view s) {
+    return check_texton_id(s);
+}
+
+namespace {
+
+// A band [lo, hi] of the rules: two numbers, null for no bound.
+std::optional<ApiError> band_of(const nlohmann::json& j, const char* name, core::SplatBand& out) {
+    if (!j.is_array() || j.size() != 2)
+        return bad("invalid_parameter",
+                   std::string("rules: '") + name + "' is [lo, hi] (numbers, null for no bound)");
+    for (std::size_t i = 0; i < 2; ++i) {
+        if (j[i].is_null()) continue;
+        if (!j[i].is_number())
+            return bad("invalid_parameter",
+                       std::string("rules: '") + name + "' bounds are numbers or null");
+        (i == 0 ? out.lo : out.hi) = j[i].get<double>();
+    }
+    if (!(out.lo <= out.hi))
+        return bad("invalid_parameter", std::string("rules: '") + name + "' needs lo <= hi");
+    return std::nullopt;
+}
+
+std::optional<ApiError> rules_of(const std::string& text, int layers, SplatRequest& out) {
+    // A few bands: built only once bounded (api/json_body.h).
+    if (text.size() > 16384) return bad("invalid_parameter", "rules are at most 16 kB of JSON");
+    if (auto e = check_json_bounds(text, 4, 512))
+        return bad("invalid_parameter", "rules: " + e->message);
+    const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object())
+        return bad("invalid_parameter", "rules must be a JSON object");
+    core::SplatRules& r = out.weights.rules;
+    for (const auto& [key, value] : j.items()) {
+        if (key == "height") {
+            if (!value.is_string())
+                return bad("invalid_parameter", "rules: 'height' is the height texton's id");
+            if (auto e = check_texton_id(value.get<std::string>())) return e;
+            out.height = value.get<std::string>();
+        } else if (key == "strength" || key == "height_soft" || key == "slope_soft") {
+            if (!value.is_number())
+                return bad("invalid_parameter", "rules: '" + key + "' is a number");
+            (key == "strength"      ? r.strength
+             : key == "height_soft" ? r.height_soft
+                                    : r.slope_soft) = value.get<double>();
+        } else if (key == "layers") {
+            if (!value.is_array())
+                return bad("invalid_parameter", "rules: 'layers' is an array, one per texton");
+            for (const auto& l : value) {
+                if (!l.is_object())
+                    return bad("invalid_parameter",
+                               "rules: each layer is an object with 'height' and/or 'slope'");
+                core::SplatRule rule;
+                for (const auto& [name, band] : l.items()) {
+                    if (name != "height" && name != "slope")
+                        return bad("invalid_parameter", "rules: a layer takes 'height' and "
+                                                        "'slope', not '" +
+                                                            name.substr(0, 40) + "'");
+                    if (auto e = band_of(band, name == "height" ? "height" : "slope",
+                                         name == "height" ? rule.height : rule.slope))
+                        return e;
+                }
+                r.layers.push_back(rule);
+            }
+        } else {
+            return bad("invalid_parameter",
+                       "rules: unknown key '" + key.substr(0, 40) +
+                           "' (height, strength, height_soft, slope_soft, layers)");
+        }
+    }
+    if (out.height.empty())
+        return bad("invalid_parameter", "rules: 'height' (the height texton's id) is required");
+    if (static_cast<int>(r.layers.size()) != layers)
+        return bad("invalid_parameter", "rules: 'layers' has " + std::to_string(r.layers.size()) +
+                                            " entries for " + std::to_string(layers) + " textons");
+    return std::nullopt;
+}
+
+} // namespace
+
+std::optional<ApiError> parse_splat(const Query& q, int weight_images, SplatRequest& out) {
+    const bool rules = field(q, "rules") != nullptr;
+    if (rules && weight_images > 0)
+        return bad("invalid_parameter",
+                   "a splat's weights are either images ('weights', 'weights2') or 'rules', not "
+                   "both");
+    if (!rules && weight_images == 0)
+        return bad("missing_weights",
+                   "a splat needs its weights: a 'weights' image (RGBA = 4 layers; 'weights2' "
+                   "for layers 5 to 8) or 'rules' on a height texton");
+    if (auto e = rules ? check_fields(q, {"textons", "rules"})
+                       : check_fields(q, {"textons", "scale", "x0", "y0"}))
+        return e;
+    const std::string* list = field(q, "textons");
+    if (!list)
+        return bad("invalid_parameter", "textons (2 to 8 comma-separated texton ids) is required");
+    out.textons.clear();
+    for (std::size_t at = 0; at <= list->size();) {
+        const std::size_t comma = std::min(list->find(',', at), list->size());
+        const std::string id = list->substr(at, comma - at);
+        if (auto e = check_texton_id(id)) return e;
+        if (out.textons.size() == core::kMaxSplatLayers)
+            return bad("invalid_parameter", "a splat has at most 8 layers");
+        out.textons.push_back(id);
+        at = comma + 1;
+    }
+    const int layers = static_cast<int>(out.textons.size());
+    if (layers < core::kMinSplatLayers)
+        return bad("invalid_parameter", "a splat has at least 2 layers (textons=ID,ID)");
+    if (rules) {
+        out.weights.kind = core::SplatWeights::Kind::rules;
+        if (auto e = rules_of(*field(q, "rules"), layers, out)) return e;
+        if (auto err = out.weights.validate(layers)) return bad("invalid_parameter", err->message);
+        return std::nullopt;
+    }
+    out.weights.kind = core::SplatWeights::Kind::image;
+    for (auto [name, dst] : {std::pair<const char*, double*>{"x0", &out.weights.image.x0},
+                             {"y0", &out.weights.image.y0},
+                             {"scale", &out.weights.image.scale}})
+        if (const std::string* s = field(q, name)) {
+            auto d = parse_finite(*s);
+            if (!d) return bad("invalid_parameter", std::string(name) + " must be a finite number");
+            *dst = *d;
+        }
+    if (layers > 4 && weight_images < 2)
+        return bad("invalid_parameter", "layers 5 to 8 take their weights from 'weights2' (RGBA "
+                                        "holds four)");
+    return std::nullopt; // the placement is checked with the pixels
+}
+
+std::optional<ApiError> check_splat_id(std::string_view s) {
     return check_texton_id(s);
 }
 

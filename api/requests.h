@@ -4,6 +4,7 @@
 // response. Every rule below is also written in api/openapi.yaml.
 #include "core/elevation_encoding.h"
 #include "core/material_set.h"
+#include "core/splat_blend.h"
 #include "core/texton_analysis.h"
 #include "core/texture_mix.h"
 
@@ -143,6 +144,19 @@ struct MixRequest {
 };
 std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out);
 std::optional<ApiError> check_mix_id(std::string_view s);
+
+// POST /v1/splats: the form fields beside the weight images (decoded by the caller): `textons`,
+// 2 to 8 comma-separated ids in layer order, and either the images' placement (scale, x0, y0;
+// `weight_images` of them sent) or `rules`, a JSON object of bands on a height texton:
+//   {"height": ID, "strength": 4, "height_soft": 0.05, "slope_soft": 5,
+//    "layers": [{"height": [lo, hi], "slope": [lo, hi]}, ...]}   (null: no bound).
+struct SplatRequest {
+    std::vector<std::string> textons;
+    core::SplatWeights weights; // image: its placement only
+    std::string height;         // rules: the height texton's id
+};
+std::optional<ApiError> parse_splat(const Query& q, int weight_images, SplatRequest& out);
+std::optional<ApiError> check_splat_id(std::string_view s);
 
 // POST /v1/textons/{id}/surface and /mesh.png: seed, mni (default 60), scale (texels per unit;
 // 0 = automatic for meshes); meshes also width, height, fov and an optional eye and target.

@@ -1,6 +1,7 @@
 #include "core/texture_mix.h"
 
 #include "core/periodic_component.h"
+#include "core/placed_image.h"
 
 #include <algorithm>
 #include <cmath>
@@ -127,18 +128,7 @@ double MixField::rho(double x, double y) const {
         const double n = std::hypot(dx, dy);
         r = ((x - x0) * (dx / n) + (y - y0) * (dy / n)) / width;
     } else {
-        // Mask pixel centres at origin + scale (i + 1/2): bilinear between them, edge-clamped.
-        const double fx = std::clamp((x - x0) / scale - 0.5, 0.0, mask.width - 1.0);
-        const double fy = std::clamp((y - y0) / scale - 0.5, 0.0, mask.height - 1.0);
-        const int ix = std::min(static_cast<int>(fx), mask.width - 2 < 0 ? 0 : mask.width - 2);
-        const int iy = std::min(static_cast<int>(fy), mask.height - 2 < 0 ? 0 : mask.height - 2);
-        const double ax = fx - ix, ay = fy - iy;
-        auto m = [&](int i, int j) {
-            return static_cast<double>(
-                mask.at(0, std::min(i, mask.width - 1), std::min(j, mask.height - 1)));
-        };
-        r = (1 - ay) * ((1 - ax) * m(ix, iy) + ax * m(ix + 1, iy)) +
-            ay * ((1 - ax) * m(ix, iy + 1) + ax * m(ix + 1, iy + 1));
+        sample_placed(mask, x0, y0, scale, x, y, &r);
     }
     // NaN-safe clamp: std::clamp lets NaN through, and a NaN rho would index past the levels.
     if (!(r > 0.0)) return 0.0;

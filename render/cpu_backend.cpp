@@ -298,13 +298,6 @@ std::vector<double>& thread_pixel_rho() {
     return v;
 }
 
-// The output pixel's position in texels: the point it samples (k <= 0) or the centre of its
-// footprint (k > 0), where a mix takes its mean colour.
-inline double pixel_texel(const LevelGeometry& g, std::int64_t p) {
-    if (g.level > 0) return static_cast<double>(g.st * p) + 0.5 * static_cast<double>(g.st - 1);
-    return static_cast<double>(p) / static_cast<double>(g.sub);
-}
-
 // `tables` holds one table (a texton) or one per mix level (`mix` set): then every point takes
 // the table of the level of the field at its own position (texton-noise section 7).
 void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*>& tables,
@@ -430,10 +423,10 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
     if (mix) {
         rho.resize(static_cast<std::size_t>(blk.w) * blk.h);
         for (int y = 0; y < blk.h; ++y) {
-            const double py = pixel_texel(geo, blk.y0 + y);
+            const double py = pixel_texel(geo.level, blk.y0 + y);
             for (int x = 0; x < blk.w; ++x)
                 rho[static_cast<std::size_t>(y) * blk.w + x] =
-                    mix->field().rho(pixel_texel(geo, blk.x0 + x), py);
+                    mix->field().rho(pixel_texel(geo.level, blk.x0 + x), py);
         }
     }
     for (int c = 0; c < nc; ++c) {
@@ -481,9 +474,9 @@ bool render_limit_mix(const PreparedMix& mix, const NoiseRequest& q, int threads
             skipped = true;
             continue;
         }
-        const double ty = pixel_texel(geo, q.y0 + y);
+        const double ty = pixel_texel(geo.level, q.y0 + y);
         for (int x = 0; x < q.width; ++x) {
-            const double tx = pixel_texel(geo, q.x0 + x);
+            const double tx = pixel_texel(geo.level, q.x0 + x);
             const double rho = mix.field().rho(tx, ty);
             const core::noise::LimitModel& lm =
                 *models[static_cast<std::size_t>(mix.level_of(rho))];

@@ -38,6 +38,16 @@ struct NoiseRequest {
     const Cancel* cancel = nullptr;
 };
 
+// The output pixel p's position in texels at `level`: the point it samples (k <= 0) or the
+// centre of its footprint (k > 0), where a mix takes its mean colour and a splat its weights.
+inline double pixel_texel(int level, std::int64_t p) {
+    if (level > 0) {
+        const std::int64_t st = std::int64_t{1} << level;
+        return static_cast<double>(st * p) + 0.5 * static_cast<double>(st - 1);
+    }
+    return static_cast<double>(p) / static_cast<double>(std::int64_t{1} << -level);
+}
+
 // What an evaluation cost, in units that do not depend on the machine (tests compare them).
 struct RenderStats {
     std::uint64_t points = 0;      // Poisson points generated

@@ -16,6 +16,7 @@
 namespace textond::render {
 
 class CpuBackend;
+class PreparedSplat;
 class GlBackend;
 class TileBatcher;
 
@@ -35,6 +36,13 @@ public:
                                 double strength, Work work);
     Result<core::Image> mix(const PreparedMix& mix, const NoiseRequest& request, Work work,
                             std::string* used = nullptr);
+    // A splat map (render/prepared_splat.h): each layer a window of its texton on the backend
+    // `work` picks, blended on the CPU (render/splat_render.cpp). Large windows go in strips.
+    Result<core::Image> splat(const PreparedSplat& splat, const NoiseRequest& request, Work work,
+                              std::string* used = nullptr);
+    // Its normalised weights at every pixel of the window, one channel a layer.
+    Result<core::Image> splat_weights(const PreparedSplat& splat, const NoiseRequest& request,
+                                      Work work);
     // Surface noise at points (texels per unit in req.scale); colours per point, the texton's
     // channels each.
     Result<std::vector<float>> surface(const PreparedTexton& texton, const SurfaceRequest& req,

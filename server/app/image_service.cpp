@@ -3,6 +3,7 @@
 #include "api/noise_fields.h"
 
 #include "core/grid_poisson.h"
+#include "core/noise_levels.h"
 #include "core/periodic_component.h"
 #include "core/periodic_resample.h"
 #include "core/power_spectrum.h"
@@ -134,9 +135,10 @@ Result<std::string> encode_image(const core::Image& image, api::ImageFormat form
 }
 
 ImageService::ImageService(store::TextonStore& textons, store::MixStore& mixes,
-                           render::Renderer& renderer, Metrics& metrics, int png_compression)
-    : m_textons(textons), m_mixes(mixes), m_renderer(renderer), m_metrics(metrics),
-      m_png_compression(png_compression) {}
+                           store::SplatStore& splats, render::Renderer& renderer, Metrics& metrics,
+                           int png_compression)
+    : m_textons(textons), m_mixes(mixes), m_splats(splats), m_renderer(renderer),
+      m_metrics(metrics), m_png_compression(png_compression) {}
 
 std::string ImageService::key(const Job& job) {
     const render::NoiseRequest& q = job.request;
@@ -159,8 +161,13 @@ std::string ImageService::etag(const std::string& key) const {
     return "\"" + h.hex().substr(0, 40) + "\"";
 }
 
-Result<int> ImageService::interpolation_order(const std::string& id, bool mix) const {
-    if (mix) {
+Result<int> ImageService::interpolation_order(const std::string& id, Source source) const {
+    if (source == Source::splat) {
+        auto found = m_splats.prepared(id);
+        if (!found) return found.error();
+        return found.value()->order();
+    }
+    if (source == Source::mix) {
         auto found = m_mixes.meta(id);
         if (!found) return found.error();
         return found.value().order;
@@ -180,16 +187,27 @@ Result<ImageService::Job> ImageService::tileable(const api::TileableRequest& t) 
     render::NoiseRequest q =
         noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
     q.period = {cells(t.width), cells(t.height)};
-    return Job{t.id, "tileable", t.format, q, t.width, t.height, true, false, t.noise, t.quality};
+    return Job{t.id,     "tileable", t.format,       q,       t.width,
+               t.height, true,       Source::texton, t.noise, t.quality};
 }
 
 Result<core::Image> ImageService::evaluate(const std::string& id, const render::NoiseRequest& q,
-                                           bool mix, bool whole_machine, const char* kind,
+                                           Source source, bool whole_machine, const char* kind,
                                            const api::MapChoice& map) {
     const Work work = whole_machine ? Work::frame : Work::tile;
-    if (mix && !map.name.empty())
-        return make_error(ErrorCode::invalid_argument, "a texture mix has no maps: drop map=");
-    if (mix) {
+    if (source != Source::texton && !map.name.empty())
+        return make_error(ErrorCode::invalid_argument, source == Source::mix
+                                                           ? "a texture mix has no maps: drop map="
+                                                           : "a splat map has no maps: drop map=");
+    if (source == Source::splat) {
+        auto prepared = m_splats.prepared(id);
+        if (!prepared) return prepared.error();
+        if (auto err = prepared.value()->check(q)) return *err;
+        return timed(kind, [&](std::string* used) {
+            return m_renderer.splat(*prepared.value(), q, work, used);
+        });
+    }
+    if (source == Source::mix) {
         auto prepared = m_mixes.prepared(id);
         if (!prepared) return prepared.error();
         if (auto err = prepared.value()->check(q)) return *err;
@@ -227,7 +245,7 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
         q.precision = job.format == api::ImageFormat::png16 ? render::Precision::u16
                       : job.format == api::ImageFormat::exr ? render::Precision::f32
                                                             : render::Precision::u8;
-    auto image = evaluate(job.id, q, job.mix, job.whole_machine, job.kind, job.noise.map);
+    auto image = evaluate(job.id, q, job.source, job.whole_machine, job.kind, job.noise.map);
     if (!image || !resampled) return image;
     if (job.noise.map.encoding) // the parsers allow no resampled window of elevation bytes
         return make_error(ErrorCode::internal, "elevation tiles are never resampled");
@@ -249,7 +267,7 @@ Result<core::Image> ImageService::spectrum(const std::string& id, const api::Noi
     const int w = std::min(512, u.width), h = std::min(512, u.height);
     render::NoiseRequest q = noise_request(0, 0, 0, w, h, noise);
     q.cancel = &cancel;
-    auto window = evaluate(id, q, false, true, "spectrum");
+    auto window = evaluate(id, q, Source::texton, true, "spectrum");
     if (!window) return window.error();
     return side_by_side(
         core::centred_power_spectrum(core::periodic_component(centre_crop(u, w, h))),
@@ -272,16 +290,67 @@ Result<QualityReport> ImageService::quality(const std::string& id, const api::No
     const int w = std::min(256, u.width), h = std::min(256, u.height);
     render::NoiseRequest q = noise_request(0, 0, 0, w, h, noise);
     q.cancel = &cancel;
-    auto gaussian = evaluate(id, q, false, true, "quality");
+    auto gaussian = evaluate(id, q, Source::texton, true, "quality");
     if (!gaussian) return gaussian.error();
     core::Image restored;
     if (meta.value().exemplar_marginals) {
         q.marginals = render::Marginals::exemplar;
-        auto r = evaluate(id, q, false, true, "quality");
+        auto r = evaluate(id, q, Source::texton, true, "quality");
         if (!r) return r.error();
         restored = std::move(r.value());
     }
     return quality_report(meta.value(), centre_crop(u, w, h), gaussian.value(), restored);
+}
+
+Result<int> ImageService::splat_layers(const std::string& id) const {
+    auto found = m_splats.prepared(id);
+    if (!found) return found.error();
+    return found.value()->layers();
+}
+
+Result<core::Image> ImageService::splat_report(const std::string& id, const api::NoiseParams& noise,
+                                               const render::Cancel& cancel) {
+    auto prepared = m_splats.prepared(id);
+    if (!prepared) return prepared.error();
+    const render::PreparedSplat& s = *prepared.value();
+    constexpr int kSide = 256, kGap = 4;
+    int level = 2;
+    std::int64_t x0 = 0, y0 = 0;
+    if (s.weights().kind == core::SplatWeights::Kind::image) {
+        // The coarsest level whose 256 pixels span the weight image, from its corner.
+        const core::SplatImage& im = s.weights().image;
+        const double extent = im.scale * std::max(im.weights.width, im.weights.height);
+        level = 0;
+        while (level < core::noise::kMaxLevel && std::ldexp(kSide, level) < extent) ++level;
+        x0 = static_cast<std::int64_t>(std::floor(std::ldexp(im.x0, -level)));
+        y0 = static_cast<std::int64_t>(std::floor(std::ldexp(im.y0, -level)));
+    }
+    render::NoiseRequest q = noise_request(level, x0, y0, kSide, kSide, noise);
+    q.cancel = &cancel;
+    auto weights = m_renderer.splat_weights(s, q, Work::frame);
+    if (!weights) return weights.error();
+    auto result = evaluate(id, q, Source::splat, true, "quality");
+    if (!result) return result.error();
+    core::Image out(2 * kSide + kGap, kSide, 3, 1.0f);
+    for (int y = 0; y < kSide; ++y)
+        for (int x = 0; x < kSide; ++x)
+            for (int c = 0; c < 3; ++c) {
+                double v = 0;
+                for (int k = 0; k < s.layers(); ++k)
+                    v += weights.value().at(k, x, y) * splat_palette(k)[c];
+                out.at(c, x, y) = static_cast<float>(v);
+                out.at(c, kSide + kGap + x, y) =
+                    result.value().at(std::min(c, result.value().channels - 1), x, y);
+            }
+    return out;
+}
+
+const float* splat_palette(int layer) {
+    // Distinct under the common colour-vision deficiencies (Okabe and Ito), layer 1 first.
+    static const float kPalette[core::kMaxSplatLayers][3] = {
+        {0.90f, 0.62f, 0.00f}, {0.34f, 0.71f, 0.91f}, {0.00f, 0.62f, 0.45f}, {0.94f, 0.89f, 0.26f},
+        {0.00f, 0.45f, 0.70f}, {0.84f, 0.37f, 0.00f}, {0.80f, 0.47f, 0.65f}, {0.60f, 0.60f, 0.60f}};
+    return kPalette[layer];
 }
 
 Result<std::string> ImageService::encode(const core::Image& image, api::ImageFormat format,

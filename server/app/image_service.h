@@ -13,6 +13,7 @@
 #include "server/app/metrics.h"
 #include "server/app/quality_report.h"
 #include "server/store/mix_store.h"
+#include "server/store/splat_store.h"
 #include "server/store/texton_store.h"
 
 #include <cstdint>
@@ -39,10 +40,16 @@ Result<core::Image> render_view(render::Renderer& renderer, const PreparedSet& s
 Result<std::string> encode_image(const core::Image& image, api::ImageFormat format, int quality,
                                  const std::string& id, int png_compression);
 
+// The colour (RGB in [0, 1]) of splat layer `layer` (0..7) in a splat's report.
+const float* splat_palette(int layer);
+
+// What an image's id names: a texton (or material set), a texture mix or a splat map.
+enum class Source { texton, mix, splat };
+
 class ImageService {
 public:
-    ImageService(store::TextonStore& textons, store::MixStore& mixes, render::Renderer& renderer,
-                 Metrics& metrics, int png_compression);
+    ImageService(store::TextonStore& textons, store::MixStore& mixes, store::SplatStore& splats,
+                 render::Renderer& renderer, Metrics& metrics, int png_compression);
 
     struct Job {
         std::string id;
@@ -51,7 +58,7 @@ public:
         render::NoiseRequest request;
         int out_width = 0, out_height = 0; // tileable textures are resampled to the asked size
         bool whole_machine = false;        // regions and tileables: the frame backend
-        bool mix = false;                  // id names a texture mix
+        Source source = Source::texton;
         api::NoiseParams noise; // seed, mni, marginals (also in request) and the view (map=)
         int quality = api::kDefaultQuality; // of lossy WebP and AVIF
         std::int64_t pixels() const { return std::int64_t{request.width} * request.height; }
@@ -62,9 +69,11 @@ public:
     // The strong ETag of a key's bytes: the build, the renderer's identity and the key.
     std::string etag(const std::string& key) const;
 
-    // The stored texton's (or mix's) interpolation order, which admission costs a window at;
-    // not_found when there is none, so it is also the routes' first existence check.
-    Result<int> interpolation_order(const std::string& id, bool mix) const;
+    // The stored texton's (mix's, splat's) interpolation order, which admission costs a window
+    // at; not_found when there is none, so it is also the routes' first existence check.
+    Result<int> interpolation_order(const std::string& id, Source source) const;
+    // A splat's layers over one pixel's worth of work: what admission multiplies a window by.
+    Result<int> splat_layers(const std::string& id) const;
     // The job of a tileable texture: the nearest whole number of cells, resampled to w x h.
     Result<Job> tileable(const api::TileableRequest& t) const;
 
@@ -78,13 +87,17 @@ public:
     Result<QualityReport> quality(const std::string& id, const api::NoiseParams& noise,
                                   const render::Cancel& cancel);
     static std::string quality_key(const std::string& id, const api::NoiseParams& noise);
+    // A splat's report: its weights (each layer a colour of splat_palette) beside its render, one
+    // 256 x 256 window at the level that shows the whole weight image (level 2 for rules).
+    Result<core::Image> splat_report(const std::string& id, const api::NoiseParams& noise,
+                                     const render::Cancel& cancel);
     // The image's bytes in `format`, tagged with the noise version and the id.
     Result<std::string> encode(const core::Image& image, api::ImageFormat format, int quality,
                                const std::string& id) const;
 
 private:
-    Result<core::Image> evaluate(const std::string& id, const render::NoiseRequest& q, bool mix,
-                                 bool whole_machine, const char* kind,
+    Result<core::Image> evaluate(const std::string& id, const render::NoiseRequest& q,
+                                 Source source, bool whole_machine, const char* kind,
                                  const api::MapChoice& map = {});
     // Runs `evaluate` and adds its time to the render histogram of the backend it names.
     Result<core::Image> timed(const char* kind,
@@ -92,6 +105,7 @@ private:
 
     store::TextonStore& m_textons;
     store::MixStore& m_mixes;
+    store::SplatStore& m_splats;
     render::Renderer& m_renderer;
     Metrics& m_metrics;
     const int m_png_compression;

@@ -4,6 +4,8 @@
 #include "render/backend_factory.h"
 #include "render/cpu_backend.h"
 #include "render/prepared_mix.h"
+#include "render/prepared_splat.h"
+#include "render/renderer.h"
 #include "render/surface_eval.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
@@ -31,7 +33,8 @@ encoder rounds. Then 64 tiles of 256x256 as 8-bit: one call each, and as one bat
 upload, one dispatch and one readback; the CPU renders them one after another). Also one
 256x256 tile at every level 0..5 (exact box filtering), 6 and 8 (limit model), 24 and -2, with
 its ratio to level 0, one 1024x1024 frame at interpolation orders 0, 1, 3, and (CPU,
-one thread) a texture-mix tile and 65536 surface-noise points against a plain tile. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
+one thread) a texture-mix tile, splat tiles of 2, 4 and 8 layers and 65536 surface-noise points
+against a plain tile. Textons are analysed from mypaint_HR_Cork.png (512x512 colour).
   --exemplars DIR   texture photos                              [../shared/data/exemplars]
   --repeat N        frames per row; the table shows the median    [5]
   --backends LIST   comma-separated: cpu, osmesa, egl (skipped when absent)   [cpu,egl]
@@ -296,6 +299,34 @@ Result<bool> mix_rows(const Bench& b, render::CpuBackend& cpu1, render::NoiseReq
     return true;
 }
 
+// Splat tiles of K layers of the r = 64 texton (the cost of a layer does not depend on which):
+// every layer shown (even weights everywhere), and four layers of which one shows (the others'
+// weights are 0 over the tile, so they are not rendered). Through the Renderer, one CPU thread.
+Result<bool> splat_rows(const Bench& b, render::NoiseRequest tile, double plain) {
+    render::BackendOptions o;
+    o.threads = 1;
+    auto r = render::Renderer::make(render::BackendKind::cpu, o);
+    if (!r) return r.error();
+    auto row = [&](int k, bool all, const char* what) -> Result<bool> {
+        core::SplatWeights w;
+        w.image.weights = core::Image(1, 1, k, 0.0f);
+        for (int l = 0; l < (all ? k : 1); ++l)
+            w.image.weights.data[static_cast<std::size_t>(l)] = 1;
+        auto s = render::PreparedSplat::make(
+            std::vector<Prepared>(static_cast<std::size_t>(k), b.r64), w);
+        if (!s) return s.error();
+        const double ms = median_ms(b.repeat, [&] {
+            ++tile.seed;
+            auto img = r.value()->splat(*s.value(), tile, render::Renderer::Work::tile);
+        });
+        std::printf("| splat tile, %d layers, %s | %.2f | %.2fx |\n", k, what, ms, ms / plain);
+        return true;
+    };
+    for (int k : {2, 4, 8})
+        if (auto done = row(k, true, "all shown"); !done) return done;
+    return row(4, false, "one shown");
+}
+
 // Surface noise at as many points on a sphere as the tile has pixels.
 void surface_rows(const Bench& b, double plain) {
     const int n = 65536;
@@ -335,6 +366,7 @@ Result<bool> cpu_table(const Bench& b) {
                 plain);
     std::printf("| what | ms | ratio to the plain tile |\n|---|---|---|\n");
     if (auto rows = mix_rows(b, cpu1, tile, plain); !rows) return rows;
+    if (auto rows = splat_rows(b, tile, plain); !rows) return rows;
     surface_rows(b, plain);
     return true;
 }

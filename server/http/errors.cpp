@@ -17,6 +17,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"region_too_large", 400},
         {"empty_body", 400},
         {"missing_exemplar", 400},
+        {"missing_weights", 400},
         {"map_size_mismatch", 400},
         {"bad_request", 400},
         {"bad_framing", 400},
@@ -44,6 +45,7 @@ const std::vector<ErrorStatus>& error_table() {
         // The content.
         {"invalid_image", 422},
         {"invalid_mask", 422},
+        {"invalid_weights", 422},
         {"invalid_mesh", 422},
         {"exemplar_too_small", 422},
         {"unprocessable", 422},

@@ -70,9 +70,9 @@ ImageRoutes::ImageRoutes(const ServeConfig& config, ImageService& images, Texton
 
 void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& res,
                                const std::string& id, const std::string& key,
-                               api::ImageFormat format, const Produce& produce, bool mix,
+                               api::ImageFormat format, const Produce& produce, Source source,
                                std::int64_t pixels, double mni, int quality, double cpu_share) {
-    auto order = m_images.interpolation_order(id, mix);
+    auto order = m_images.interpolation_order(id, source);
     if (!order) return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
@@ -149,22 +149,28 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
 
 void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
                         const ImageService::Job& job) {
-    // Admission's estimate: normals take two CPU gradient passes, the lit view a render more.
-    const std::int64_t passes = job.noise.map.name == core::kLitMap      ? 3
-                                : job.noise.map.name == core::kNormalMap ? 2
-                                                                         : 1;
+    // Admission's estimate: normals take two CPU gradient passes, the lit view a render more; a
+    // splat at most a render a layer (and its rules' height and normals).
+    std::int64_t passes = job.noise.map.name == core::kLitMap      ? 3
+                          : job.noise.map.name == core::kNormalMap ? 2
+                                                                   : 1;
+    if (job.source == Source::splat) {
+        auto layers = m_images.splat_layers(job.id);
+        if (!layers) return send_error(res, to_api_error(layers.error()));
+        passes = layers.value() + 3;
+    }
     // Normals are made on the CPU whatever the backend (the lit view's albedo is rendered).
     const double cpu_share = job.noise.map.name == core::kLitMap      ? 2.0 / 3.0
                              : job.noise.map.name == core::kNormalMap ? 1.0
                                                                       : 0.0;
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
-        [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, job.mix,
+        [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, job.source,
         job.pixels() * passes, job.request.mni, job.quality, cpu_share);
 }
 
-ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool mix) {
-    return [this, route, parse, mix](const httplib::Request& req, httplib::Response& res) {
+ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, Source source) {
+    return [this, route, parse, source](const httplib::Request& req, httplib::Response& res) {
         set_route(route);
         api::TileRequest t;
         // No extension: the format the client's Accept header asks for (AVIF, WebP, else PNG);
@@ -182,32 +188,32 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, bool
             res.set_header("Vary", "Accept");
         }
         if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
-                           req.matches[4].str(), ext, *params, t, mix))
+                           req.matches[4].str(), ext, *params, t, source != Source::texton))
             return send_error(res, *e);
         ImageService::Job job{
             t.id,     "tile",
             t.format, noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
             t.size,   t.size,
-            false,    mix,
+            false,    source,
             t.noise,  t.quality};
         serve(req, res, job);
     };
 }
 
-ImageRoutes::Handler ImageRoutes::region(const char* route, bool mix) {
-    return [this, route, mix](const httplib::Request& req, httplib::Response& res) {
+ImageRoutes::Handler ImageRoutes::region(const char* route, Source source) {
+    return [this, route, source](const httplib::Request& req, httplib::Response& res) {
         set_route(route);
         api::RegionRequest r;
         const auto params = served_query(req, res, req.matches[2].str());
         if (!params) return;
         if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), *params,
-                                       m_config.limits, r, mix))
+                                       m_config.limits, r, source != Source::texton))
             return send_error(res, *e);
         ImageService::Job job{
             r.id,     "region",
             r.format, noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
             r.width,  r.height,
-            true,     mix,
+            true,     source,
             r.noise,  r.quality};
         serve(req, res, job);
     };
@@ -237,8 +243,8 @@ void ImageRoutes::spectrum(const httplib::Request& req, httplib::Response& res) 
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     serve_cached(
         req, res, id, ImageService::spectrum_key(id, noise), api::ImageFormat::png,
-        [&](const render::Cancel& cancel) { return m_images.spectrum(id, noise, cancel); }, false,
-        512 * 512, noise.mni);
+        [&](const render::Cancel& cancel) { return m_images.spectrum(id, noise, cancel); },
+        Source::texton, 512 * 512, noise.mni);
 }
 
 // The quality report (quality_report.h): the PNG cached like a spectrum, the JSON computed in a
@@ -257,8 +263,9 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
     };
     if (png)
         return serve_cached(req, res, id, ImageService::quality_key(id, noise),
-                            api::ImageFormat::png, produce, false, 2 * 256 * 256, noise.mni);
-    auto order = m_images.interpolation_order(id, false);
+                            api::ImageFormat::png, produce, Source::texton, 2 * 256 * 256,
+                            noise.mni);
+    auto order = m_images.interpolation_order(id, Source::texton);
     if (!order) return send_error(res, to_api_error(order.error()));
     if (!within_rate(req, res)) return; // a render every time
     auto slot = m_gate.admit(res, noise_work_s(2 * 256 * 256, noise.mni, order.value()));
@@ -273,6 +280,21 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
                                           ? "?preset=" + preset->second
                                           : "?" + api::noise_query(noise, api::kReportRoute)))}};
     send_json(res, 200, report.value().json, "no-cache");
+}
+
+void ImageRoutes::splat_report(const httplib::Request& req, httplib::Response& res) {
+    set_route("/v1/splats/{id}/quality.png");
+    const std::string id = req.matches[1].str();
+    api::NoiseParams noise;
+    const auto params = served_query(req, res, "png");
+    if (!params) return;
+    if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
+    auto layers = m_images.splat_layers(id);
+    if (!layers) return send_error(res, to_api_error(layers.error()));
+    serve_cached(
+        req, res, id, "splat-" + ImageService::quality_key(id, noise), api::ImageFormat::png,
+        [&](const render::Cancel& cancel) { return m_images.splat_report(id, noise, cancel); },
+        Source::splat, (layers.value() + 4) * 256 * 256, noise.mni);
 }
 
 void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) {
@@ -433,12 +455,21 @@ std::string ImageRoutes::base_url(const httplib::Request& req) const {
 // What the tiles of a TileJSON would refuse, refused once here: marginals a texton does not
 // keep, a map it does not have (a mix's routes take no map=: api/noise_fields.h).
 std::optional<api::ApiError>
-ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& probe, bool mix) {
+ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& probe, Source source) {
     const api::ApiError no_marginals{
         "invalid_parameter",
         "marginals=exemplar needs the exemplar's marginals, which this texton does not keep "
         "(a mix, or analysed before they were kept); use marginals=gaussian"};
-    if (mix) {
+    if (source == Source::splat) {
+        if (auto order = m_images.interpolation_order(id, source); !order)
+            return to_api_error(order.error());
+        if (probe.noise.exemplar_marginals)
+            return api::ApiError{"invalid_parameter",
+                                 "splats blend Gaussian layers, whose exemplar marginals the "
+                                 "blend does not keep; use marginals=gaussian"};
+        return std::nullopt;
+    }
+    if (source == Source::mix) {
         if (auto meta = m_mixes.meta(id); !meta) return to_api_error(meta.error());
         if (probe.noise.exemplar_marginals) return no_marginals;
         return std::nullopt;
@@ -467,9 +498,11 @@ std::pair<std::string, std::string> ImageRoutes::tile_suffix(const httplib::Requ
                        (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "")};
 }
 
-void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, bool mix) {
+void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, Source source) {
     const std::string id = req.matches[1].str();
-    set_route(mix ? "/v1/mixes/{id}/tilejson.json" : "/v1/textons/{id}/tilejson.json");
+    set_route(source == Source::mix     ? "/v1/mixes/{id}/tilejson.json"
+              : source == Source::splat ? "/v1/splats/{id}/tilejson.json"
+                                        : "/v1/textons/{id}/tilejson.json");
     api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
     const auto params = served_query(req, res, "");
     if (!params) return;
@@ -477,17 +510,22 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
     // preset; a TileJSON takes none of its own (its templates are PNG).
     api::Query fields = *params;
     if (!m_config.presets.empty()) fields.erase("quality");
-    if (auto e = api::parse_tilejson(id, fields, probe, mix)) return send_error(res, *e);
-    if (auto e = tilejson_refusal(id, probe, mix)) return send_error(res, *e);
-    const std::string prefix = mix ? "/v1/mixes/" : "/v1/textons/";
+    if (auto e = api::parse_tilejson(id, fields, probe, source != Source::texton))
+        return send_error(res, *e);
+    if (auto e = tilejson_refusal(id, probe, source)) return send_error(res, *e);
+    const std::string prefix = source == Source::mix     ? "/v1/mixes/"
+                               : source == Source::splat ? "/v1/splats/"
+                                                         : "/v1/textons/";
     const auto [ext, query] = tile_suffix(req, probe);
     const std::string base = base_url(req);
     const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
     nlohmann::json j = {
         {"tilejson", "3.0.0"},
         {"name", "textond " + id.substr(0, 12)},
-        {"description", std::string(mix ? "Texture mix " : "Texton noise of texton ") + id +
-                            " (seed " + std::to_string(probe.noise.seed) + ", MNI " +
+        {"description", std::string(source == Source::mix     ? "Texture mix "
+                                    : source == Source::splat ? "Splat map "
+                                                              : "Texton noise of texton ") +
+                            id + " (seed " + std::to_string(probe.noise.seed) + ", MNI " +
                             api::query_text(probe.noise.mni) + "), an unbounded seamless plane"},
         {"version", "1.0.0"},
         {"scheme", "xyz"},

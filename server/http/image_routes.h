@@ -1,6 +1,7 @@
 #pragma once
 // GET routes of images: tiles (game clients, z = level), map tiles and TileJSON (web maps),
-// regions (pipelines), tileable textures, the spectrum and the exemplar, of textons and of mixes.
+// regions (pipelines), tileable textures, the spectrum and the exemplar, of textons, mixes and
+// splat maps.
 // Every image is a window onto one deterministic function, so its bytes are named by a strong
 // ETag and cached; the work is ImageService's, admitted through the Gate.
 #include "api/requests.h"
@@ -31,17 +32,19 @@ public:
     // routes.cpp passes api::parse_tile or api::parse_map_tile here (no call in this file names
     // them).
     using TileParser = decltype(&api::parse_tile);
-    Handler tile(const char* route, TileParser parse, bool mix);
-    Handler region(const char* route, bool mix);
+    Handler tile(const char* route, TileParser parse, Source source);
+    Handler region(const char* route, Source source);
     void tileable(const httplib::Request& req, httplib::Response& res);
     void spectrum(const httplib::Request& req, httplib::Response& res);
     // The texton's quality report: JSON (png = false) or its PNG.
     void quality(const httplib::Request& req, httplib::Response& res, bool png);
+    // A splat's report (ImageService::splat_report), cached like a quality PNG.
+    void splat_report(const httplib::Request& req, httplib::Response& res);
     void exemplar(const httplib::Request& req, httplib::Response& res);
     // The engine kit (tar): signed, preset and rate limited like an image, built under a render
     // slot and cached like one.
     void kit(const httplib::Request& req, httplib::Response& res);
-    void tilejson(const httplib::Request& req, httplib::Response& res, bool mix);
+    void tilejson(const httplib::Request& req, httplib::Response& res, Source source);
 
 private:
     using Produce = std::function<Result<core::Image>(const render::Cancel&)>;
@@ -49,8 +52,8 @@ private:
     // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format, const Produce& produce,
-                      bool mix, std::int64_t pixels, double mni, int quality = api::kDefaultQuality,
-                      double cpu_share = 0);
+                      Source source, std::int64_t pixels, double mni,
+                      int quality = api::kDefaultQuality, double cpu_share = 0);
     // The image's bytes, produced and encoded under a render slot; null when the answer (429,
     // 413, 503, an error) was sent instead.
     std::shared_ptr<CachedImage> produce_in_slot(httplib::Response& res, const std::string& id,
@@ -59,7 +62,7 @@ private:
                                                  double cpu_share = 0);
     std::string base_url(const httplib::Request& req) const;
     std::optional<api::ApiError> tilejson_refusal(const std::string& id,
-                                                  const api::TileRequest& probe, bool mix);
+                                                  const api::TileRequest& probe, Source source);
     std::pair<std::string, std::string> tile_suffix(const httplib::Request& req,
                                                     const api::TileRequest& probe) const;
     // Cache-Control of an image: immutable, or until a signed URL's exp.

@@ -55,4 +55,29 @@ std::optional<api::ApiError> read_body(const httplib::ContentReader& reader, std
     return api::ApiError{"bad_request", "could not read the request body"};
 }
 
+std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, std::size_t limit,
+                                        int status, Body& counted,
+                                        std::vector<httplib::MultipartFormData>& parts) {
+    const bool ok = reader(
+        [&](const httplib::MultipartFormData& part) {
+            parts.push_back(part);
+            return parts.size() <= 64 && counted.count(part.name.size(), limit);
+        },
+        [&](const char* data, std::size_t n) {
+            if (!counted.count(n, limit)) return false;
+            parts.back().content.append(data, n);
+            return true;
+        });
+    if (ok) return std::nullopt;
+    // The rest of the body is unread: what follows on the connection is not a request.
+    if (ConnectionStream* c = current_connection()) c->close_after_response();
+    if (counted.over_budget())
+        return api::ApiError{"overloaded",
+                             "the server holds too many request bodies now; retry shortly"};
+    if (counted.over_limit() || status == 413)
+        return api::ApiError{"payload_too_large", "request body is over the upload limit of " +
+                                                      std::to_string(limit) + " bytes"};
+    return api::ApiError{"bad_request", "could not read the request body"};
+}
+
 } // namespace textond::http

@@ -18,6 +18,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace textond::http {
 
@@ -75,5 +76,12 @@ private:
 // since the rest of the body is still on the wire.
 std::optional<api::ApiError> read_body(const httplib::ContentReader& reader, std::size_t limit,
                                        Body& body);
+
+// A multipart form's parts, every byte counted against `limit` and the server's budget for
+// bodies in memory; at most 64 parts. `status` is the response's status so far (cpp-httplib sets
+// 413 when its own limit stopped the read). Errors as read_body's.
+std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, std::size_t limit,
+                                        int status, Body& counted,
+                                        std::vector<httplib::MultipartFormData>& parts);
 
 } // namespace textond::http

@@ -1,6 +1,6 @@
 // The route table of api/openapi.yaml. cpp-httplib tries the routes of one method in the order
 // they were added, first match wins: the hot path (tiles) first, every specific route before the
-// /v1/textons/* and /v1/mixes/* fallbacks, and a catch-all POST last.
+// /v1/textons/*, /v1/mixes/* and /v1/splats/* fallbacks, and a catch-all POST last.
 #include "server/http/http_support.h"
 #include "server/http/service.h"
 
@@ -38,6 +38,9 @@ void Service::install_routes() {
     m_http.Post("/v1/sign", call(m_sign_routes.get(), &SignRoutes::sign));
     m_http.Post(R"(/v1/mixes/(.*))",
                 [](Req req, Res res, Reader) { MixRoutes::fallback(req, res); });
+    m_http.Post("/v1/splats", call(m_splat_routes.get(), &SplatRoutes::create));
+    m_http.Post(R"(/v1/splats/(.*))",
+                [](Req req, Res res, Reader) { SplatRoutes::fallback(req, res); });
     m_http.Post(R"(.*)", [](Req, Res res, Reader) {
         set_route("unmatched");
         send_error(res, {"not_found", "no such endpoint"});
@@ -50,29 +53,43 @@ void Service::install_get_routes() {
     ImageRoutes* i = m_image_routes.get();
     using api::parse_map_tile;
     using api::parse_tile;
+    m_http.Get(R"(/v1/splats/([^/]+)/quality\.png)", call(i, &ImageRoutes::splat_report));
     m_http.Get(R"(/v1/mixes/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, true));
+               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, Source::mix));
     m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, true));
+               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, Source::mix));
     m_http.Get(R"(/v1/mixes/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}", &parse_tile, true));
+               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}", &parse_tile, Source::mix));
     m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}", &parse_map_tile, true));
+               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}", &parse_map_tile, Source::mix));
     m_http.Get(R"(/v1/mixes/([^/]+)/region\.([a-z0-9]+))",
-               i->region("/v1/mixes/{id}/region.{format}", true));
+               i->region("/v1/mixes/{id}/region.{format}", Source::mix));
     m_http.Get(R"(/v1/mixes/([^/]+)/tilejson\.json)",
-               [i](Req req, Res res) { i->tilejson(req, res, true); });
+               [i](Req req, Res res) { i->tilejson(req, res, Source::mix); });
+    m_http.Get(R"(/v1/splats/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile("/v1/splats/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, Source::splat));
+    m_http.Get(R"(/v1/splats/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile("/v1/splats/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, Source::splat));
+    m_http.Get(R"(/v1/splats/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile("/v1/splats/{id}/tiles/{z}/{x}/{y}", &parse_tile, Source::splat));
+    m_http.Get(R"(/v1/splats/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile("/v1/splats/{id}/map/{z}/{x}/{y}", &parse_map_tile, Source::splat));
+    m_http.Get(R"(/v1/splats/([^/]+)/region\.([a-z0-9]+))",
+               i->region("/v1/splats/{id}/region.{format}", Source::splat));
+    m_http.Get(R"(/v1/splats/([^/]+)/tilejson\.json)",
+               [i](Req req, Res res) { i->tilejson(req, res, Source::splat); });
     m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, false));
-    m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/textons/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, false));
+               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, Source::texton));
+    m_http.Get(
+        R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+        i->tile("/v1/textons/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, Source::texton));
     // Extension-less tiles: the format from Accept (AVIF, WebP or PNG), with Vary: Accept.
     m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}", &parse_tile, false));
+               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}", &parse_tile, Source::texton));
     m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/textons/{id}/map/{z}/{x}/{y}", &parse_map_tile, false));
+               i->tile("/v1/textons/{id}/map/{z}/{x}/{y}", &parse_map_tile, Source::texton));
     m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))",
-               i->region("/v1/textons/{id}/region.{format}", false));
+               i->region("/v1/textons/{id}/region.{format}", Source::texton));
     m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", call(i, &ImageRoutes::tileable));
     m_http.Get(R"(/v1/textons/([^/]+)/spectrum\.png)", call(i, &ImageRoutes::spectrum));
     m_http.Get(R"(/v1/textons/([^/]+)/quality\.json)",
@@ -81,7 +98,7 @@ void Service::install_get_routes() {
                [i](Req req, Res res) { i->quality(req, res, true); });
     m_http.Get(R"(/v1/textons/([^/]+)/exemplar\.png)", call(i, &ImageRoutes::exemplar));
     m_http.Get(R"(/v1/textons/([^/]+)/tilejson\.json)",
-               [i](Req req, Res res) { i->tilejson(req, res, false); });
+               [i](Req req, Res res) { i->tilejson(req, res, Source::texton); });
     TextonRoutes* t = m_texton_routes.get();
     m_http.Get("/v1/textons", call(t, &TextonRoutes::list));
     m_http.Get(R"(/v1/textons/([^/]+))", call(t, &TextonRoutes::get));
@@ -91,6 +108,8 @@ void Service::install_get_routes() {
     m_http.Get(R"(/v1/textons/(.*))", &TextonRoutes::fallback);
     m_http.Get(R"(/v1/mixes/([^/]+))", call(m_mix_routes.get(), &MixRoutes::get));
     m_http.Get(R"(/v1/mixes/(.*))", &MixRoutes::fallback);
+    m_http.Get(R"(/v1/splats/([^/]+))", call(m_splat_routes.get(), &SplatRoutes::get));
+    m_http.Get(R"(/v1/splats/(.*))", &SplatRoutes::fallback);
     OpsRoutes* o = m_ops_routes.get();
     m_http.Get("/healthz", &OpsRoutes::healthz);
     m_http.Get("/readyz", call(o, &OpsRoutes::readyz));

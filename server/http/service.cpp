@@ -85,6 +85,9 @@ std::optional<Error> Service::open_parts() {
     auto mixes = MixStore::open(m_config.data_dir);
     if (!mixes) return mixes.error();
     m_mixes = std::move(mixes.value());
+    auto splats = SplatStore::open(m_config.data_dir, *m_store);
+    if (!splats) return splats.error();
+    m_splats = std::move(splats.value());
 
     render::BackendOptions options;
     options.threads = 0;
@@ -113,13 +116,15 @@ void Service::make_services() {
         *m_store, *m_pool, m_metrics, m_gate.decode_slots(), std::move(limits),
         std::chrono::milliseconds(m_config.queue_timeout_ms), m_config.max_request_cpu_s);
     m_mix_service = std::make_unique<MixService>(*m_store, *m_mixes, *m_pool);
-    m_images = std::make_unique<ImageService>(*m_store, *m_mixes, *m_renderer, m_metrics,
+    m_splat_service = std::make_unique<SplatService>(*m_splats);
+    m_images = std::make_unique<ImageService>(*m_store, *m_mixes, *m_splats, *m_renderer, m_metrics,
                                               m_config.png_compression);
     m_image_routes = std::make_unique<ImageRoutes>(m_config, *m_images, *m_store, *m_mixes, m_cache,
                                                    m_gate, m_metrics, m_port);
     m_texton_routes = std::make_unique<TextonRoutes>(m_config, *m_store, *m_textons, *m_pool,
                                                      m_cache, m_gate, m_stopping);
     m_mix_routes = std::make_unique<MixRoutes>(m_config, *m_mix_service, *m_mixes, *m_pool, m_gate);
+    m_splat_routes = std::make_unique<SplatRoutes>(m_config, *m_splat_service, *m_splats, m_gate);
     m_surfaces = std::make_unique<SurfaceService>(*m_renderer);
     m_surface_routes = std::make_unique<SurfaceRoutes>(*m_store, *m_surfaces, m_gate);
     m_sign_routes = std::make_unique<SignRoutes>(m_config, m_gate);
@@ -157,6 +162,10 @@ void Service::add_gauges() {
     const MixStore* mixes = m_mixes.get();
     m.gauge("textond_mixes_quarantined", "Mixes refused at load (damaged or invalid) since start.",
             count([mixes] { return mixes->quarantined().size(); }));
+    const SplatStore* splats = m_splats.get();
+    m.gauge("textond_splats_quarantined",
+            "Splats refused at load (damaged or invalid) since start.",
+            count([splats] { return splats->quarantined().size(); }));
     const ImageCache* cache = &m_cache;
     m.gauge("textond_image_cache_bytes", "Bytes held by the image cache.",
             count([cache] { return cache->bytes(); }));

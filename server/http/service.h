@@ -21,6 +21,7 @@
 #include "server/http/ops_routes.h"
 #include "server/http/request_body.h"
 #include "server/http/sign_routes.h"
+#include "server/http/splat_routes.h"
 #include "server/http/surface_routes.h"
 #include "server/http/texton_routes.h"
 #include "server/store/image_cache.h"
@@ -77,8 +78,10 @@ private:
     std::unique_ptr<TextonStore> m_store;
     std::unique_ptr<AnalysisPool> m_pool;
     std::unique_ptr<MixStore> m_mixes;
-    std::unique_ptr<TextonService> m_textons;  // the ingest workflow behind POST /v1/textons
-    std::unique_ptr<MixService> m_mix_service; // the workflow behind POST /v1/mixes
+    std::unique_ptr<SplatStore> m_splats;
+    std::unique_ptr<TextonService> m_textons;      // the ingest workflow behind POST /v1/textons
+    std::unique_ptr<MixService> m_mix_service;     // the workflow behind POST /v1/mixes
+    std::unique_ptr<SplatService> m_splat_service; // and behind POST /v1/splats
     ImageCache m_cache;
     std::unique_ptr<render::Renderer> m_renderer; // every evaluation goes through it
     std::unique_ptr<ImageService> m_images;
@@ -86,6 +89,7 @@ private:
     std::unique_ptr<ImageRoutes> m_image_routes;
     std::unique_ptr<TextonRoutes> m_texton_routes;
     std::unique_ptr<MixRoutes> m_mix_routes;
+    std::unique_ptr<SplatRoutes> m_splat_routes;
     std::unique_ptr<SurfaceRoutes> m_surface_routes;
     std::unique_ptr<SignRoutes> m_sign_routes;
     std::unique_ptr<OpsRoutes> m_ops_routes;

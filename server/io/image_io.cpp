@@ -1,6 +1,7 @@
 #include "server/io/image_io.h"
 
 #include "server/io/atomic_file.h"
+#include "server/io/sha256.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
@@ -62,8 +63,9 @@ Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits, int*
 
     int alpha = spec.alpha_channel;
     if (alpha < 0 && (spec.nchannels == 2 || spec.nchannels == 4)) alpha = spec.nchannels - 1;
+    if (limits.all_channels) alpha = -1;
     const int colour_channels = spec.nchannels - (alpha >= 0 ? 1 : 0);
-    const int out_channels = colour_channels >= 3 ? 3 : 1;
+    const int out_channels = limits.all_channels ? spec.nchannels : colour_channels >= 3 ? 3 : 1;
 
     std::vector<float> buf(pixels * static_cast<std::size_t>(spec.nchannels));
     if (!in.read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf.data()))
@@ -541,6 +543,14 @@ Result<bool> encode_image_file(const core::Image& image, const std::string& path
                               (err.empty() ? std::strerror(errno) : oiio_message(err)));
     }
     return true;
+}
+
+std::string pixels_sha256(const core::Image& image) {
+    Sha256 h;
+    h.update(std::to_string(image.width) + "x" + std::to_string(image.height) + "\n");
+    h.update(std::string_view(reinterpret_cast<const char*>(image.data.data()),
+                              image.data.size() * sizeof(float)));
+    return h.hex();
 }
 
 } // namespace textond::io

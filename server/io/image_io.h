@@ -21,6 +21,9 @@ struct DecodeLimits {
     // OpenImageIO format names the decoders accept ("png", "jpeg", "tiff", "openexr", "bmp");
     // empty = whatever sniff_format recognises (the command line's choice).
     std::vector<std::string> formats;
+    // Every channel in the file's order, alpha included (a splat's weights: RGBA = 4 layers);
+    // otherwise the colour channels only, 1 or 3.
+    bool all_channels = false;
 };
 
 // The format named by the first bytes (magic numbers), as an OpenImageIO format name, or ""
@@ -39,6 +42,10 @@ Result<core::Image> decode_image_file(const std::string& path, const DecodeLimit
                                       int* bits = nullptr);
 
 enum class Encoding { png8, png16, exr };
+
+// The sha256 of an image's size and float pixels: what names a mask or weight image in its
+// owner's metadata and content address.
+std::string pixels_sha256(const core::Image& image);
 
 // Chooses the encoding from the extension: .png (8-bit), .exr (float); anything else is an error.
 Result<Encoding> encoding_for_path(const std::string& path);

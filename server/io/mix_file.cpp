@@ -15,14 +15,6 @@ namespace OIIO = OIIO_NAMESPACE;
 
 namespace {
 
-std::string mask_sha256(const core::Image& mask) {
-    Sha256 h;
-    h.update(std::to_string(mask.width) + "x" + std::to_string(mask.height) + "\n");
-    h.update(std::string_view(reinterpret_cast<const char*>(mask.data.data()),
-                              mask.data.size() * sizeof(float)));
-    return h.hex();
-}
-
 Error bad(const std::string& path, const std::string& why) {
     return make_error(ErrorCode::io, "mix file " + path + ": " + why);
 }
@@ -39,7 +31,7 @@ nlohmann::json field_json(const core::MixField& f) {
             {"scale", f.scale},
             {"width", f.mask.width},
             {"height", f.mask.height},
-            {"sha256", mask_sha256(f.mask)}};
+            {"sha256", pixels_sha256(f.mask)}};
 }
 
 std::string mix_id(const std::string& u, const std::string& v, int levels,
@@ -53,7 +45,7 @@ std::string mix_id(const std::string& u, const std::string& v, int levels,
                  api::exact_text(f.width));
     else
         h.update("mask " + api::exact_text(f.x0) + " " + api::exact_text(f.y0) + " " +
-                 api::exact_text(f.scale) + " " + mask_sha256(f.mask));
+                 api::exact_text(f.scale) + " " + pixels_sha256(f.mask));
     return h.hex();
 }
 
@@ -120,7 +112,7 @@ Result<core::MixField> field_of(const nlohmann::json& f, const std::string& mask
     auto mask = decode_image_file(mask_path);
     if (!mask) return make_error(ErrorCode::invalid_argument, "mask: " + mask.error().message);
     field.mask = std::move(mask.value());
-    if (mask_sha256(field.mask) != f.at("sha256").get<std::string>())
+    if (pixels_sha256(field.mask) != f.at("sha256").get<std::string>())
         return make_error(ErrorCode::invalid_argument, "mask checksum mismatch");
     return field;
 }

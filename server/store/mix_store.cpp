@@ -1,8 +1,9 @@
 #include "server/store/mix_store.h"
 
+#include "server/store/quarantine.h"
+
 #include <spdlog/spdlog.h>
 
-#include <chrono>
 #include <filesystem>
 
 namespace textond::store {
@@ -64,21 +65,8 @@ Result<std::shared_ptr<const render::PreparedMix>> MixStore::prepared(const std:
 }
 
 void MixStore::quarantine(const std::string& id, const std::string& why) {
-    namespace fs = std::filesystem;
-    const fs::path dir = fs::path(m_dir) / "quarantine";
-    std::error_code ec;
-    fs::create_directories(dir, ec);
-    const std::string stamp = std::to_string(std::chrono::system_clock::now().time_since_epoch() /
-                                             std::chrono::milliseconds(1));
-    for (const char* suffix : {".exr", ".mask.exr"}) {
-        const fs::path from = fs::path(m_dir) / (id + suffix);
-        if (!fs::exists(from, ec)) continue;
-        std::string name = id;
-        name.append(suffix).append(".").append(stamp);
-        fs::rename(from, dir / name, ec);
-        if (ec) fs::remove(from, ec); // never leave it where it could be rendered
-    }
-    spdlog::error("mixes: {} refused at load ({}); moved to {}", id, why, dir.string());
+    const std::string dir = quarantine_files(m_dir, id, {".exr", ".mask.exr"});
+    spdlog::error("mixes: {} refused at load ({}); moved to {}", id, why, dir);
     std::lock_guard<std::mutex> lock(m_mutex);
     m_quarantined.push_back(id);
 }

@@ -34,7 +34,7 @@ import jsonschema
 import yaml
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from png_bytes import pattern_png  # noqa: E402
+from png_bytes import pattern_png, rgba_png  # noqa: E402
 
 MAPS = ["albedo", "height", "roughness", "ao", "metallic"]
 CLIENTS = 4
@@ -277,6 +277,29 @@ def run(c, spec, exemplar_dir):
     c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3&scale=2",
                pattern_png(32, 32, 9), {"Content-Type": "application/octet-stream"})
 
+    # Splats: an RGBA weight image (four layers), two grey ones (two layers), two images for five
+    # layers, and rules on the material set's height.
+    def post_splat(parts):
+        body, headers = multipart(parts)
+        st, _, b = c.exchange("/v1/splats", "post", "/v1/splats", body, headers)
+        if st not in (200, 201):
+            c.fail("POST /v1/splats", f"{[p[0] for p in parts]}: {st} {b[:200]!r}")
+            return None
+        return json.loads(b)["id"]
+    four = ",".join([plain, other, plain, other])
+    splat = post_splat([("textons", four, None), ("weights", rgba_png(8, 8, 1), "w.png"),
+                        ("scale", "32", None), ("x0", "-128", None), ("y0", "-64.5", None)])
+    post_splat([("textons", f"{plain},{other}", None), ("weights", pattern_png(8, 8, 1), "w.png"),
+                ("weights2", pattern_png(8, 8, 2), "w2.png")])
+    post_splat([("textons", four + "," + plain, None), ("weights", rgba_png(8, 8, 2), "w.png"),
+                ("weights2", pattern_png(8, 8, 3), "w2.png"), ("scale", "16", None)])
+    if full_set:
+        rules = json.dumps({"height": full_set, "strength": 4, "height_soft": 0.05,
+                            "slope_soft": 5, "layers": [{"height": [None, 0.5]},
+                                                        {"height": [0.5, None],
+                                                         "slope": [0, 45]}]})
+        post_splat([("textons", f"{plain},{other}", None), ("rules", rules, None)])
+
     bodies = {
         "application/json": json.dumps({"points": [[0, 0, 0], [10.5, -3, 2]],
                                         "normals": [[0, 0, 1], [0, 1, 0]]}).encode(),
@@ -307,12 +330,13 @@ def run(c, spec, exemplar_dir):
             if method == "delete":
                 continue  # last, on a texton of its own
             params = c.parameters(path, method)
-            ids = [mix] if path.startswith("/v1/mixes/") else [plain, full_set]
+            ids = ([mix] if path.startswith("/v1/mixes/") else
+                   [splat] if path.startswith("/v1/splats/") else [plain, full_set])
             path_params = [p for p in params if p["in"] == "path" and p["name"] != "id"]
             optional = [p for p in params if p["in"] in ("query", "header")
                         and not p.get("required")]
             required = base_query(path, params)
-            if path == "/v1/textons" and method == "post":
+            if path in ("/v1/textons", "/v1/splats") and method == "post":
                 continue  # the uploads above
             content = list(op.get("requestBody", {}).get("content", {}).keys()) or [None]
             for tid in ids:
@@ -352,7 +376,8 @@ def run(c, spec, exemplar_dir):
             first = {p["name"]: (path_values.get(p["name"]) or c.values(p))[0]
                      for p in params if p["in"] == "path" and p["name"] != "id"}
             content = list(ops[method].get("requestBody", {}).get("content", {}).keys()) or [None]
-            tid = mix if path.startswith("/v1/mixes/") else plain
+            tid = (mix if path.startswith("/v1/mixes/") else
+                   splat if path.startswith("/v1/splats/") else plain)
             for name in sorted(set(universe) - documented):
                 variants.append((c, path, method, tid, dict(first), dict(required),
                                  ({"in": "query", "name": name, "undocumented": True},
@@ -362,7 +387,7 @@ def run(c, spec, exemplar_dir):
     # Bodies: every documented content type of every operation with a body.
     for path, ops in spec["paths"].items():
         for method, op in ops.items():
-            if method != "post" or path in ("/v1/textons", "/v1/mixes"):
+            if method != "post" or path in ("/v1/textons", "/v1/mixes", "/v1/splats"):
                 continue
             for ctype in op.get("requestBody", {}).get("content", {}):
                 body = bodies.get(ctype)

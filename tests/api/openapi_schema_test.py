@@ -20,6 +20,9 @@ import uuid
 import jsonschema
 import yaml
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from png_bytes import pattern_png  # noqa: E402
+
 failures = []
 
 
@@ -172,6 +175,31 @@ def main():
         s, _, b = request(base, "GET", f"/v1/mixes/{mid}/tilejson.json?seed=3")
         check(s == 200, f"mix tilejson ({s})")
         validate_route("GET", "/v1/mixes/{id}/tilejson.json", 200, b, "mix tilejson")
+
+        # A splat of two of them by a grey weight image each: created, known, fetched, TileJSON.
+        w1, w2 = pattern_png(4, 4, 1), pattern_png(4, 4, 2)
+        boundary = uuid.uuid4().hex
+        form = [(f'--{boundary}\r\nContent-Disposition: form-data; name="textons"\r\n\r\n'
+                 f'{tids[0]},{tids[1]}\r\n').encode()]
+        for field, data in (("weights", w1), ("weights2", w2)):
+            form.append((f'--{boundary}\r\nContent-Disposition: form-data; name="{field}"; '
+                         f'filename="w.png"\r\nContent-Type: image/png\r\n\r\n').encode() +
+                        data + b"\r\n")
+        form.append(f"--{boundary}--\r\n".encode())
+        headers = {"Content-Type": f"multipart/form-data; boundary={boundary}"}
+        s, _, b = request(base, "POST", "/v1/splats", b"".join(form), headers)
+        check(s == 201, f"splat creates ({s} {b[:200]!r})")
+        validate_route("POST", "/v1/splats", 201, b, "splat created")
+        sid = json.loads(b)["id"] if s == 201 else "none"
+        s, _, b = request(base, "POST", "/v1/splats", b"".join(form), headers)
+        check(s == 200, f"the same splat again is 200 ({s})")
+        validate_route("POST", "/v1/splats", 200, b, "splat known")
+        s, _, b = request(base, "GET", f"/v1/splats/{sid}")
+        check(s == 200, f"splat metadata ({s})")
+        validate_route("GET", "/v1/splats/{id}", 200, b, "splat metadata")
+        s, _, b = request(base, "GET", f"/v1/splats/{sid}/tilejson.json?seed=3")
+        check(s == 200, f"splat tilejson ({s})")
+        validate_route("GET", "/v1/splats/{id}/tilejson.json", 200, b, "splat tilejson")
 
         # Surface noise as JSON.
         points = {"points": [[0, 0, 0], [10.5, -3, 2]], "normals": [[0, 0, 1], [0, 1, 0]]}

@@ -3,14 +3,15 @@ import struct
 import zlib
 
 
-def grey_png(width, height, row_of):
-    """A PNG whose row y holds the `width` bytes row_of(y)."""
+def grey_png(width, height, row_of, colour_type=0):
+    """A PNG whose row y holds the bytes row_of(y): `width` of them (grey), 4 x `width` (RGBA,
+    colour_type 6)."""
     def chunk(kind, data):
         return (struct.pack(">I", len(data)) + kind + data +
                 struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
     rows = b"".join(b"\0" + row_of(y) for y in range(height))
     return (b"\x89PNG\r\n\x1a\n" +
-            chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)) +
+            chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)) +
             chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b""))
 
 
@@ -24,3 +25,10 @@ def ramp_png(width, height, period=64):
     """One repeated ramp: small on the wire whatever size it declares."""
     row = bytes((x * 255 // period) % 256 for x in range(period)) * (width // period)
     return grey_png(width, height, lambda y: row)
+
+
+def rgba_png(width, height, seed):
+    """An RGBA PNG whose four channels are four different patterns (a splat's four weights)."""
+    return grey_png(width, height, lambda y: bytes(
+        ((x * (7 + c) + y * (13 - c) + seed * 31 + c * 50) * 5) % 256
+        for x in range(width) for c in range(4)), colour_type=6)

@@ -1,0 +1,105 @@
+#include "server/http/splat_routes.h"
+
+#include "api/requests.h"
+#include "server/http/http_support.h"
+#include "server/http/request_body.h"
+#include "server/io/image_io.h"
+
+namespace textond::http {
+
+namespace {
+
+nlohmann::json splat_json(const api::SplatMeta& meta) {
+    nlohmann::json j = meta;
+    const std::string base = "/v1/splats/" + meta.id;
+    nlohmann::json layers = nlohmann::json::array();
+    for (const std::string& t : meta.textons) layers.push_back("/v1/textons/" + t);
+    j["links"] = {{"self", base},
+                  {"tilejson", base + "/tilejson.json"},
+                  {"tiles", base + "/tiles/{z}/{x}/{y}.png"},
+                  {"region", base + "/region.png"},
+                  {"quality_png", base + "/quality.png"},
+                  {"textons", layers}};
+    return j;
+}
+
+} // namespace
+
+SplatRoutes::SplatRoutes(const ServeConfig& config, SplatService& service, SplatStore& splats,
+                         Gate& gate)
+    : m_config(config), m_service(service), m_splats(splats), m_gate(gate) {}
+
+void SplatRoutes::create(Req req, Res res, const httplib::ContentReader& reader) {
+    set_route("/v1/splats");
+    if (!authorised(m_config.api_key, req, res)) return;
+    if (!req.is_multipart_form_data())
+        return send_error(res, {"invalid_parameter",
+                                "a splat is a multipart form: textons, and weights (an image) "
+                                "or rules (JSON)"});
+    Body counted(m_gate.bodies());
+    std::vector<httplib::MultipartFormData> parts;
+    if (auto e = read_parts(reader, m_config.max_upload_bytes, res.status, counted, parts)) {
+        if (e->code == "overloaded") res.set_header("Retry-After", "1");
+        return send_error(res, *e);
+    }
+    // The weight images are files; every other part is a field, as in the query.
+    api::Query fields = req.params;
+    const httplib::MultipartFormData* images[2] = {nullptr, nullptr};
+    for (const auto& part : parts) {
+        const int slot = part.name == "weights" ? 0 : part.name == "weights2" ? 1 : -1;
+        if (slot < 0) {
+            fields.emplace(part.name, part.content);
+            continue;
+        }
+        if (images[slot])
+            return send_error(
+                res, {"invalid_parameter", "more than one '" + part.name + "' field in the form"});
+        if (part.content.empty())
+            return send_error(res, {"empty_body", "the '" + part.name + "' field is empty"});
+        images[slot] = &part;
+    }
+    if (images[1] && !images[0])
+        return send_error(res, {"invalid_parameter", "'weights2' comes after 'weights'"});
+    const int sent = images[1] ? 2 : images[0] ? 1 : 0;
+    api::SplatRequest request;
+    if (auto e = api::parse_splat(fields, sent, request)) return send_error(res, *e);
+    std::vector<core::Image> decoded;
+    if (sent > 0) {
+        io::DecodeLimits limits;
+        limits.max_pixels = m_config.max_pixels;
+        limits.formats = m_config.formats;
+        limits.all_channels = true; // RGBA: four layers
+        auto slot = m_gate.admit_decode(res);
+        if (!slot) return;
+        for (int i = 0; i < sent; ++i) {
+            auto img = io::decode_image_memory(images[i]->content, limits);
+            if (!img) return send_error(res, content_error(img.error(), "invalid_weights"));
+            decoded.push_back(std::move(img.value()));
+        }
+    }
+    parts.clear();
+    auto created = m_service.create(request, decoded);
+    if (!created) return send_error(res, to_api_error(created.error()));
+    const auto& c = created.value();
+    if (c.created) res.set_header("Location", "/v1/splats/" + c.meta.id);
+    send_json(res, c.created ? 201 : 200, splat_json(c.meta));
+}
+
+void SplatRoutes::get(Req req, Res res) {
+    set_route("/v1/splats/{id}");
+    const std::string id = req.matches[1].str();
+    if (auto e = api::check_splat_id(id)) return send_error(res, *e);
+    auto meta = m_splats.meta(id);
+    if (!meta) return send_error(res, to_api_error(meta.error()));
+    send_json(res, 200, splat_json(meta.value()), "no-cache"); // its layers may be deleted
+}
+
+void SplatRoutes::fallback(Req req, Res res) {
+    set_route("/v1/splats/*");
+    const std::string rest = req.matches[1];
+    const std::string first = rest.substr(0, rest.find('/'));
+    if (auto e = api::check_splat_id(first)) return send_error(res, *e);
+    send_error(res, {"not_found", "no such endpoint under /v1/splats/" + first});
+}
+
+} // namespace textond::http

@@ -1,0 +1,32 @@
+#pragma once
+// Splat maps: POST /v1/splats (a multipart form: the layer textons and their weights, as images
+// or rules; SplatService's workflow) and GET /v1/splats/{id}; their images are ImageRoutes'.
+#include "server/app/splat_service.h"
+#include "server/http/config.h"
+#include "server/http/gate.h"
+#include "server/http/layers.h"
+#include "server/store/splat_store.h"
+
+#include <httplib.h>
+
+namespace textond::http {
+
+class SplatRoutes {
+public:
+    SplatRoutes(const ServeConfig& config, SplatService& service, SplatStore& splats, Gate& gate);
+
+    using Req = const httplib::Request&;
+    using Res = httplib::Response&;
+    void create(Req req, Res res, const httplib::ContentReader& reader);
+    void get(Req req, Res res);
+    // Anything else under /v1/splats/: a bad id is a 400 (never a path), a good one a 404.
+    static void fallback(Req req, Res res);
+
+private:
+    const ServeConfig& m_config;
+    SplatService& m_service;
+    SplatStore& m_splats;
+    Gate& m_gate;
+};
+
+} // namespace textond::http
