@@ -635,11 +635,16 @@ std::optional<ApiError> parse_splat(const Query& q, int weight_images, SplatRequ
     if (layers > 4 && weight_images < 2)
         return bad("invalid_parameter", "layers 5 to 8 take their weights from 'weights2' (RGBA "
                                         "holds four)");
+    if (layers <= 4 && weight_images == 2)
+        return bad("invalid_parameter", "'weights2' holds layers 5 to 8; " +
+                                            std::to_string(layers) +
+                                            " layers take theirs from 'weights' alone");
     return std::nullopt; // the placement is checked with the pixels
 }
 
 std::optional<ApiError> check_splat_id(std::string_view s) {
-    return check_texton_id(s);
+    if (is_texton_id(s)) return std::nullopt;
+    return bad("invalid_id", "splat ids are 64 lowercase hex digits (sha256)");
 }
 
 std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool mesh,

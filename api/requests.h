@@ -147,7 +147,8 @@ std::optional<ApiError> check_mix_id(std::string_view s);
 
 // POST /v1/splats: the form fields beside the weight images (decoded by the caller): `textons`,
 // 2 to 8 comma-separated ids in layer order, and either the images' placement (scale, x0, y0;
-// `weight_images` of them sent) or `rules`, a JSON object of bands on a height texton:
+// `weight_images` of them sent: `weights` for up to 4 layers, and `weights2` for 5 to 8) or
+// `rules`, a JSON object of bands on a height texton:
 //   {"height": ID, "strength": 4, "height_soft": 0.05, "slope_soft": 5,
 //    "layers": [{"height": [lo, hi], "slope": [lo, hi]}, ...]}   (null: no bound).
 struct SplatRequest {

@@ -1,5 +1,6 @@
 #include "core/splat_blend.h"
 
+#include "core/material_set.h"
 #include "core/noise_hash.h"
 
 #include <algorithm>
@@ -36,13 +37,15 @@ std::optional<Error> SplatWeights::validate(int layers) const {
         return bad("a splat has 2 to 8 layers");
     if (kind == Kind::image) {
         const SplatImage& s = image;
-        const double lim = 4.6e18; // 2^62, the plane
+        const double lim = 4611686018427387904.0; // 2^62, the plane
         if (!std::isfinite(s.x0) || !std::isfinite(s.y0) || std::fabs(s.x0) > lim ||
             std::fabs(s.y0) > lim)
             return bad("the weights' origin must be finite and within the plane (|x|, |y| <= "
                        "2^62)");
         if (!std::isfinite(s.scale) || s.scale < 1.0 / 16 || s.scale > 1e9)
             return bad("scale must be in [1/16, 1e9] texels per weight pixel");
+        if (std::int64_t{s.weights.width} * s.weights.height > kMaxSplatWeightPixels)
+            return bad("a weight image has at most 2048 x 2048 = 4194304 pixels");
         if (s.weights.width < 1 || s.weights.height < 1 || s.weights.channels != layers)
             return bad("the weights have " + std::to_string(s.weights.channels) + " channels for " +
                        std::to_string(layers) + " layers (one a layer)");
@@ -61,8 +64,8 @@ std::optional<Error> SplatWeights::validate(int layers) const {
     if (!std::isfinite(r.height_soft) || r.height_soft < 0 || !std::isfinite(r.slope_soft) ||
         r.slope_soft < 0)
         return bad("soft edges are finite and not negative");
-    if (!std::isfinite(r.strength) || r.strength <= 0 || r.strength > 1e6)
-        return bad("strength must be in (0, 1e6]");
+    if (!(r.strength > 0 && r.strength <= kMaxNormalStrength))
+        return bad("strength must be in (0, 1000] (as map=normal's)");
     return std::nullopt;
 }
 

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cassert>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 namespace textond::render {
@@ -20,14 +21,25 @@ using core::noise::GridPoisson;
 
 namespace {
 
-// One axis of one point's footprint inside a block: for output index i (from `first`), the
-// table index t[i] and the weights of G[t + 1] and G[t] (orders 0, 1), or of G[t + 4 - m],
-// m = 0..3 (order 3, in w0..w3) (NOISE_SPEC.md section 7).
-struct AxisTaps {
-    std::int64_t first = 0; // first output coordinate covered
-    int count = 0;
+// One axis of the footprints of a block's points: for output index i (from `first`), the table
+// index t[at + i] and the weights of G[t + 1] and G[t] (orders 0, 1), or of G[t + 4 - m],
+// m = 0..3 (order 3, in w0..w3) (NOISE_SPEC.md section 7). Found once a point for all channels:
+// at zoomed-out levels a point reaches a few pixels, and finding them cost more than adding it.
+struct TapStore {
     std::vector<int> t;
     std::vector<float> w0, w1, w2, w3;
+    void clear() {
+        t.clear();
+        w0.clear();
+        w1.clear();
+        w2.clear();
+        w3.clear();
+    }
+};
+struct TapRange {
+    std::int64_t first = 0; // first output coordinate covered
+    int count = 0;
+    std::size_t at = 0; // into the store
 };
 
 struct LevelGeometry {
@@ -92,14 +104,10 @@ inline void axis_cubic_weights(const LevelGeometry& g, int axis, std::uint32_t f
 }
 
 // Output coordinates [p0, p1) of the block, base b and fraction f of the point on this axis.
-void axis_taps(const LevelGeometry& g, int axis, std::int64_t p0, std::int64_t p1, std::int64_t b,
-               std::uint32_t f, AxisTaps& out) {
-    out.count = 0;
-    out.t.clear();
-    out.w0.clear();
-    out.w1.clear();
-    out.w2.clear();
-    out.w3.clear();
+TapRange axis_taps(const LevelGeometry& g, int axis, std::int64_t p0, std::int64_t p1,
+                   std::int64_t b, std::uint32_t f, TapStore& store) {
+    TapRange out;
+    out.at = store.t.size();
     std::int64_t lo, hi; // candidate output range, inclusive
     if (g.level >= 0) {
         // t = st P - b + st - 1 in [-reach, L + reach]
@@ -137,22 +145,19 @@ void axis_taps(const LevelGeometry& g, int axis, std::int64_t p0, std::int64_t p
             }
             break; // t is monotone in p: nothing further on this side
         }
-        out.t.push_back(static_cast<int>(t));
-        if (g.order == 3) {
-            float w[4];
+        store.t.push_back(static_cast<int>(t));
+        float w[4] = {0, 0, 0, 0};
+        if (g.order == 3)
             axis_cubic_weights(g, axis, fp, w);
-            out.w0.push_back(w[0]);
-            out.w1.push_back(w[1]);
-            out.w2.push_back(w[2]);
-            out.w3.push_back(w[3]);
-        } else {
-            float w0, w1;
-            axis_weights(g, axis, fp, w0, w1);
-            out.w0.push_back(w0);
-            out.w1.push_back(w1);
-        }
+        else
+            axis_weights(g, axis, fp, w[0], w[1]);
+        store.w0.push_back(w[0]);
+        store.w1.push_back(w[1]);
+        store.w2.push_back(w[2]);
+        store.w3.push_back(w[3]);
         ++out.count;
     }
+    return out;
 }
 
 // Level 0: one point's whole footprint in one channel. Along a row the weights are constant and
@@ -231,12 +236,55 @@ splat_contiguous_cubic(const ContiguousCubic& s) {
     }
 }
 
+// Zoomed-out levels, orders 0 and 1: one point's footprint from the table split by phase
+// (LevelTable::phase_row), where the texels of consecutive pixels are consecutive: the same
+// products and sums as splat_row_general, in contiguous runs. a1 = G[ty + 1][tx + 1], a0 =
+// G[ty + 1][tx], b1 = G[ty][tx + 1], b0 = G[ty][tx] at the first pixel; a row down is a phase
+// row down.
+struct PhaseSplat {
+    float* acc = nullptr;
+    std::size_t acc_stride = 0;
+    const float *a1 = nullptr, *a0 = nullptr, *b1 = nullptr, *b0 = nullptr;
+    std::size_t g_stride = 0;
+    int rows = 0, cols = 0;
+    float c00 = 0, c01 = 0, c10 = 0, c11 = 0;
+};
+
+__attribute__((target_clones("avx512f", "avx2", "default"))) void splat_phase(const PhaseSplat& s) {
+    const float c00 = s.c00, c01 = s.c01, c10 = s.c10, c11 = s.c11;
+    // Whole vectors, as splat_contiguous: past the footprint the phase rows hold zeros.
+    const int n = (s.cols + kRunQuantum - 1) / kRunQuantum * kRunQuantum;
+    for (int i = 0; i < s.rows; ++i) {
+        float* __restrict acc = s.acc + s.acc_stride * i;
+        const float* __restrict a1 = s.a1 + s.g_stride * i;
+        const float* __restrict a0 = s.a0 + s.g_stride * i;
+        const float* __restrict b1 = s.b1 + s.g_stride * i;
+        const float* __restrict b0 = s.b0 + s.g_stride * i;
+#pragma GCC ivdep
+        for (int j = 0; j < n; ++j)
+            acc[j] += ((c00 * a1[j] + c01 * a0[j]) + c10 * b1[j]) + c11 * b0[j];
+    }
+}
+
+// One axis of a zoomed-out footprint: output coordinates [lo, hi] of the block where
+// t = st P - b + st - 1 lies in [0, L] (NOISE_SPEC.md section 7), and t at lo.
+bool phase_span(const LevelGeometry& g, std::int64_t p0, std::int64_t p1, std::int64_t b,
+                std::int64_t& lo, std::int64_t& hi, std::int64_t& t0) {
+    lo = std::max(p0, -floor_div(-(b - g.st + 1), g.st));
+    hi = std::min(p1 - 1, floor_div(b + g.length - g.st + 1, g.st));
+    t0 = g.st * lo - b + g.st - 1;
+    return lo <= hi;
+}
+
 void splat_row_general(float* __restrict acc, const float* __restrict g1,
-                       const float* __restrict g0, const AxisTaps& x, float cy0, float cy1) {
+                       const float* __restrict g0, const TapStore& s, const TapRange& x, float cy0,
+                       float cy1) {
+    const int* tt = s.t.data() + x.at;
+    const float* w0 = s.w0.data() + x.at;
+    const float* w1 = s.w1.data() + x.at;
     for (int j = 0; j < x.count; ++j) {
-        const int t = x.t[static_cast<std::size_t>(j)];
-        const float wx0 = x.w0[static_cast<std::size_t>(j)],
-                    wx1 = x.w1[static_cast<std::size_t>(j)];
+        const int t = tt[j];
+        const float wx0 = w0[j], wx1 = w1[j];
         const float c00 = cy0 * wx0, c01 = cy0 * wx1, c10 = cy1 * wx0, c11 = cy1 * wx1;
         acc[j] += ((c00 * g1[t + 1] + c01 * g1[t]) + c10 * g0[t + 1]) + c11 * g0[t];
     }
@@ -244,12 +292,12 @@ void splat_row_general(float* __restrict acc, const float* __restrict g1,
 
 // Order 3: g[m] = G[ty + 4 - m] for the row's table index ty, cy[m] = eps wy_m. The 16 products
 // are summed in the order of NOISE_SPEC.md section 7 (m_y major, then m_x).
-void splat_row_cubic(float* __restrict acc, const float* const g[4], const AxisTaps& x,
-                     const float cy[4]) {
+void splat_row_cubic(float* __restrict acc, const float* const g[4], const TapStore& s,
+                     const TapRange& x, const float cy[4]) {
     for (int j = 0; j < x.count; ++j) {
-        const auto js = static_cast<std::size_t>(j);
-        const int t = x.t[js];
-        const float wx[4] = {x.w0[js], x.w1[js], x.w2[js], x.w3[js]};
+        const std::size_t js = x.at + static_cast<std::size_t>(j);
+        const int t = s.t[js];
+        const float wx[4] = {s.w0[js], s.w1[js], s.w2[js], s.w3[js]};
         float v = 0.0f;
         for (int my = 0; my < 4; ++my)
             for (int mx = 0; mx < 4; ++mx) v += (cy[my] * wx[mx]) * g[my][t + 4 - mx];
@@ -293,9 +341,56 @@ std::vector<int>& thread_point_levels() {
     static thread_local std::vector<int> v;
     return v;
 }
+std::vector<PhaseSplat>& thread_phase_points() {
+    static thread_local std::vector<PhaseSplat> v;
+    return v;
+}
+TapStore& thread_taps() {
+    static thread_local TapStore s;
+    return s;
+}
+std::vector<std::pair<TapRange, TapRange>>& thread_tap_ranges() {
+    static thread_local std::vector<std::pair<TapRange, TapRange>> v;
+    return v;
+}
 std::vector<double>& thread_pixel_rho() {
     static thread_local std::vector<double> v;
     return v;
+}
+
+// A point's PhaseSplat in channel 0 of the block's accumulators (`acc`, `stride` floats a row);
+// rows = 0 when it does not reach the block.
+PhaseSplat phase_splat(const LevelGeometry& geo, const LevelTable& table, const CellPoint& p,
+                       const Block& blk, float* acc, std::size_t stride) {
+    PhaseSplat sp{};
+    std::int64_t xa, xb, tx, ya, yb, ty;
+    if (!phase_span(geo, blk.x0, blk.x0 + blk.w, p.bx, xa, xb, tx) ||
+        !phase_span(geo, blk.y0, blk.y0 + blk.h, p.by, ya, yb, ty))
+        return sp;
+    float wx0, wx1, wy0, wy1;
+    axis_weights(geo, 0, p.fx, wx0, wx1);
+    axis_weights(geo, 1, p.fy, wy0, wy1);
+    const float cy0w = p.eps * wy0, cy1w = p.eps * wy1;
+    const auto st = static_cast<int>(geo.st);
+    const auto mx0 = static_cast<int>(tx % st), jx0 = static_cast<int>(tx / st);
+    const auto mx1 = static_cast<int>((tx + 1) % st), jx1 = static_cast<int>((tx + 1) / st);
+    const auto my0 = static_cast<int>(ty % st), jy0 = static_cast<int>(ty / st);
+    const auto my1 = static_cast<int>((ty + 1) % st), jy1 = static_cast<int>((ty + 1) / st);
+    sp.acc_stride = stride;
+    sp.acc = acc + static_cast<std::size_t>(ya - blk.y0) * stride +
+             static_cast<std::size_t>(xa - blk.x0);
+    sp.a1 = table.phase_row(0, my1, mx1, jy1) + jx1;
+    sp.a0 = table.phase_row(0, my1, mx0, jy1) + jx0;
+    sp.b1 = table.phase_row(0, my0, mx1, jy0) + jx1;
+    sp.b0 = table.phase_row(0, my0, mx0, jy0) + jx0;
+    sp.g_stride = table.phase_stride;
+    sp.rows = static_cast<int>(yb - ya + 1);
+    sp.cols = static_cast<int>(xb - xa + 1);
+    sp.c00 = cy0w * wx0;
+    sp.c01 = cy0w * wx1;
+    sp.c10 = cy1w * wx0;
+    sp.c11 = cy1w * wx1;
+    return sp;
 }
 
 // `tables` holds one table (a texton) or one per mix level (`mix` set): then every point takes
@@ -326,7 +421,26 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
         for (std::size_t i = 0; i < pts.size(); ++i)
             point_level[i] = mix->level_at(static_cast<double>(pts[i].bx) + pts[i].fx / 16777216.0,
                                            static_cast<double>(pts[i].by) + pts[i].fy / 16777216.0);
-    AxisTaps tx, ty;
+    // Zoomed-out levels of orders 0 and 1 read the tables split by phase; other levels find
+    // every point's taps on both axes, once for all channels.
+    const bool phased = geo.level > 0 && geo.order <= 1;
+    TapStore& store = thread_taps();
+    std::vector<std::pair<TapRange, TapRange>>& ranges = thread_tap_ranges();
+    store.clear();
+    ranges.clear();
+    std::vector<PhaseSplat>& phase_points = thread_phase_points();
+    phase_points.clear();
+    if (phased)
+        for (std::size_t pi = 0; pi < pts.size(); ++pi)
+            phase_points.push_back(phase_splat(geo,
+                                               *tables[static_cast<std::size_t>(point_level[pi])],
+                                               pts[pi], blk, acc.data(), stride));
+    if (geo.level != 0 && !phased)
+        for (const CellPoint& p : pts) {
+            TapRange tx = axis_taps(geo, 0, blk.x0, blk.x0 + blk.w, p.bx, p.fx, store), ty;
+            if (tx.count > 0) ty = axis_taps(geo, 1, blk.y0, blk.y0 + blk.h, p.by, p.fy, store);
+            ranges.emplace_back(tx, ty);
+        }
     for (int c = 0; c < nc; ++c)
         for (std::size_t pi = 0; pi < pts.size(); ++pi) {
             const CellPoint& p = pts[pi];
@@ -386,34 +500,46 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
                 if (c == 0) evaluations += static_cast<std::uint64_t>(sp.rows) * sp.cols;
                 continue;
             }
-            axis_taps(geo, 0, blk.x0, blk.x0 + blk.w, p.bx, p.fx, tx);
-            if (tx.count == 0) continue;
-            axis_taps(geo, 1, blk.y0, blk.y0 + blk.h, p.by, p.fy, ty);
-            if (ty.count == 0) continue;
+            if (phased) {
+                PhaseSplat sp = phase_points[pi]; // channel 0's
+                if (sp.rows == 0) continue;
+                const std::size_t shift = table.phase_channel_size() * static_cast<std::size_t>(c);
+                sp.acc += plane * static_cast<std::size_t>(c);
+                sp.a1 += shift;
+                sp.a0 += shift;
+                sp.b1 += shift;
+                sp.b0 += shift;
+                splat_phase(sp);
+                if (c == 0) evaluations += static_cast<std::uint64_t>(sp.rows) * sp.cols;
+                continue;
+            }
+            const auto& [tx, ty] = ranges[pi];
+            if (tx.count == 0 || ty.count == 0) continue;
             if (c == 0) evaluations += static_cast<std::uint64_t>(tx.count) * ty.count;
             const int col = static_cast<int>(tx.first - blk.x0);
             const int row0 = static_cast<int>(ty.first - blk.y0);
             if (geo.order == 3) {
                 for (int i = 0; i < ty.count; ++i) {
-                    const auto is = static_cast<std::size_t>(i);
-                    const int t = ty.t[is];
-                    const float cyw[4] = {p.eps * ty.w0[is], p.eps * ty.w1[is], p.eps * ty.w2[is],
-                                          p.eps * ty.w3[is]};
+                    const std::size_t is = ty.at + static_cast<std::size_t>(i);
+                    const int t = store.t[is];
+                    const float cyw[4] = {p.eps * store.w0[is], p.eps * store.w1[is],
+                                          p.eps * store.w2[is], p.eps * store.w3[is]};
                     const float* rows[4] = {table.row(c, t + 4), table.row(c, t + 3),
                                             table.row(c, t + 2), table.row(c, t + 1)};
                     float* a =
                         acc.data() + plane * c + static_cast<std::size_t>(row0 + i) * stride + col;
-                    splat_row_cubic(a, rows, tx, cyw);
+                    splat_row_cubic(a, rows, store, tx, cyw);
                 }
                 continue;
             }
             for (int i = 0; i < ty.count; ++i) {
-                const int t = ty.t[static_cast<std::size_t>(i)];
-                const float cyw0 = p.eps * ty.w0[static_cast<std::size_t>(i)];
-                const float cyw1 = p.eps * ty.w1[static_cast<std::size_t>(i)];
+                const std::size_t is = ty.at + static_cast<std::size_t>(i);
+                const int t = store.t[is];
+                const float cyw0 = p.eps * store.w0[is];
+                const float cyw1 = p.eps * store.w1[is];
                 float* a =
                     acc.data() + plane * c + static_cast<std::size_t>(row0 + i) * stride + col;
-                splat_row_general(a, table.row(c, t + 1), table.row(c, t), tx, cyw0, cyw1);
+                splat_row_general(a, table.row(c, t + 1), table.row(c, t), store, tx, cyw0, cyw1);
             }
         }
     const float scale = static_cast<float>(1.0 / std::sqrt(grid.lambda));

@@ -30,7 +30,7 @@ PreparedSplat::make(std::vector<std::shared_ptr<const PreparedTexton>> layers,
 int PreparedSplat::order() const {
     int o = 0;
     for (const auto& l : m_layers) o = std::max(o, l->order());
-    return o;
+    return m_height ? std::max(o, m_height->order()) : o;
 }
 
 std::optional<Error> PreparedSplat::check(const NoiseRequest& q) const {

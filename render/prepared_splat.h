@@ -23,7 +23,7 @@ public:
     const PreparedTexton* height() const { return m_height.get(); }
     // 3 when any layer has colour (a grey layer shows as grey), else 1.
     int channels() const { return m_channels; }
-    // The largest layer's interpolation order: what admission costs a window at.
+    // The largest interpolation order of its layers and height: what admission costs a window at.
     int order() const;
 
     std::optional<Error> check(const NoiseRequest& req) const;

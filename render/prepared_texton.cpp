@@ -114,6 +114,26 @@ std::optional<Error> PreparedTexton::check(const NoiseRequest& q) const {
     return std::nullopt;
 }
 
+namespace {
+
+// LevelTable::phase_row's planes from the table's rows.
+void split_by_phase(LevelTable& t, int st) {
+    t.st = st;
+    const int side = t.side();
+    const int per = (side + st - 1) / st; // entries of one phase along an axis
+    t.phase_rows = per + 1;
+    t.phase_stride = (static_cast<std::size_t>(per) + 16 + 15) / 16 * 16;
+    const std::size_t plane = static_cast<std::size_t>(t.phase_rows) * t.phase_stride;
+    t.phase_data.assign(static_cast<std::size_t>(t.channels) * st * st * plane, 0.0f);
+    for (int c = 0; c < t.channels; ++c)
+        for (int y = 0; y < side; ++y)
+            for (int x = 0; x < side; ++x)
+                t.phase_data[t.phase_offset(c, y % st, x % st, y / st) +
+                             static_cast<std::size_t>(x / st)] = t.row(c, y)[x];
+}
+
+} // namespace
+
 std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
     std::lock_guard<std::mutex> lock(m_mutex);
     const int key = std::max(0, level); // every magnification level uses alpha itself
@@ -135,6 +155,7 @@ std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
             float* dst = t->row(c, y + t->pad) + t->pad;
             for (int x = 0; x < g.width; ++x) dst[x] = g.at(c, x, y);
         }
+    if (key >= 1 && m_texton.order <= 1) split_by_phase(*t, st);
     m_tables.emplace(key, t);
     return t;
 }

@@ -27,6 +27,27 @@ struct LevelTable {
     int channels = 0;
     std::vector<float> data;
 
+    // Zoomed-out levels (k >= 1, orders 0 and 1): G split by phase, so that the texels one point
+    // gives consecutive output pixels (st apart in G) are consecutive in memory:
+    // phase_row(c, my, mx, j)[i] = G[st j + my][st i + mx], zeros past G and for 16+ floats
+    // past every row. Empty otherwise.
+    int st = 1;                   // texels per output pixel
+    int phase_rows = 0;           // rows of one phase plane
+    std::size_t phase_stride = 0; // floats per phase row
+    std::vector<float> phase_data;
+    std::size_t phase_channel_size() const {
+        return static_cast<std::size_t>(st) * st * static_cast<std::size_t>(phase_rows) *
+               phase_stride;
+    }
+    std::size_t phase_offset(int c, int my, int mx, int j) const {
+        const std::size_t plane = static_cast<std::size_t>(phase_rows) * phase_stride;
+        return ((static_cast<std::size_t>(c) * st + my) * st + mx) * plane +
+               static_cast<std::size_t>(j) * phase_stride;
+    }
+    const float* phase_row(int c, int my, int mx, int j) const {
+        return phase_data.data() + phase_offset(c, my, mx, j);
+    }
+
     int side() const { return length + 2 * pad; }
     const float* row(int c, int i) const {
         return data.data() + (static_cast<std::size_t>(c) * side() + i) * stride;

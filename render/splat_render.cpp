@@ -103,64 +103,51 @@ TEXTOND_VECTOR_KERNEL void blend_setup(int k, std::size_t n, float* w, const flo
     }
 }
 
-// One layer of core::blend_layers onto the three channels o[c] (a grey layer passes its one
-// plane three times): its value where it alone shows, else + c (v - m); + 0 x (a finite value)
-// where it does not show, which changes no bit.
+// One channel of one layer of core::blend_layers onto o: the layer's value where it alone shows,
+// nothing where it does not show, else + c (v - m).
 TEXTOND_VECTOR_KERNEL void add_layer(std::size_t n, const float* __restrict c,
-                                     const float* const* v, const float* m, float* const* o) {
-    const float* __restrict v0 = v[0];
-    const float* __restrict v1 = v[1];
-    const float* __restrict v2 = v[2];
-    float* __restrict o0 = o[0];
-    float* __restrict o1 = o[1];
-    float* __restrict o2 = o[2];
-    const float m0 = m[0], m1 = m[1], m2 = m[2];
+                                     const float* __restrict v, float m, float* __restrict o) {
     for (std::size_t i = 0; i < n; ++i) {
-        const float ci = c[i];
-        const bool alone = ci == 1.0f;
-        o0[i] = alone ? v0[i] : o0[i] + ci * (v0[i] - m0);
-        o1[i] = alone ? v1[i] : o1[i] + ci * (v1[i] - m1);
-        o2[i] = alone ? v2[i] : o2[i] + ci * (v2[i] - m2);
+        const float a = o[i] + c[i] * (v[i] - m);
+        o[i] = c[i] == 1.0f ? v[i] : c[i] == 0.0f ? o[i] : a;
     }
 }
 
-// One row of one layer's raw weights: runs of pixels between the same two weight columns a, b
-// (pixel values la, lb of the row's line), each a vector loop.
+// One row of one layer's raw weights: a run of pixels between the same two weight columns,
+// whose values on this row are la and lb, as one vector loop.
 TEXTOND_VECTOR_KERNEL void interpolate_run(std::size_t count, const float* __restrict ax, float la,
                                            float lb, float* __restrict out) {
     for (std::size_t x = 0; x < count; ++x) out[x] = (1.0f - ax[x]) * la + ax[x] * lb;
 }
 
-// The weight image's bilinear lookup (core::placed_tap per axis), y first then x, in float.
+// The weight image's bilinear lookup (core::placed_tap per axis), y first then x, in float; a
+// weight column is read only where a run of the window's pixels lies (the window's cost does not
+// grow with the image).
 void image_weights(const core::SplatImage& im, int k, const NoiseRequest& q, float* w) {
     const core::Image& src = im.weights;
     const auto n = static_cast<std::size_t>(q.width) * q.height;
     std::vector<int> ix(static_cast<std::size_t>(q.width)), jx(ix.size());
     std::vector<float> ax(ix.size());
-    int lo = src.width, hi = 0; // the weight columns the window reads
     for (int x = 0; x < q.width; ++x) {
         const auto t = core::placed_tap(im.x0, im.scale, src.width, pixel_texel(q.level, q.x0 + x));
         ix[static_cast<std::size_t>(x)] = t.i;
         jx[static_cast<std::size_t>(x)] = t.j;
         ax[static_cast<std::size_t>(x)] = static_cast<float>(t.a);
-        lo = std::min(lo, t.i);
-        hi = std::max(hi, t.j);
     }
-    std::vector<float> line(static_cast<std::size_t>(hi + 1));
     for (int y = 0; y < q.height; ++y) {
         const auto t =
             core::placed_tap(im.y0, im.scale, src.height, pixel_texel(q.level, q.y0 + y));
         const auto ay = static_cast<float>(t.a);
+        auto column = [&](int l, int col) {
+            return (1.0f - ay) * src.at(l, col, t.i) + ay * src.at(l, col, t.j);
+        };
         for (int l = 0; l < k; ++l) {
-            for (int col = lo; col <= hi; ++col)
-                line[static_cast<std::size_t>(col)] =
-                    (1.0f - ay) * src.at(l, col, t.i) + ay * src.at(l, col, t.j);
             float* row = w + n * l + static_cast<std::size_t>(y) * q.width;
             for (std::size_t x = 0; x < ix.size();) {
                 std::size_t end = x + 1;
                 while (end < ix.size() && ix[end] == ix[x] && jx[end] == jx[x]) ++end;
-                interpolate_run(end - x, ax.data() + x, line[static_cast<std::size_t>(ix[x])],
-                                line[static_cast<std::size_t>(jx[x])], row + x);
+                interpolate_run(end - x, ax.data() + x, column(l, ix[x]), column(l, jx[x]),
+                                row + x);
                 x = end;
             }
         }
@@ -237,9 +224,9 @@ std::optional<Error> splat_window(Renderer& r, const PreparedSplat& s, const Noi
         lq.precision = Precision::f32;
         auto img = r.noise(layer, lq, work, used);
         if (!img) return img.error();
-        const float* v[3];
-        for (int c = 0; c < 3; ++c) v[c] = img.value().plane(std::min(c, layer.channels() - 1));
-        add_layer(n, cl, v, mean[l], planes);
+        for (int c = 0; c < nc; ++c)
+            add_layer(n, cl, img.value().plane(std::min(c, layer.channels() - 1)), mean[l][c],
+                      planes[c]);
         recycle_image(std::move(img.value()));
     }
     recycle_image(std::move(weights.value()));
@@ -250,6 +237,7 @@ std::optional<Error> splat_window(Renderer& r, const PreparedSplat& s, const Noi
 
 Result<core::Image> Renderer::splat_weights(const PreparedSplat& s, const NoiseRequest& q,
                                             Work work) {
+    if (auto err = s.check(q)) return *err;
     auto image = raw_weights(*this, s, q, work);
     if (!image) return image;
     std::vector<float>& sum = thread_scratch();

@@ -8,17 +8,24 @@ namespace textond::app {
 
 namespace {
 
-// Layer k's weights are channel k of the images taken in order; channels past the last layer
-// (an RGBA image under three layers) are left out.
+// Layer k's weights: channel k of `weights` (R, G, B, A), then for layers 5 to 8 channel k - 4
+// of `weights2`; channels past the last layer (A under three layers) are left out.
 Result<core::Image> layer_weights(const std::vector<core::Image>& images, int layers) {
     const core::Image& first = images.front();
-    int channels = 0;
-    for (const core::Image& im : images) {
-        if (im.width != first.width || im.height != first.height)
+    for (const core::Image& im : images)
+        if (im.channels > 4)
             return make_error(ErrorCode::invalid_argument,
-                              "'weights' and 'weights2' must have the same size");
-        channels += im.channels;
-    }
+                              "a weight image has at most 4 channels (R, G, B, A), not " +
+                                  std::to_string(im.channels));
+    if (images.size() > 1 && (images[1].width != first.width || images[1].height != first.height))
+        return make_error(ErrorCode::invalid_argument,
+                          "'weights' and 'weights2' must have the same size");
+    if (images.size() > 1 && first.channels != 4)
+        return make_error(ErrorCode::invalid_argument,
+                          "with 'weights2', 'weights' must be RGBA (layers 1 to 4); it has " +
+                              std::to_string(first.channels) + " channels");
+    int channels = 0;
+    for (const core::Image& im : images) channels += im.channels;
     if (channels < layers)
         return make_error(ErrorCode::invalid_argument,
                           "the weight images have " + std::to_string(channels) + " channels for " +

@@ -49,7 +49,8 @@ void Service::install_routes() {
     m_http.Delete(R"(/v1/textons/(.*))", &TextonRoutes::fallback);
 }
 
-void Service::install_get_routes() {
+// A mix's and a splat's images: the same routes as a texton's (no tileable, spectrum or kit).
+void Service::install_mix_and_splat_image_routes() {
     ImageRoutes* i = m_image_routes.get();
     using api::parse_map_tile;
     using api::parse_tile;
@@ -78,6 +79,13 @@ void Service::install_get_routes() {
                i->region("/v1/splats/{id}/region.{format}", Source::splat));
     m_http.Get(R"(/v1/splats/([^/]+)/tilejson\.json)",
                [i](Req req, Res res) { i->tilejson(req, res, Source::splat); });
+}
+
+void Service::install_get_routes() {
+    ImageRoutes* i = m_image_routes.get();
+    using api::parse_map_tile;
+    using api::parse_tile;
+    install_mix_and_splat_image_routes();
     m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
                i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, Source::texton));
     m_http.Get(

@@ -71,6 +71,7 @@ private:
     // routes.cpp: the route table, in the order cpp-httplib tries it.
     void install_routes();
     void install_get_routes();
+    void install_mix_and_splat_image_routes();
 
     ServeConfig m_config;
     HttpServer m_http;

@@ -5,6 +5,8 @@
 #include "server/http/request_body.h"
 #include "server/io/image_io.h"
 
+#include <algorithm>
+
 namespace textond::http {
 
 namespace {
@@ -33,9 +35,9 @@ void SplatRoutes::create(Req req, Res res, const httplib::ContentReader& reader)
     set_route("/v1/splats");
     if (!authorised(m_config.api_key, req, res)) return;
     if (!req.is_multipart_form_data())
-        return send_error(res, {"invalid_parameter",
-                                "a splat is a multipart form: textons, and weights (an image) "
-                                "or rules (JSON)"});
+        return send_error(res, {"unsupported_media_type",
+                                "a splat is a multipart/form-data body: textons, and weights (an "
+                                "image) or rules (JSON)"});
     Body counted(m_gate.bodies());
     std::vector<httplib::MultipartFormData> parts;
     if (auto e = read_parts(reader, m_config.max_upload_bytes, res.status, counted, parts)) {
@@ -66,7 +68,8 @@ void SplatRoutes::create(Req req, Res res, const httplib::ContentReader& reader)
     std::vector<core::Image> decoded;
     if (sent > 0) {
         io::DecodeLimits limits;
-        limits.max_pixels = m_config.max_pixels;
+        limits.max_pixels = std::min<std::uint64_t>(
+            m_config.max_pixels, static_cast<std::uint64_t>(core::kMaxSplatWeightPixels));
         limits.formats = m_config.formats;
         limits.all_channels = true; // RGBA: four layers
         auto slot = m_gate.admit_decode(res);

@@ -15,6 +15,7 @@ Error bad(const std::string& path, const std::string& why) {
 
 std::vector<std::string> weight_channel_names(int n) {
     std::vector<std::string> names;
+    names.reserve(static_cast<std::size_t>(n));
     for (int c = 0; c < n; ++c) names.push_back("w" + std::to_string(c)); // sorted as stored
     return names;
 }

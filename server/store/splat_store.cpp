@@ -1,5 +1,6 @@
 #include "server/store/splat_store.h"
 
+#include "core/material_set.h"
 #include "server/store/quarantine.h"
 
 #include <spdlog/spdlog.h>
@@ -29,7 +30,7 @@ SplatStore::prepare(const io::SplatRecord& record) {
         auto p = m_textons.prepared(t);
         if (!p) {
             if (p.error().code != ErrorCode::not_found) return p.error();
-            return make_error(ErrorCode::not_found, "the splat's layer texton " + t +
+            return make_error(ErrorCode::not_found, "texton " + t + " of splat " + record.meta.id +
                                                         " is not stored here (deleted, or never "
                                                         "uploaded): upload it again");
         }
@@ -48,7 +49,17 @@ SplatStore::prepare(const io::SplatRecord& record) {
                        ? make_error(ErrorCode::not_found, "the rules' height texton " +
                                                               record.height + " is not stored here")
                        : set.error();
-        if (!set.value()->texton().maps.empty()) {
+        const core::Texton& t = set.value()->texton();
+        if (!t.maps.empty() && !core::find_map(t.maps, "height"))
+            return make_error(ErrorCode::invalid_argument,
+                              "the rules' height " + record.height +
+                                  " is a material set without a height map");
+        if (t.order == 0)
+            return make_error(ErrorCode::invalid_argument,
+                              "the rules' height " + record.height +
+                                  " has interpolation order 0, which has no slope (upload it "
+                                  "with order 1 or 3)");
+        if (!t.maps.empty()) {
             auto view = render::map_view(set.value(), core::kNormalMap); // the set's height
             if (!view) return view.error();
             height = view.value();
@@ -64,14 +75,44 @@ SplatStore::prepare(const io::SplatRecord& record) {
     return render::PreparedSplat::make(std::move(layers), record.weights, std::move(height));
 }
 
+std::optional<Error> SplatStore::layers_stored(const api::SplatMeta& meta) {
+    std::vector<std::string> ids = meta.textons;
+    if (const auto h = meta.weights.find("height"); h != meta.weights.end() && h->is_string())
+        ids.push_back(h->get<std::string>());
+    for (const std::string& t : ids)
+        if (auto found = m_textons.find(t); !found) {
+            if (found.error().code != ErrorCode::not_found) return found.error();
+            return make_error(ErrorCode::not_found,
+                              "texton " + t + " of splat " + meta.id +
+                                  " is not stored here (deleted, or never uploaded): upload it "
+                                  "again");
+        }
+    return std::nullopt;
+}
+
 Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
+    std::optional<Entry> kept;
     {
         std::lock_guard<std::mutex> lock(m_mutex);
         for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
             if (it->id == id) {
                 m_lru.splice(m_lru.begin(), m_lru, it);
-                return *it;
+                kept = *it;
+                break;
             }
+    }
+    if (kept) {
+        // A prepared splat holds its layers: one deleted since must not go on rendering here.
+        auto gone = layers_stored(kept->meta);
+        if (!gone) return *kept;
+        std::lock_guard<std::mutex> lock(m_mutex);
+        for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
+            if (it->id == id) {
+                m_bytes -= it->bytes;
+                m_lru.erase(it);
+                break;
+            }
+        return *gone;
     }
     auto record = io::read_splat_files(m_dir, id);
     if (!record && record.error().code == ErrorCode::io) {
@@ -83,10 +124,15 @@ Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
     if (!record) return record.error();
     auto prepared = prepare(record.value());
     if (!prepared) return prepared.error(); // a missing layer: kept, for when it comes back
-    Entry e{id, record.value().meta, prepared.value()};
+    const core::Image& w = record.value().weights.image.weights;
+    Entry e{id, record.value().meta, prepared.value(), w.data.size() * sizeof(float)};
     std::lock_guard<std::mutex> lock(m_mutex);
     m_lru.push_front(e);
-    if (m_lru.size() > kCapacity) m_lru.pop_back();
+    m_bytes += e.bytes;
+    while (m_lru.size() > 1 && (m_lru.size() > kCapacity || m_bytes > kBudgetBytes)) {
+        m_bytes -= m_lru.back().bytes;
+        m_lru.pop_back();
+    }
     return e;
 }
 
@@ -115,6 +161,8 @@ std::vector<std::string> SplatStore::quarantined() const {
 }
 
 Result<bool> SplatStore::put(const io::SplatRecord& record) {
+    // One writer at a time: of concurrent identical creations one writes and says so.
+    std::lock_guard<std::mutex> lock(m_put_mutex);
     if (contains(record.meta.id)) return false;
     auto ok = io::write_splat_files(m_dir, record);
     if (!ok) return ok.error();

@@ -277,8 +277,8 @@ def run(c, spec, exemplar_dir):
     c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=3&scale=2",
                pattern_png(32, 32, 9), {"Content-Type": "application/octet-stream"})
 
-    # Splats: an RGBA weight image (four layers), two grey ones (two layers), two images for five
-    # layers, and rules on the material set's height.
+    # Splats: an RGBA weight image (four layers, and two of its channels for two), two images for
+    # five layers, and rules on the material set's height.
     def post_splat(parts):
         body, headers = multipart(parts)
         st, _, b = c.exchange("/v1/splats", "post", "/v1/splats", body, headers)
@@ -289,8 +289,7 @@ def run(c, spec, exemplar_dir):
     four = ",".join([plain, other, plain, other])
     splat = post_splat([("textons", four, None), ("weights", rgba_png(8, 8, 1), "w.png"),
                         ("scale", "32", None), ("x0", "-128", None), ("y0", "-64.5", None)])
-    post_splat([("textons", f"{plain},{other}", None), ("weights", pattern_png(8, 8, 1), "w.png"),
-                ("weights2", pattern_png(8, 8, 2), "w2.png")])
+    post_splat([("textons", f"{plain},{other}", None), ("weights", rgba_png(8, 8, 3), "w.png")])
     post_splat([("textons", four + "," + plain, None), ("weights", rgba_png(8, 8, 2), "w.png"),
                 ("weights2", pattern_png(8, 8, 3), "w2.png"), ("scale", "16", None)])
     if full_set:

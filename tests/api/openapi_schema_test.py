@@ -21,7 +21,7 @@ import jsonschema
 import yaml
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from png_bytes import pattern_png  # noqa: E402
+from png_bytes import rgba_png  # noqa: E402
 
 failures = []
 
@@ -176,12 +176,11 @@ def main():
         check(s == 200, f"mix tilejson ({s})")
         validate_route("GET", "/v1/mixes/{id}/tilejson.json", 200, b, "mix tilejson")
 
-        # A splat of two of them by a grey weight image each: created, known, fetched, TileJSON.
-        w1, w2 = pattern_png(4, 4, 1), pattern_png(4, 4, 2)
+        # A splat of two of them by an RGBA weight image: created, known, fetched, TileJSON.
         boundary = uuid.uuid4().hex
         form = [(f'--{boundary}\r\nContent-Disposition: form-data; name="textons"\r\n\r\n'
                  f'{tids[0]},{tids[1]}\r\n').encode()]
-        for field, data in (("weights", w1), ("weights2", w2)):
+        for field, data in (("weights", rgba_png(4, 4, 1)),):
             form.append((f'--{boundary}\r\nContent-Disposition: form-data; name="{field}"; '
                          f'filename="w.png"\r\nContent-Type: image/png\r\n\r\n').encode() +
                         data + b"\r\n")

@@ -153,6 +153,11 @@ TEST(SplatBlend, WeightsAreValidated) {
     r.rules.layers[1].slope = {};
     r.rules.strength = 0;
     EXPECT_TRUE(r.validate(2));
+    r.rules.strength = 1001; // map=normal's limit: a splat that could never render
+    EXPECT_TRUE(r.validate(2));
+    SplatWeights big;
+    big.image.weights = Image(2049, 2048, 2, 0.5f); // over 2048 x 2048
+    EXPECT_TRUE(big.validate(2));
 }
 
 } // namespace

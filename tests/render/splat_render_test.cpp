@@ -127,6 +127,58 @@ TEST(SplatRender, ALayerAloneIsItsTextonsTilesAndTheWeightImageSitsWhereItWasPut
     }
 }
 
+// Every layer count: the renderer's vector loops against core::blend_layers, pixel by pixel,
+// on weights that cross every case (one layer alone, none but layer 1, zeros, uneven mixes).
+TEST(SplatRender, EveryLayerCountIsCoresBlendBitForBit) {
+    auto r = renderer();
+    const auto sand = analysed_texton("etr_sand01.png", 16);
+    const auto gravel = analysed_texton("skimage_gravel.png", 16);
+    for (int k = 3; k <= core::kMaxSplatLayers; ++k) {
+        std::vector<std::shared_ptr<const render::PreparedTexton>> layers;
+        for (int l = 0; l < k; ++l) layers.push_back(l % 3 == 1 ? gravel : sand);
+        auto w = image_weights(k, 5, 4, 7, [k](int c, int x, int y) {
+            const int v = (c * 7 + x * 3 + y * 5 + k) % 6;
+            return v < 2 ? 0.0f : static_cast<float>(v) / 5.0f; // a third are 0
+        });
+        w.image.weights.at(0, 1, 1) = 0; // a texel of zeros: layer 1 alone
+        for (int c = 1; c < k; ++c) w.image.weights.at(c, 1, 1) = 0;
+        auto s = splat(layers, w);
+        render::NoiseRequest q;
+        q.seed = 13;
+        q.x0 = -3;
+        q.width = 40;
+        q.height = 30;
+        auto got = r->splat(*s, q, render::Renderer::Work::tile);
+        auto weights = r->splat_weights(*s, q, render::Renderer::Work::tile);
+        ASSERT_TRUE(got.ok() && weights.ok());
+        std::vector<core::Image> v;
+        for (int l = 0; l < k; ++l) {
+            render::NoiseRequest lq = q;
+            lq.seed = core::splat_layer_seed(q.seed, l);
+            v.push_back(
+                r->noise(*layers[static_cast<std::size_t>(l)], lq, render::Renderer::Work::tile)
+                    .value());
+        }
+        int mismatches = 0;
+        for (int y = 0; y < q.height; ++y)
+            for (int x = 0; x < q.width; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    float wt[core::kMaxSplatLayers], m[core::kMaxSplatLayers],
+                        val[core::kMaxSplatLayers];
+                    for (int l = 0; l < k; ++l) {
+                        const auto& layer = *layers[static_cast<std::size_t>(l)];
+                        const int lc = std::min(c, layer.channels() - 1);
+                        wt[l] = weights.value().at(l, x, y);
+                        m[l] =
+                            static_cast<float>(layer.texton().mean[static_cast<std::size_t>(lc)]);
+                        val[l] = v[static_cast<std::size_t>(l)].at(lc, x, y);
+                    }
+                    mismatches += got.value().at(c, x, y) != core::blend_layers(k, wt, m, val);
+                }
+        EXPECT_EQ(mismatches, 0) << k << " layers";
+    }
+}
+
 TEST(SplatRender, OneFunctionForEveryWindowStripsIncluded) {
     auto r = renderer();
     const auto sand = analysed_texton("etr_sand01.png", 16);

@@ -100,6 +100,19 @@ TEST(Splats, CreateOnceThenServeWindowsOfOneFunction) {
     EXPECT_GT(r.at(0, 10, 10), r.at(2, 10, 10));   // orange: R > B
     EXPECT_LT(r.at(0, 240, 10), r.at(2, 240, 10)); // sky blue: B > R
 
+    // A layer deleted: this server stops serving the splat at once (cached tiles too), and
+    // serves it again, the same bytes, once the texton is back (the same id).
+    const std::string kept = c.Get(("/v1/splats/" + id + "/tiles/1/2/2.exr?seed=6").c_str())->body;
+    ASSERT_EQ(c.Delete(("/v1/textons/" + g).c_str())->status, 204);
+    for (const std::string path : {"/tiles/1/2/2.exr?seed=6", "", "/tilejson.json"}) {
+        auto res = c.Get(("/v1/splats/" + id + path).c_str());
+        ASSERT_TRUE(res);
+        EXPECT_EQ(res->status, 404) << path;
+        EXPECT_NE(res->body.find(g), std::string::npos) << res->body;
+    }
+    EXPECT_EQ(upload(c, "skimage_gravel.png", "?size=16&iterations=10"), g);
+    EXPECT_TRUE(c.Get(("/v1/splats/" + id + "/tiles/1/2/2.exr?seed=6").c_str())->body == kept);
+
     // A restart keeps the splat and serves the same bytes.
     const std::string before =
         c.Get(("/v1/splats/" + id + "/tiles/2/3/-1.exr?seed=9").c_str())->body;
@@ -166,6 +179,14 @@ TEST(Splats, BadRequests) {
         {{{"textons", two + "," + a + "," + b + "," + a, "", ""}, {"weights", png, "w.png", ""}},
          400,
          "invalid_parameter"}, // five layers, one image
+        {{{"textons", two + "," + a + "," + b + "," + a, "", ""},
+          {"weights", grey_png, "w.png", ""},
+          {"weights2", png, "w.png", ""}},
+         400,
+         "invalid_parameter"}, // five layers: weights must be RGBA
+        {{{"textons", two, "", ""}, {"weights", png, "w.png", ""}, {"weights2", png, "w.png", ""}},
+         400,
+         "invalid_parameter"}, // weights2 is for layers 5 to 8
         {{{"textons", two, "", ""}, {"weights", grey_png, "w.png", ""}}, 400, "invalid_parameter"},
         {{{"textons", two, "", ""}, {"weights", "not an image", "w.png", ""}}, 415, nullptr},
         {{{"textons", two, "", ""}, {"weights", png, "w.png", ""}, {"scale", "0", "", ""}},
@@ -211,7 +232,7 @@ TEST(Splats, BadRequests) {
     }
     auto raw = c.Post("/v1/splats", png, "image/png"); // not a form
     ASSERT_TRUE(raw);
-    EXPECT_EQ(raw->status, 400);
+    EXPECT_EQ(raw->status, 415);
     // A good splat refuses what its tiles cannot have.
     auto ok = post_splat(c, {{"textons", two, "", ""}, {"weights", png, "w.png", ""}});
     ASSERT_TRUE(ok && ok->status == 201) << (ok ? ok->body : "");
