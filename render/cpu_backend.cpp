@@ -160,33 +160,40 @@ TapRange axis_taps(const LevelGeometry& g, int axis, std::int64_t p0, std::int64
     return out;
 }
 
-// Level 0: one point's whole footprint in one channel. Along a row the weights are constant and
-// the table columns contiguous, so the inner loop vectorises; cloned per instruction set, with
-// the same bits on each (no FMA contraction, the same operation order per element).
+// One point's whole footprint in one channel (level 0; zoomed-out levels through phase planes).
+// Along a row the weights are constant and the table columns contiguous, so the inner loop
+// vectorises; cloned per instruction set, with the same bits on each (no FMA contraction, the
+// same operation order per element).
 constexpr int kRunQuantum = 16; // floats per AVX-512 vector; LevelTable and blocks pad for it
 
-struct ContiguousSplat {
-    float* acc;             // first accumulator of the footprint
-    std::size_t acc_stride; // floats per block row
-    const float* g;         // G[ty0][tx0]
-    std::size_t g_stride;   // floats per table row
-    int rows, cols;
-    float c00, c01, c10, c11;
+// Orders 0 and 1: a point's footprint as runs of pixels, each reading four runs of table texels
+// (a1 = G[ty + 1][tx + 1], a0 = G[ty + 1][tx], b1 = G[ty][tx + 1], b0 = G[ty][tx] at the first
+// pixel; a row down is g_stride floats down). Level 0 reads the table itself; zoomed-out levels
+// its phase planes (LevelTable::phase_row), where the texels of consecutive pixels are
+// consecutive too.
+struct RunSplat {
+    float* acc = nullptr;       // first accumulator of the footprint
+    std::size_t acc_stride = 0; // floats per block row
+    const float *a1 = nullptr, *a0 = nullptr, *b1 = nullptr, *b0 = nullptr;
+    std::size_t g_stride = 0; // floats per table (or phase) row
+    int rows = 0, cols = 0;
+    float c00 = 0, c01 = 0, c10 = 0, c11 = 0;
 };
 
-__attribute__((target_clones("avx512f", "avx2", "default"))) void
-splat_contiguous(const ContiguousSplat& s) {
+__attribute__((target_clones("avx512f", "avx2", "default"))) void splat_runs(const RunSplat& s) {
     const float c00 = s.c00, c01 = s.c01, c10 = s.c10, c11 = s.c11;
     // Runs are padded to whole vectors: past the footprint the table holds zeros (each pixel then
     // gets + 0, which changes no bit) and past the block the accumulators have slack columns.
     const int n = (s.cols + kRunQuantum - 1) / kRunQuantum * kRunQuantum;
     for (int i = 0; i < s.rows; ++i) {
         float* __restrict acc = s.acc + s.acc_stride * i;
-        const float* __restrict g0 = s.g + s.g_stride * i; // G[ty]
-        const float* __restrict g1 = g0 + s.g_stride;      // G[ty + 1]
+        const float* __restrict a1 = s.a1 + s.g_stride * i;
+        const float* __restrict a0 = s.a0 + s.g_stride * i;
+        const float* __restrict b1 = s.b1 + s.g_stride * i;
+        const float* __restrict b0 = s.b0 + s.g_stride * i;
 #pragma GCC ivdep
         for (int j = 0; j < n; ++j)
-            acc[j] += ((c00 * g1[j + 1] + c01 * g1[j]) + c10 * g0[j + 1]) + c11 * g0[j];
+            acc[j] += ((c00 * a1[j] + c01 * a0[j]) + c10 * b1[j]) + c11 * b0[j];
     }
 }
 
@@ -233,36 +240,6 @@ splat_contiguous_cubic(const ContiguousCubic& s) {
             v += c[15] * g3[j - 3];
             acc[j] += v;
         }
-    }
-}
-
-// Zoomed-out levels, orders 0 and 1: one point's footprint from the table split by phase
-// (LevelTable::phase_row), where the texels of consecutive pixels are consecutive: the same
-// products and sums as splat_row_general, in contiguous runs. a1 = G[ty + 1][tx + 1], a0 =
-// G[ty + 1][tx], b1 = G[ty][tx + 1], b0 = G[ty][tx] at the first pixel; a row down is a phase
-// row down.
-struct PhaseSplat {
-    float* acc = nullptr;
-    std::size_t acc_stride = 0;
-    const float *a1 = nullptr, *a0 = nullptr, *b1 = nullptr, *b0 = nullptr;
-    std::size_t g_stride = 0;
-    int rows = 0, cols = 0;
-    float c00 = 0, c01 = 0, c10 = 0, c11 = 0;
-};
-
-__attribute__((target_clones("avx512f", "avx2", "default"))) void splat_phase(const PhaseSplat& s) {
-    const float c00 = s.c00, c01 = s.c01, c10 = s.c10, c11 = s.c11;
-    // Whole vectors, as splat_contiguous: past the footprint the phase rows hold zeros.
-    const int n = (s.cols + kRunQuantum - 1) / kRunQuantum * kRunQuantum;
-    for (int i = 0; i < s.rows; ++i) {
-        float* __restrict acc = s.acc + s.acc_stride * i;
-        const float* __restrict a1 = s.a1 + s.g_stride * i;
-        const float* __restrict a0 = s.a0 + s.g_stride * i;
-        const float* __restrict b1 = s.b1 + s.g_stride * i;
-        const float* __restrict b0 = s.b0 + s.g_stride * i;
-#pragma GCC ivdep
-        for (int j = 0; j < n; ++j)
-            acc[j] += ((c00 * a1[j] + c01 * a0[j]) + c10 * b1[j]) + c11 * b0[j];
     }
 }
 
@@ -341,8 +318,8 @@ std::vector<int>& thread_point_levels() {
     static thread_local std::vector<int> v;
     return v;
 }
-std::vector<PhaseSplat>& thread_phase_points() {
-    static thread_local std::vector<PhaseSplat> v;
+std::vector<RunSplat>& thread_phase_points() {
+    static thread_local std::vector<RunSplat> v;
     return v;
 }
 TapStore& thread_taps() {
@@ -358,11 +335,12 @@ std::vector<double>& thread_pixel_rho() {
     return v;
 }
 
-// A point's PhaseSplat in channel 0 of the block's accumulators (`acc`, `stride` floats a row);
+// A point's RunSplat at a zoomed-out level (the table's phase planes) in channel 0 of the block's
+// accumulators (`acc`, `stride` floats a row);
 // rows = 0 when it does not reach the block.
-PhaseSplat phase_splat(const LevelGeometry& geo, const LevelTable& table, const CellPoint& p,
-                       const Block& blk, float* acc, std::size_t stride) {
-    PhaseSplat sp{};
+RunSplat phase_splat(const LevelGeometry& geo, const LevelTable& table, const CellPoint& p,
+                     const Block& blk, float* acc, std::size_t stride) {
+    RunSplat sp{};
     std::int64_t xa, xb, tx, ya, yb, ty;
     if (!phase_span(geo, blk.x0, blk.x0 + blk.w, p.bx, xa, xb, tx) ||
         !phase_span(geo, blk.y0, blk.y0 + blk.h, p.by, ya, yb, ty))
@@ -428,7 +406,7 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
     std::vector<std::pair<TapRange, TapRange>>& ranges = thread_tap_ranges();
     store.clear();
     ranges.clear();
-    std::vector<PhaseSplat>& phase_points = thread_phase_points();
+    std::vector<RunSplat>& phase_points = thread_phase_points();
     phase_points.clear();
     if (phased)
         for (std::size_t pi = 0; pi < pts.size(); ++pi)
@@ -483,25 +461,28 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
                 axis_weights(geo, 0, p.fx, wx0, wx1);
                 axis_weights(geo, 1, p.fy, wy0, wy1);
                 const float cy0w = p.eps * wy0, cy1w = p.eps * wy1;
-                ContiguousSplat sp;
+                RunSplat sp;
                 sp.acc_stride = stride;
                 sp.acc = acc.data() + plane * c +
                          static_cast<std::size_t>(ya - blk.y0) * sp.acc_stride +
                          static_cast<std::size_t>(xa - blk.x0);
                 sp.g_stride = table.stride;
-                sp.g = table.row(c, static_cast<int>(ya - p.by)) + (xa - p.bx);
+                sp.b0 = table.row(c, static_cast<int>(ya - p.by)) + (xa - p.bx); // G[ty][tx]
+                sp.b1 = sp.b0 + 1;
+                sp.a0 = sp.b0 + table.stride;
+                sp.a1 = sp.a0 + 1;
                 sp.rows = static_cast<int>(yb - ya + 1);
                 sp.cols = static_cast<int>(xb - xa + 1);
                 sp.c00 = cy0w * wx0;
                 sp.c01 = cy0w * wx1;
                 sp.c10 = cy1w * wx0;
                 sp.c11 = cy1w * wx1;
-                splat_contiguous(sp);
+                splat_runs(sp);
                 if (c == 0) evaluations += static_cast<std::uint64_t>(sp.rows) * sp.cols;
                 continue;
             }
             if (phased) {
-                PhaseSplat sp = phase_points[pi]; // channel 0's
+                RunSplat sp = phase_points[pi]; // channel 0's
                 if (sp.rows == 0) continue;
                 const std::size_t shift = table.phase_channel_size() * static_cast<std::size_t>(c);
                 sp.acc += plane * static_cast<std::size_t>(c);
@@ -509,7 +490,7 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
                 sp.a0 += shift;
                 sp.b1 += shift;
                 sp.b0 += shift;
-                splat_phase(sp);
+                splat_runs(sp);
                 if (c == 0) evaluations += static_cast<std::uint64_t>(sp.rows) * sp.cols;
                 continue;
             }
