@@ -7,8 +7,11 @@
 #include "api/splat_meta.h"
 #include "core/image.h"
 #include "core/result.h"
+#include "server/io/image_io.h"
 #include "server/store/splat_store.h"
 
+#include <cstddef>
+#include <string_view>
 #include <vector>
 
 namespace textond::app {
@@ -21,9 +24,13 @@ public:
         api::SplatMeta meta;
         bool created = false; // false: stored already
     };
-    // `images`: the decoded weight images in order (none for rules).
+    // `images`: the encoded weight images in order (none for rules), decoded here one at a time.
     Result<Created> create(const api::SplatRequest& request,
-                           const std::vector<core::Image>& images);
+                           const std::vector<std::string_view>& images,
+                           const io::DecodeLimits& limits);
+    // The memory a creation holds at its peak, from its weight images' headers: admission
+    // reserves it before a pixel is decoded (issue 43 item 2).
+    static std::size_t creation_bytes(const std::vector<io::ImageHeader>& headers, int layers);
 
 private:
     store::SplatStore& m_splats;

@@ -1,5 +1,7 @@
 #include "server/app/texton_service.h"
 
+#include "server/io/slow_point.h"
+
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
@@ -73,10 +75,18 @@ TextonService::ingest(std::string_view bytes, const core::AnalysisParams& params
     }
     if (auto refused = store_refuses_writes()) return *refused;
     if (auto refused = over_budget(u, params)) return *refused;
-    auto shared = std::make_shared<const core::Image>(std::move(image.value()));
-    out.submitted = submit(out.id, shared, [shared, params](const core::ProgressFn& progress) {
-        return analyse(*shared, params, progress);
-    });
+    const double work_s = analysis_work_s(u.width, u.height, u.channels, params.iterations);
+    image.value() = core::Image{}; // while queued, the job holds the encoded bytes alone
+    auto body = std::make_shared<const std::string>(bytes);
+    out.submitted = submit(
+        out.id, work_s,
+        [body, params, limits = m_limits](const core::ProgressFn& progress) -> Result<Analysed> {
+            auto again = io::decode_image_memory(*body, limits);
+            if (!again) return again.error();
+            auto record = analyse(again.value(), params, progress);
+            if (!record) return record.error();
+            return Analysed{std::move(record.value()), std::move(again.value())};
+        });
     return out;
 }
 
@@ -100,15 +110,23 @@ TextonService::decode_maps(const std::vector<MapUpload>& maps, core::Image& stac
     if (admit != WorkSlots::Admit::granted)
         return Refused{Stage::busy, make_error(ErrorCode::unavailable, "no decoder"), admit};
     SlotGuard slot(&m_decode_slots);
+    return stack_maps(maps, m_limits, stacked, meta);
+}
+
+std::optional<TextonService::Refused> TextonService::stack_maps(const std::vector<MapUpload>& maps,
+                                                                const io::DecodeLimits& limits,
+                                                                core::Image& stacked,
+                                                                std::vector<api::MapMeta>& meta) {
+    using Stage = Refused::Stage;
     std::vector<core::Image> images;
     int channels = 0;
     // A set's pixels in all: at most an RGB exemplar's worth (--max-pixels times 3 channels), so
     // eight maps cannot hold eight times an upload's memory (with the stacked copy, twice that).
-    const std::uint64_t budget = 3 * m_limits.max_pixels;
+    const std::uint64_t budget = 3 * limits.max_pixels;
     std::uint64_t held = 0;
     for (const MapUpload& m : maps) {
         int bits = 8;
-        auto image = io::decode_image_memory(m.bytes, m_limits, &bits);
+        auto image = io::decode_image_memory(m.bytes, limits, &bits);
         if (!image)
             return Refused{Stage::decode, Error{image.error().code,
                                                 "map '" + m.name + "': " + image.error().message}};
@@ -174,40 +192,53 @@ TextonService::ingest_set(const std::vector<MapUpload>& maps, const core::Analys
     }
     if (auto refused = store_refuses_writes()) return *refused;
     if (auto refused = over_budget(stacked, params)) return *refused;
-    auto shown = std::make_shared<const core::Image>(
-        core::channel_planes(stacked, meta[0].first, meta[0].channels));
-    auto u = std::make_shared<const core::Image>(std::move(stacked));
-    out.submitted = submit(out.id, shown, [u, meta, params](const core::ProgressFn& progress) {
-        return analyse_set(*u, meta, params, progress);
-    });
+    const double work_s =
+        analysis_work_s(stacked.width, stacked.height, stacked.channels, params.iterations);
+    stacked = core::Image{}; // while queued, the job holds the encoded maps alone
+    // The maps' bytes outlive the request (a client that polls has left it).
+    auto kept = std::make_shared<std::vector<std::pair<std::string, std::string>>>();
+    for (const MapUpload& m : ordered) kept->emplace_back(m.name, std::string(m.bytes));
+    out.submitted = submit(
+        out.id, work_s,
+        [kept, params, limits = m_limits](const core::ProgressFn& progress) -> Result<Analysed> {
+            std::vector<MapUpload> again;
+            for (const auto& [name, bytes] : *kept) again.push_back({name, bytes});
+            core::Image u;
+            std::vector<api::MapMeta> meta;
+            if (auto refused = stack_maps(again, limits, u, meta)) return refused->error;
+            auto record = analyse_set(u, meta, params, progress);
+            if (!record) return record.error();
+            return Analysed{std::move(record.value()),
+                            core::channel_planes(u, meta[0].first, meta[0].channels)};
+        });
     return out;
 }
 
-AnalysisPool::Submitted TextonService::submit(const std::string& id,
-                                              const std::shared_ptr<const core::Image>& shown,
+AnalysisPool::Submitted TextonService::submit(const std::string& id, double work_s,
                                               const Analyse& analyse) {
-    const std::shared_ptr<const core::Image>& u = shown;
     store::TextonStore* store = &m_store;
     Metrics* metrics = &m_metrics;
     return m_pool.submit(
         id,
-        [u, analyse, store, metrics,
-         id](const core::ProgressFn& progress) -> Result<AnalysisOutcome> {
+        [analyse, store, metrics, id,
+         work_s](const core::ProgressFn& progress) -> Result<AnalysisOutcome> {
             // An identical upload may have finished while this one queued.
             if (auto meta = store->find(id)) return AnalysisOutcome{meta.value(), false};
+            io::slow_point("analysis", work_s);
             const auto t0 = std::chrono::steady_clock::now();
-            auto record = analyse(progress);
+            auto made = analyse(progress);
             const double ms =
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                     .count();
-            metrics->analysis(record.ok(), ms);
-            if (!record) return record.error();
-            auto put = store->put(std::move(record.value()), u.get());
+            metrics->analysis(made.ok(), ms);
+            if (!made) return made.error();
+            const core::Image& u = made.value().shown;
+            auto put = store->put(std::move(made.value().record), &u);
             if (!put) return put.error();
             auto meta = store->find(id);
             if (!meta) return meta.error();
-            spdlog::info("analysed {}: {}x{}x{}, r = {}, RME {:.4f}, {:.0f} ms{}", id, u->width,
-                         u->height, meta.value().channels, meta.value().size, meta.value().rme, ms,
+            spdlog::info("analysed {}: {}x{}x{}, r = {}, RME {:.4f}, {:.0f} ms{}", id, u.width,
+                         u.height, meta.value().channels, meta.value().size, meta.value().rme, ms,
                          put.value() ? "" : " (another replica stored it first)");
             return AnalysisOutcome{meta.value(), put.value()};
         });

@@ -76,12 +76,23 @@ public:
                                                 const core::ProgressFn& progress);
 
 private:
-    using Analyse = std::function<Result<io::TextonRecord>(const core::ProgressFn&)>;
-    // Runs `analyse` on the pool and stores its record with `shown` (the exemplar, or a set's
-    // first map) as the stored exemplar.
-    AnalysisPool::Submitted submit(const std::string& id,
-                                   const std::shared_ptr<const core::Image>& shown,
-                                   const Analyse& analyse);
+    // What a job makes once a worker takes it: the record, and `shown` (the exemplar, or a set's
+    // first map) to store beside it.
+    struct Analysed {
+        io::TextonRecord record;
+        core::Image shown;
+    };
+    using Analyse = std::function<Result<Analysed>(const core::ProgressFn&)>;
+    // Runs `analyse` on the pool and stores what it made. A queued job holds its upload's encoded
+    // bytes, never its decoded pixels: `analyse` decodes them again when a worker takes it, so
+    // the decoded images in memory are those of the analyses running (issue 43 item 3).
+    // `work_s`: the analysis's estimate (for the "analysis" slow point).
+    AnalysisPool::Submitted submit(const std::string& id, double work_s, const Analyse& analyse);
+    // A set's maps decoded and stacked in canonical order (no decoder slot taken: the caller
+    // holds one, or is a worker of the bounded pool).
+    static std::optional<Refused> stack_maps(const std::vector<MapUpload>& maps,
+                                             const io::DecodeLimits& limits, core::Image& stacked,
+                                             std::vector<api::MapMeta>& meta);
     std::optional<Refused> store_refuses_writes() const;
     // The refusal of an analysis over the CPU bound, if it is.
     std::optional<Refused> over_budget(const core::Image& u, const core::AnalysisParams& p) const;

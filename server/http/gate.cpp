@@ -92,7 +92,10 @@ std::shared_ptr<BudgetLease> Gate::lease_transfer(httplib::Response& res, std::s
     ConnectionStream* conn = current_connection();
     const auto end =
         std::chrono::steady_clock::now() + std::chrono::milliseconds(m_config.queue_timeout_ms);
-    bytes = std::min(bytes, m_bodies.cap()); // one response alone always fits
+    // One lease alone always fits, beside a quarter of the budget held by other requests'
+    // bodies: clamped to the whole budget, a lease waited for every small body in flight to end
+    // (twelve splat creations of 33 KB each starved one another into 429s).
+    bytes = std::min(bytes, m_bodies.cap() / 4 * 3);
     while (!m_bodies.reserve(bytes)) {
         if (conn && conn->client_gone()) {
             m_metrics.not_admitted("gone");

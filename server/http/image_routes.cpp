@@ -7,6 +7,7 @@
 #include "render/prepared_texton.h"
 #include "server/app/engine_kit.h"
 #include "server/http/http_support.h"
+#include "server/io/slow_point.h"
 
 #include <openssl/crypto.h>
 #include <spdlog/spdlog.h>
@@ -126,6 +127,10 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
     const auto t1 = Clock::now();
     m_metrics.stage("queue", seconds(t0, t1));
     const render::Cancel cancel = m_gate.work_cancel();
+    if (!io::slow_point("render", work_s, [&] { return cancel.stop(); })) {
+        m_gate.send_work_error(res, render::abandoned(&cancel, "the render"), cancel);
+        return nullptr;
+    }
     auto image = produce(cancel);
     if (!image) {
         m_gate.send_work_error(res, image.error(), cancel);

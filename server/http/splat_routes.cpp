@@ -65,24 +65,33 @@ void SplatRoutes::create(Req req, Res res, const httplib::ContentReader& reader)
     const int sent = images[1] ? 2 : images[0] ? 1 : 0;
     api::SplatRequest request;
     if (auto e = api::parse_splat(fields, sent, request)) return send_error(res, *e);
-    std::vector<core::Image> decoded;
+    // Held from the first header to the files written: a decoder slot, and the memory the
+    // creation will hold (its weights' headers say how much) from the byte budget.
+    std::optional<SlotGuard> slot;
+    std::shared_ptr<BudgetLease> lease;
+    std::vector<std::string_view> encoded;
+    io::DecodeLimits limits;
     if (sent > 0) {
-        io::DecodeLimits limits;
         limits.max_pixels = std::min<std::uint64_t>(
             m_config.max_pixels, static_cast<std::uint64_t>(core::kMaxSplatWeightPixels));
         limits.formats = m_config.formats;
         limits.all_channels = true; // RGBA: four layers
-        auto slot = m_gate.admit_decode(res);
-        if (!slot) return;
+        std::vector<io::ImageHeader> headers;
         for (int i = 0; i < sent; ++i) {
-            auto img = io::decode_image_memory(images[i]->content, limits);
-            if (!img) return send_error(res, content_error(img.error(), "invalid_weights"));
-            decoded.push_back(std::move(img.value()));
+            auto h = io::image_header_memory(images[i]->content, limits);
+            if (!h) return send_error(res, content_error(h.error(), "invalid_weights"));
+            headers.push_back(h.value());
+            encoded.emplace_back(images[i]->content);
         }
+        const int layers = static_cast<int>(request.textons.size());
+        lease = m_gate.lease_transfer(res, SplatService::creation_bytes(headers, layers));
+        if (!lease) return;
+        auto admitted = m_gate.admit_decode(res);
+        if (!admitted) return;
+        slot.emplace(std::move(*admitted));
     }
-    parts.clear();
-    auto created = m_service.create(request, decoded);
-    if (!created) return send_error(res, to_api_error(created.error()));
+    auto created = m_service.create(request, encoded, limits);
+    if (!created) return send_error(res, content_error(created.error(), "invalid_weights"));
     const auto& c = created.value();
     if (c.created) res.set_header("Location", "/v1/splats/" + c.meta.id);
     send_json(res, c.created ? 201 : 200, splat_json(c.meta));

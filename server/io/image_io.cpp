@@ -292,8 +292,43 @@ std::string sniff_format(std::string_view b) {
     return "";
 }
 
+namespace {
+// Opens `bytes` with the sniffed format's reader alone, as an upload (the checks of
+// decode_image_memory before a pixel is read); `keep` holds what the reader reads from.
+struct OpenedUpload {
+    std::string stripped;
+    std::unique_ptr<BoundedMemoryReader> bounded;
+    std::unique_ptr<OIIO::Filesystem::IOMemReader> whole;
+    std::unique_ptr<ImageInput> in; // last: closed before its readers go
+};
+Result<OpenedUpload> open_upload(std::string_view bytes, const DecodeLimits& limits);
+} // namespace
+
+Result<ImageHeader> image_header_memory(std::string_view bytes, const DecodeLimits& limits) {
+    auto opened = open_upload(bytes, limits);
+    if (!opened) return opened.error();
+    const ImageSpec& spec = opened.value().in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1)
+        return unprocessable("image has no pixels or is a volume");
+    const std::uint64_t pixels = static_cast<std::uint64_t>(spec.width) * spec.height;
+    if (pixels > limits.max_pixels)
+        return make_error(ErrorCode::too_large,
+                          "image is " + std::to_string(spec.width) + "x" +
+                              std::to_string(spec.height) + " = " + std::to_string(pixels) +
+                              " pixels, over the budget of " + std::to_string(limits.max_pixels));
+    return ImageHeader{spec.width, spec.height, spec.nchannels,
+                       static_cast<int>(spec.format.size()) * 8};
+}
+
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits,
                                         int* bits) {
+    auto opened = open_upload(bytes, limits);
+    if (!opened) return opened.error();
+    return read_opened(*opened.value().in, limits, bits);
+}
+
+namespace {
+Result<OpenedUpload> open_upload(std::string_view bytes, const DecodeLimits& limits) {
     if (bytes.empty()) return unprocessable("image is empty");
     const std::string format = sniff_format(bytes);
     const bool allowed = !format.empty() && (limits.formats.empty() ||
@@ -309,11 +344,12 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
         return unprocessable("PNG is truncated (a chunk runs past the end, or no IEND)");
     if (format == "openexr")
         if (auto err = exr_header_check(bytes, limits.max_pixels)) return *err;
-    std::string stripped;
+    OpenedUpload out;
     if (format == "jpeg") {
-        stripped = jpeg_without_metadata(bytes);
-        if (stripped.empty()) return unprocessable("JPEG is truncated or its segments are broken");
-        bytes = stripped;
+        out.stripped = jpeg_without_metadata(bytes);
+        if (out.stripped.empty())
+            return unprocessable("JPEG is truncated or its segments are broken");
+        bytes = out.stripped;
     }
     // Decoded straight from memory (every accepted format's reader takes an I/O proxy), so an
     // upload needs no disk: a full disk must not make a good image look bad. Only the sniffed
@@ -323,16 +359,19 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
         return make_error(ErrorCode::unsupported, "no in-memory reader for " + format);
     // OpenImageIO's JPEG reader takes only its own memory reader, whose buffer it hands whole
     // to libjpeg (which checks bounds itself); every other reader gets the bounded one.
-    BoundedMemoryReader bounded(bytes);
-    OIIO::Filesystem::IOMemReader whole(bytes.data(), bytes.size());
-    void* proxy = format == "jpeg" ? static_cast<void*>(&whole) : static_cast<void*>(&bounded);
+    out.bounded = std::make_unique<BoundedMemoryReader>(bytes);
+    out.whole = std::make_unique<OIIO::Filesystem::IOMemReader>(bytes.data(), bytes.size());
+    void* proxy = format == "jpeg" ? static_cast<void*>(out.whole.get())
+                                   : static_cast<void*>(out.bounded.get());
     ImageSpec config = read_config();
     config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
     ImageSpec opened;
     if (!in->open("upload." + format, opened, config))
         return unprocessable("cannot decode " + format + " image: " + oiio_message(in->geterror()));
-    return read_opened(*in, limits, bits);
+    out.in = std::move(in);
+    return out;
 }
+} // namespace
 
 Result<Encoding> encoding_for_path(const std::string& path) {
     std::string ext = fs::path(path).extension().string();

@@ -35,6 +35,13 @@ std::string sniff_format(std::string_view bytes);
 // `bits`, when given, receives the file's bits per channel (8, 16, 32).
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits = {},
                                         int* bits = nullptr);
+// What an upload's header says, with decode_image_memory's checks up to the first pixel: no pixel
+// is decoded (admission sizes the decode from it).
+struct ImageHeader {
+    int width = 0, height = 0, channels = 0, bits = 8;
+};
+Result<ImageHeader> image_header_memory(std::string_view bytes, const DecodeLimits& limits = {});
+
 // A file: read whole (refused when larger than any image within the pixel budget could be) and
 // decoded by decode_image_memory, with the same refusals as an upload. not_found when there is
 // no such file, invalid_argument for a directory, FIFO or device.

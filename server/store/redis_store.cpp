@@ -5,6 +5,9 @@
 #include <hiredis/hiredis.h>
 #include <spdlog/spdlog.h>
 
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
 #include <charconv>
 #include <sys/time.h>
 
@@ -308,47 +311,96 @@ Result<bool> RedisStore::repair_if_differs(const std::string& id, const std::str
     return true;
 }
 
+long long RedisStore::exemplar_cap(long long width, long long height) {
+    if (width <= 0 || height <= 0 || width > (1 << 20) || height > (1 << 20)) return 0;
+    // An 8-bit PNG of at most four channels: a filter byte a row, zlib's stored blocks at worst
+    // (5 bytes a 64 KiB), libpng's 8 KiB IDAT chunks (12 bytes each), headers.
+    const long long raw = (width * 4 + 1) * height;
+    return std::min(kMaxExemplarBytes, raw + raw / 100 + (64LL << 10));
+}
+
+bool RedisStore::refused_before(const std::string& id, const std::string& sizes) const {
+    std::lock_guard lock(m_mutex);
+    const auto it = m_refused.find(id);
+    return it != m_refused.end() && it->second == sizes;
+}
+
+void RedisStore::remember_refused(const std::string& id, const std::string& sizes) {
+    std::lock_guard lock(m_mutex);
+    if (m_refused.size() >= kMaxRemembered && !m_refused.count(id))
+        m_refused.erase(m_refused.begin()); // any: a forgotten one costs one read more
+    m_refused[id] = sizes;
+}
+
 Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
     // The values' sizes first: a value past what a texton can hold (100 MB in `file` once cost
     // every request 100 MB, and its slow read called the whole store down) is refused unread,
-    // as damaged, and the store stays up.
-    auto sizes = pipeline({{"HSTRLEN", texton_key(id), "file"},
-                           {"HSTRLEN", texton_key(id), "exemplar"},
-                           {"HSTRLEN", texton_key(id), "meta"}});
+    // as damaged, and the store stays up. A value refused once (by size or checksum) is not read
+    // again while its sizes stay the same.
+    const std::string key = texton_key(id);
+    auto sizes = pipeline({{"HSTRLEN", key, "file"},
+                           {"HSTRLEN", key, "exemplar"},
+                           {"HSTRLEN", key, "meta"},
+                           {"EXISTS", key}});
     if (!sizes) return sizes.error();
-    const long long caps[3] = {kMaxFileBytes, kMaxExemplarBytes, kMaxMetaBytes};
-    const char* names[3] = {"file", "exemplar", "meta"};
-    for (std::size_t i = 0; i < 3; ++i)
-        if (sizes.value()[i]->integer() > caps[i])
-            return make_error(ErrorCode::io, "texton " + id + " in the shared store has a " +
-                                                 names[i] + " of " +
-                                                 std::to_string(sizes.value()[i]->integer()) +
-                                                 " bytes, more than a texton holds (" +
-                                                 std::to_string(caps[i]) + "); it is not read");
-    auto r =
-        command({"HMGET", texton_key(id), "file", "sha256", "exemplar", "exemplar_sha256", "meta"});
+    if (sizes.value()[3]->integer() != 1) return std::optional<Texton>{};
+    const long long len[3] = {sizes.value()[0]->integer(), sizes.value()[1]->integer(),
+                              sizes.value()[2]->integer()};
+    const std::string signature =
+        std::to_string(len[0]) + ":" + std::to_string(len[1]) + ":" + std::to_string(len[2]);
+    auto refuse = [&](const std::string& why) {
+        remember_refused(id, signature);
+        return make_error(ErrorCode::io, "texton " + id + " in the shared store " + why);
+    };
+    if (refused_before(id, signature))
+        return make_error(ErrorCode::io, "texton " + id +
+                                             " in the shared store was refused "
+                                             "before and has not changed; it is not "
+                                             "read again");
+    auto too_big = [&](const char* name, long long n, long long cap) {
+        return refuse("has a " + std::string(name) + " of " + std::to_string(n) +
+                      " bytes, more than it can hold (" + std::to_string(cap) +
+                      "); it is not read");
+    };
+    if (len[0] > kMaxFileBytes) return too_big("file", len[0], kMaxFileBytes);
+    if (len[2] > kMaxMetaBytes) return too_big("meta", len[2], kMaxMetaBytes);
+    // The file and metadata (a few kB) first: the metadata's exemplar size bounds the exemplar.
+    auto r = command({"HMGET", key, "file", "sha256", "meta"});
     if (!r) return r.error();
     const redisReply* a = r.value()->r;
-    if (a->type != REDIS_REPLY_ARRAY || a->elements != 5)
+    if (a->type != REDIS_REPLY_ARRAY || a->elements != 3)
         return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-    std::optional<std::string> fields[5];
-    bool any = false;
-    for (std::size_t i = 0; i < 5; ++i) {
-        fields[i] = Reply::string(a->element[i]);
-        any = any || fields[i];
+    std::optional<std::string> file = Reply::string(a->element[0]);
+    const std::optional<std::string> file_sha = Reply::string(a->element[1]);
+    std::string meta = Reply::string(a->element[2]).value_or("");
+    r.value().reset(); // the reply's copy goes before the exemplar is read
+    if (!file || !file_sha || io::sha256_hex(*file) != *file_sha)
+        return refuse("fails its file checksum (damaged or half-written); it is not served");
+    long long cap = 0;
+    try {
+        const auto j = nlohmann::json::parse(meta).at("exemplar");
+        cap = exemplar_cap(j.at("width").get<long long>(), j.at("height").get<long long>());
+    } catch (const std::exception&) {
+        cap = 0; // no size to bound it by: only an empty exemplar is read
     }
-    if (!any) return std::optional<Texton>{};
-    auto damaged = [&](const char* what) {
-        return make_error(ErrorCode::io, "texton " + id + " in the shared store fails its " + what +
-                                             " checksum (damaged or half-written); it is not "
-                                             "served");
-    };
-    if (!fields[0] || !fields[1] || io::sha256_hex(*fields[0]) != *fields[1])
-        return damaged("file");
-    if (!fields[2] || !fields[3] || io::sha256_hex(*fields[2]) != *fields[3])
-        return damaged("exemplar");
-    return std::optional<Texton>{
-        Texton{std::move(*fields[0]), std::move(*fields[2]), fields[4].value_or("")}};
+    if (len[1] > cap) return too_big("exemplar", len[1], cap);
+    std::string exemplar;
+    if (len[1] > 0) {
+        auto e = command({"HMGET", key, "exemplar", "exemplar_sha256"});
+        if (!e) return e.error();
+        const redisReply* b = e.value()->r;
+        if (b->type != REDIS_REPLY_ARRAY || b->elements != 2)
+            return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
+        auto png = Reply::string(b->element[0]);
+        const auto png_sha = Reply::string(b->element[1]);
+        e.value().reset();
+        if (!png || !png_sha || static_cast<long long>(png->size()) > cap ||
+            io::sha256_hex(*png) != *png_sha)
+            return refuse("fails its exemplar checksum (damaged, half-written or changed while "
+                          "read); it is not served");
+        exemplar = std::move(*png);
+    }
+    return std::optional<Texton>{Texton{std::move(*file), std::move(exemplar), std::move(meta)}};
 }
 
 Result<RedisStore::Presence> RedisStore::presence(const std::string& id) {
@@ -372,20 +424,38 @@ RedisStore::list_meta(const std::string& after, int limit) {
     if (!ids) return ids.error();
     const redisReply* a = ids.value()->r;
     std::vector<std::string> listed;
-    std::vector<std::vector<std::string>> gets;
+    std::vector<std::vector<std::string>> lengths;
     for (std::size_t i = 0; a->type == REDIS_REPLY_ARRAY && i < a->elements; ++i)
         if (auto id = Reply::string(a->element[i])) {
             listed.push_back(*id);
-            gets.push_back({"HGET", texton_key(*id), "meta"});
+            lengths.push_back({"HSTRLEN", texton_key(*id), "meta"});
         }
     std::vector<std::pair<std::string, std::string>> out;
+    if (lengths.empty()) return out;
+    // Each metadata's length before it is read: one over kMaxMetaBytes is skipped unread (100
+    // MB under three ids once cost a list 2.6 s and 500 MB).
+    auto sizes = pipeline(lengths);
+    if (!sizes) return sizes.error();
+    std::vector<std::string> read;
+    std::vector<std::vector<std::string>> gets;
+    for (std::size_t i = 0; i < listed.size(); ++i) {
+        const long long n = sizes.value()[i]->integer();
+        if (n > kMaxMetaBytes) {
+            spdlog::error("store: the metadata of {} in the shared store is {} bytes, over {}; "
+                          "not read, not listed",
+                          listed[i], n, kMaxMetaBytes);
+            continue;
+        }
+        read.push_back(listed[i]);
+        gets.push_back({"HGET", texton_key(listed[i]), "meta"});
+    }
     if (gets.empty()) return out;
     auto metas = pipeline(gets);
     if (!metas) return metas.error();
     for (std::size_t i = 0; i < metas.value().size(); ++i) {
         auto s = Reply::string(metas.value()[i]->r);
         if (s && static_cast<long long>(s->size()) <= kMaxMetaBytes) // deleted meanwhile: skip
-            out.emplace_back(listed[i], std::move(*s));
+            out.emplace_back(read[i], std::move(*s));
     }
     return out;
 }

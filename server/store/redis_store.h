@@ -16,6 +16,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -72,6 +73,10 @@ public:
     static constexpr long long kMaxFileBytes = 8LL << 20;
     static constexpr long long kMaxExemplarBytes = 112LL << 20;
     static constexpr long long kMaxMetaBytes = 1LL << 20;
+    // What the exemplar PNG of a texton whose exemplar is width x height can hold (8-bit, at most
+    // four channels, stored uncompressed at worst); 0 for no exemplar size. The metadata's size
+    // bounds the exemplar that is read: 100 MB under a small texton is refused unread.
+    static long long exemplar_cap(long long width, long long height);
     // Present, deleted (tombstone) or neither (unknown: a copy held only locally).
     enum class Presence { present, deleted, unknown };
     Result<Presence> presence(const std::string& id);
@@ -98,6 +103,11 @@ private:
     void release(std::unique_ptr<Connection> c);
     Error unavailable(const std::string& why);
     void mark(bool up, const std::string& error = {});
+    // A texton refused as damaged is remembered with its values' sizes ("file:exemplar:meta"),
+    // so it is not read again until they change (at most kMaxRemembered ids).
+    bool refused_before(const std::string& id, const std::string& sizes) const;
+    void remember_refused(const std::string& id, const std::string& sizes);
+    static constexpr std::size_t kMaxRemembered = 4096;
 
     const RedisAddress m_address;
     const std::chrono::milliseconds m_timeout;
@@ -107,6 +117,7 @@ private:
     std::optional<bool> m_up; // as the last command found it; unset before the first
     std::string m_last_error = "not connected yet";
     std::string m_write_refusal;
+    std::map<std::string, std::string> m_refused; // id -> sizes when refused
     std::chrono::steady_clock::time_point m_write_refused_at{};
 };
 

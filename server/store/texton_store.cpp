@@ -6,6 +6,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <malloc.h>
+
 namespace textond::store {
 
 TextonStore::TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t prepared_cache,
@@ -129,6 +131,38 @@ Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonM
 }
 
 Result<api::TextonMeta> TextonStore::fetch_shared(const std::string& id) {
+    // One fetch an id at a time: the requests that arrive meanwhile wait for its outcome instead
+    // of each reading the values again (8 tile requests once held 8 copies of a 100 MB value).
+    std::shared_ptr<Fetch> fetch;
+    bool leader = false;
+    {
+        std::lock_guard lock(m_mutex);
+        auto& slot = m_fetching[id];
+        if (!slot) {
+            slot = std::make_shared<Fetch>();
+            leader = true;
+        }
+        fetch = slot;
+    }
+    if (!leader) {
+        std::unique_lock lock(m_mutex);
+        m_fetched.wait(lock, [&] { return fetch->result.has_value(); });
+        return *fetch->result;
+    }
+    auto result = fetch_shared_once(id);
+    {
+        std::lock_guard lock(m_mutex);
+        fetch->result = result;
+        m_fetching.erase(id);
+    }
+    m_fetched.notify_all();
+    // The values were large transient buffers (an exemplar of up to 112 MiB): give the freed
+    // pages back rather than keep them in the arenas.
+    ::malloc_trim(0);
+    return result;
+}
+
+Result<api::TextonMeta> TextonStore::fetch_shared_once(const std::string& id) {
     auto got = m_shared->get(id);
     if (!got) {
         if (got.error().code != ErrorCode::unavailable)
@@ -147,12 +181,27 @@ Result<api::TextonMeta> TextonStore::fetch_shared(const std::string& id) {
     }
     auto w = m_local->write(id, got.value()->file, &got.value()->exemplar_png, provenance);
     if (!w) return w.error();
+    const std::size_t exemplar_bytes = got.value()->exemplar_png.size();
+    got.value().reset();
     {
         std::lock_guard lock(m_mutex);
         m_checked[id] = std::chrono::steady_clock::now();
     }
     auto meta = m_local->meta(id);
     if (!meta) return make_error(ErrorCode::not_found, "no texton " + id);
+    // The exemplar was bounded by the shared store's metadata (text); the verified file's own
+    // exemplar size must bound it too, or the copy is dropped as damaged.
+    if (static_cast<long long>(exemplar_bytes) >
+        RedisStore::exemplar_cap(meta->exemplar_width, meta->exemplar_height)) {
+        (void)m_local->erase(id);
+        forget(id);
+        spdlog::error("store: texton {} in the shared store has an exemplar of {} bytes, more "
+                      "than its {}x{} exemplar holds; not kept",
+                      id, exemplar_bytes, meta->exemplar_width, meta->exemplar_height);
+        return make_error(ErrorCode::io, "texton " + id +
+                                             " in the shared store has an exemplar larger than "
+                                             "it can hold; it is not served");
+    }
     return std::move(*meta);
 }
 

@@ -71,6 +71,7 @@ private:
     TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t prepared_cache,
                 std::unique_ptr<store::RedisStore> shared, std::chrono::milliseconds recheck);
     Result<api::TextonMeta> fetch_shared(const std::string& id);
+    Result<api::TextonMeta> fetch_shared_once(const std::string& id);
     Result<api::TextonMeta> recheck(const std::string& id, api::TextonMeta local);
     // Drops what this object remembers of a texton the directory no longer holds.
     void forget(const std::string& id);
@@ -88,6 +89,12 @@ private:
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked; // against m_shared
     // Most recently used first.
     std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;
+    // Fetches from the shared store in flight, one an id (fetch_shared): m_mutex guards them.
+    struct Fetch {
+        std::optional<Result<api::TextonMeta>> result;
+    };
+    std::map<std::string, std::shared_ptr<Fetch>> m_fetching;
+    std::condition_variable m_fetched;
     std::mutex m_sweep_mutex;
     std::condition_variable m_sweep_cv;
     bool m_stopping = false;

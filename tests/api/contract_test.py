@@ -17,7 +17,6 @@ Prints a line per operation and "N passed, M failed" (N, M: operations); exits n
 failure. Uses Debian's python3-yaml and python3-jsonschema.
 """
 import http.client
-import io
 import itertools
 import json
 import os
@@ -27,7 +26,6 @@ import subprocess
 import sys
 import tempfile
 import threading
-import uuid
 from concurrent.futures import ThreadPoolExecutor
 
 import jsonschema
@@ -35,26 +33,12 @@ import yaml
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from png_bytes import pattern_png, rgba_png  # noqa: E402
+from form_bytes import multipart  # noqa: E402
 
 MAPS = ["albedo", "height", "roughness", "ao", "metallic"]
 CLIENTS = 4
 # Numbers whose maximum is a cost, not a value to try (16384 x 16384 regions).
 COSTLY = {"w", "h", "width", "height", "limit"}
-
-
-def multipart(parts):
-    """parts: [(name, bytes or str, filename or None)] in order."""
-    boundary = uuid.uuid4().hex
-    out = io.BytesIO()
-    for name, data, filename in parts:
-        out.write(f"--{boundary}\r\nContent-Disposition: form-data; name=\"{name}\"".encode())
-        if filename:
-            out.write(f"; filename=\"{filename}\"\r\nContent-Type: image/png".encode())
-        out.write(b"\r\n\r\n")
-        out.write(data if isinstance(data, bytes) else data.encode())
-        out.write(b"\r\n")
-    out.write(f"--{boundary}--\r\n".encode())
-    return out.getvalue(), {"Content-Type": f"multipart/form-data; boundary={boundary}"}
 
 
 class Contract:

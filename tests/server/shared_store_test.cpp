@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -351,6 +352,70 @@ TEST(SharedStore, AHugeValueInRedisIsRefusedUnreadAndTheStoreStaysUp) {
     // The store is up: the other texton reaches b, and readiness is not degraded.
     EXPECT_EQ(status_of(b, "/v1/textons/" + id2 + "/tiles/0/0/0.png"), 200);
     EXPECT_EQ(metric(b, "textond_shared_store_up"), 1.0);
+}
+
+// Issue 43 item 4: every value's size is checked before it is read, against what it holds. A 100
+// MB `meta` under three ids is skipped unread by the list; a 100 MB `exemplar` (under the 112 MiB
+// cap of any exemplar, but over what this exemplar's PNG can hold) is refused unread by
+// eight concurrent tile requests; and memory does not stay up afterwards.
+TEST(SharedStore, EveryValueIsBoundedByWhatItHoldsBeforeItIsRead) {
+    RedisProcess redis(fresh_dir("shared-v-redis"));
+    std::vector<std::string> ids;
+    {
+        ServerProcess a(fresh_dir("shared-v-1"), replica_args(redis));
+        auto ca = a.client();
+        for (const char* name :
+             {"etr_sand01.png", "etr_pave02.png", "etr_pebbles04.png", "etr_floor01.png"})
+            ids.push_back(upload(ca, name, "?size=16&iterations=5"));
+    }
+    ServerProcess b(fresh_dir("shared-v-2"), replica_args(redis));
+    const double idle = rss_mb(b.pid());
+    const std::string huge(100u << 20, '{');
+    for (int i = 0; i < 3; ++i) redis.cli({"-x", "HSET", texton_key(ids[i]), "meta"}, huge);
+    auto list = get(b, "/v1/textons");
+    ASSERT_TRUE(list);
+    EXPECT_EQ(list->status, 200) << list->body.substr(0, 300);
+    EXPECT_EQ(json::parse(list->body).at("items").size(), 1u) << "the huge metadata was listed";
+    EXPECT_LT(rss_mb(b.pid()) - idle, 50.0) << "the list read the huge metadata";
+
+    const std::string victim = ids[3];
+    const std::string bigpng(100u << 20, 'p');
+    redis.cli({"-x", "HSET", texton_key(victim), "exemplar"}, bigpng);
+    redis.cli({"HSET", texton_key(victim), "exemplar_sha256", io::sha256_hex(bigpng)});
+    double peak = 0;
+    std::atomic<bool> sampling{true};
+    std::thread sampler([&] {
+        while (sampling) {
+            peak = std::max(peak, rss_mb(b.pid()));
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+    });
+    std::vector<std::future<int>> tiles;
+    for (int i = 0; i < 8; ++i)
+        tiles.push_back(std::async(std::launch::async, [&, i] {
+            return status_of(b,
+                             "/v1/textons/" + victim + "/tiles/0/0/" + std::to_string(i) + ".png");
+        }));
+    for (auto& t : tiles) EXPECT_EQ(t.get(), 500);
+    sampling = false;
+    sampler.join();
+    EXPECT_LT(peak - idle, 60.0) << "the exemplar was read";
+    auto meta = get(b, "/v1/textons/" + victim);
+    ASSERT_TRUE(meta);
+    EXPECT_EQ(meta->status, 500);
+    EXPECT_NE(meta->body.find("not read"), std::string::npos) << meta->body;
+    EXPECT_EQ(metric(b, "textond_shared_store_up"), 1.0);
+}
+
+// The exemplar a texton's size allows: an 8-bit PNG of four channels stored uncompressed at worst,
+// never more than the cap of any exemplar.
+TEST(RedisStore, ExemplarCapFitsWhatTheExemplarHolds) {
+    EXPECT_EQ(store::RedisStore::exemplar_cap(0, 64), 0);
+    EXPECT_GE(store::RedisStore::exemplar_cap(64, 64), 64 * 64 * 4 + 64);
+    EXPECT_LT(store::RedisStore::exemplar_cap(64, 64), 100 << 10);
+    EXPECT_GE(store::RedisStore::exemplar_cap(4096, 4096), 4096LL * 4096 * 3);
+    EXPECT_EQ(store::RedisStore::exemplar_cap(1 << 20, 1 << 20),
+              store::RedisStore::kMaxExemplarBytes);
 }
 
 TEST(SharedStore, DeletesReachEveryReplicaAndAFlushedRedisIsRefilled) {
