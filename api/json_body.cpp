@@ -2,7 +2,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
 namespace textond::api {
 
@@ -37,10 +39,26 @@ struct BoundedSax : json::json_sax_t {
     bool number_float(number_float_t, const string_t&) override { return value(); }
     bool string(string_t&) override { return value(); }
     bool binary(binary_t&) override { return value(); }
-    bool start_object(std::size_t) override { return open(); }
-    bool key(string_t&) override { return value(); }
+    bool start_object(std::size_t) override {
+        m_keys.emplace_back();
+        return open();
+    }
+    // A key given twice in one object: nlohmann would keep the last, so a body would mean
+    // something else than what a reader of its first occurrence sees.
+    bool key(string_t& k) override {
+        if (!value()) return false;
+        if (m_keys.empty()) return true;
+        std::vector<std::string>& seen = m_keys.back();
+        if (std::find(seen.begin(), seen.end(), k) != seen.end()) {
+            fail("invalid_body", "key '" + k.substr(0, 40) + "' given twice in one object");
+            return false;
+        }
+        seen.push_back(k);
+        return true;
+    }
     bool end_object() override {
         --depth;
+        if (!m_keys.empty()) m_keys.pop_back();
         return true;
     }
     bool start_array(std::size_t) override { return open(); }
@@ -61,6 +79,7 @@ private:
     const int m_max_depth;
     const std::size_t m_max_values;
     std::size_t m_values = 0;
+    std::vector<std::vector<std::string>> m_keys; // of each open object
 };
 
 // Depth 1: the object; 2: the points or normals array; 3: one point.

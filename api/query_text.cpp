@@ -1,7 +1,9 @@
 #include "api/query_text.h"
 
 #include <algorithm>
+#include <cctype>
 #include <string>
+#include <vector>
 
 namespace textond::api {
 
@@ -14,6 +16,83 @@ std::optional<ApiError> check_query_text(std::string_view query) {
             return ApiError{"invalid_parameter",
                             "query item '" + std::string(item.substr(0, 60)) +
                                 "' has more than one '=' (write one in a value as %3D)"};
+        at = amp + 1;
+    }
+    return std::nullopt;
+}
+
+namespace {
+
+bool unreserved(char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' ||
+           c == '.' || c == '_' || c == '~';
+}
+
+int hex_value(char c) {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    return -1;
+}
+
+ApiError non_canonical(const std::string& why) {
+    return ApiError{"non_canonical_url", why + ": each answer has one URL, so that caches keep "
+                                               "one copy of it"};
+}
+
+// The target's percent-encodings: uppercase, and only of what must be encoded.
+std::optional<ApiError> check_percent_encodings(std::string_view target) {
+    for (std::size_t i = 0; i < target.size(); ++i) {
+        if (target[i] != '%') continue;
+        const int hi = i + 1 < target.size() ? hex_value(target[i + 1]) : -1;
+        const int lo = i + 2 < target.size() ? hex_value(target[i + 2]) : -1;
+        if (hi < 0 || lo < 0)
+            return ApiError{"invalid_parameter", "a '%' in the URL is not followed by two hex "
+                                                 "digits (write a '%' as %25)"};
+        const std::string spelled(target.substr(i, 3));
+        const char decoded = static_cast<char>(hi * 16 + lo);
+        if (unreserved(decoded))
+            return non_canonical("'" + spelled + "' in the URL encodes '" +
+                                 std::string(1, decoded) + "': write '" + std::string(1, decoded) +
+                                 "' itself");
+        if (std::islower(static_cast<unsigned char>(target[i + 1])) ||
+            std::islower(static_cast<unsigned char>(target[i + 2]))) {
+            std::string upper = spelled;
+            for (char& c : upper)
+                c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+            return non_canonical("'" + spelled + "' in the URL: write '" + upper +
+                                 "' (uppercase hex digits)");
+        }
+        i += 2;
+    }
+    return std::nullopt;
+}
+
+} // namespace
+
+std::optional<ApiError> check_target_text(std::string_view target) {
+    if (auto e = check_percent_encodings(target)) return e;
+    const std::size_t q = target.find('?');
+    if (q == std::string_view::npos) return std::nullopt;
+    const std::string_view query = target.substr(q + 1);
+    if (auto e = check_query_text(query)) return e;
+    if (query.empty()) return non_canonical("an empty query: leave the '?' out");
+    std::vector<std::string_view> names;
+    std::size_t at = 0;
+    for (;;) {
+        const std::size_t amp = std::min(query.find('&', at), query.size());
+        const std::string_view item = query.substr(at, amp - at);
+        if (item.empty())
+            return non_canonical("the query has an empty item (a leading, trailing or doubled "
+                                 "'&')");
+        const std::string_view name = item.substr(0, item.find('='));
+        if (std::find(names.begin(), names.end(), name) != names.end())
+            return ApiError{"invalid_parameter",
+                            "parameter '" + std::string(name.substr(0, 40)) +
+                                "' is given more than once (even with one value: each answer "
+                                "has one URL, so that caches keep one copy of it)"};
+        names.push_back(name);
+        if (amp == query.size()) break;
         at = amp + 1;
     }
     return std::nullopt;

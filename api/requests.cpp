@@ -75,6 +75,22 @@ std::optional<ApiError> int_field(const Query& q, const char* name, std::int64_t
     return std::nullopt;
 }
 
+// A number of a form or query field in its one spelling (parse_decimal: no '+', leading zeros,
+// spaces, hex, exponent, '-0' or trailing fractional zeros), as a tile's numbers are: a mix's or
+// splat's placement names its id, so "07", "+7" and "7." would be other ids for one placement.
+std::optional<ApiError> decimal_field(const Query& q, const char* name, double& out) {
+    const std::string* s = field(q, name);
+    if (!s) return std::nullopt;
+    auto v = parse_decimal(*s);
+    if (!v)
+        return bad("invalid_parameter", std::string(name) +
+                                            " must be a finite number in its one "
+                                            "spelling, not '" +
+                                            s->substr(0, 40) + "'" + canonical_hint(*s));
+    out = *v;
+    return std::nullopt;
+}
+
 std::optional<ApiError> format_of(std::string_view ext, ImageFormat& out) {
     auto f = parse_image_format(ext);
     if (!f)
@@ -499,11 +515,7 @@ std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out
                              {"dy", &out.field.dy},
                              {"width", &out.field.width},
                              {"scale", &out.field.scale}})
-        if (const std::string* s = field(q, name)) {
-            auto d = parse_finite(*s);
-            if (!d) return bad("invalid_parameter", std::string(name) + " must be a finite number");
-            *dst = *d;
-        }
+        if (auto e = decimal_field(q, name, *dst)) return e;
     if (out.field.kind == core::MixField::Kind::mask) return std::nullopt; // mask checked later
     if (auto err = out.field.validate()) return bad("invalid_parameter", err->message);
     return std::nullopt;
@@ -627,11 +639,7 @@ std::optional<ApiError> parse_splat(const Query& q, int weight_images, SplatRequ
     for (auto [name, dst] : {std::pair<const char*, double*>{"x0", &out.weights.image.x0},
                              {"y0", &out.weights.image.y0},
                              {"scale", &out.weights.image.scale}})
-        if (const std::string* s = field(q, name)) {
-            auto d = parse_finite(*s);
-            if (!d) return bad("invalid_parameter", std::string(name) + " must be a finite number");
-            *dst = *d;
-        }
+        if (auto e = decimal_field(q, name, *dst)) return e;
     if (layers > 4 && weight_images < 2)
         return bad("invalid_parameter", "layers 5 to 8 take their weights from 'weights2' (RGBA "
                                         "holds four)");

@@ -37,13 +37,17 @@ std::optional<Error> SplatWeights::validate(int layers) const {
         return bad("a splat has 2 to 8 layers");
     if (kind == Kind::image) {
         const SplatImage& s = image;
-        const double lim = 4611686018427387904.0; // 2^62, the plane
-        if (!std::isfinite(s.x0) || !std::isfinite(s.y0) || std::fabs(s.x0) > lim ||
-            std::fabs(s.y0) > lim)
-            return bad("the weights' origin must be finite and within the plane (|x|, |y| <= "
-                       "2^62)");
+        // The weights lie within half the plane (|x|, |y| <= 2^61 texels, render/NOISE_SPEC.md),
+        // so that every window of them, the report's which shows them whole included, lies
+        // within the plane (a splat at x0 = 2^62 was made, and its own quality link was 400).
+        const double lim = 2305843009213693952.0; // 2^61
         if (!std::isfinite(s.scale) || s.scale < 1.0 / 16 || s.scale > 1e9)
             return bad("scale must be in [1/16, 1e9] texels per weight pixel");
+        const double w = s.weights.width * s.scale, h = s.weights.height * s.scale;
+        if (!std::isfinite(s.x0) || !std::isfinite(s.y0) || s.x0 < -lim || s.y0 < -lim ||
+            s.x0 + w > lim || s.y0 + h > lim)
+            return bad("the weights must lie within |x|, |y| <= 2^61 texels (x0 and y0 place "
+                       "their corner; width and height times scale their extent)");
         if (std::int64_t{s.weights.width} * s.weights.height > kMaxSplatWeightPixels)
             return bad("a weight image has at most 2048 x 2048 = 4194304 pixels");
         if (s.weights.width < 1 || s.weights.height < 1 || s.weights.channels != layers)

@@ -99,9 +99,16 @@ std::optional<Error> PreparedTexton::check(const NoiseRequest& q) const {
     if (!inside(q.x0, q.width) || !inside(q.y0, q.height))
         return bad("window outside the plane: |x|, |y| must stay within 2^62 texels (" +
                    std::to_string(bound) + " pixels at level " + std::to_string(q.level) + ")");
+    // The true reason: a material set keeps none (its analysis makes the joint Gaussian model
+    // alone), and a texton of one exemplar has them from the version that began keeping them.
     if (q.marginals == Marginals::exemplar && m_texton.marginals.empty())
-        return bad("marginals=exemplar needs the exemplar's marginals, which this texton does not "
-                   "keep (analysed before they were kept); use marginals=gaussian");
+        return bad(m_set || !m_texton.maps.empty()
+                       ? "marginals=exemplar is for textons of one exemplar: a material set's "
+                         "maps are analysed as one joint Gaussian model, without exemplar "
+                         "marginals; use marginals=gaussian"
+                       : "marginals=exemplar needs the exemplar's marginals, which this texton "
+                         "does not keep (analysed before they were kept); use "
+                         "marginals=gaussian");
     const bool tileable = q.period[0] != 0 || q.period[1] != 0;
     if (tileable) {
         if (q.period[0] < 1 || q.period[1] < 1 || q.period[0] > (1 << 20) ||

@@ -204,12 +204,12 @@ TextonService::ingest_set(const std::vector<MapUpload>& maps, const core::Analys
             std::vector<MapUpload> again;
             for (const auto& [name, bytes] : *kept) again.push_back({name, bytes});
             core::Image u;
-            std::vector<api::MapMeta> meta;
-            if (auto refused = stack_maps(again, limits, u, meta)) return refused->error;
-            auto record = analyse_set(u, meta, params, progress);
+            std::vector<api::MapMeta> layout;
+            if (auto refused = stack_maps(again, limits, u, layout)) return refused->error;
+            auto record = analyse_set(u, layout, params, progress);
             if (!record) return record.error();
             return Analysed{std::move(record.value()),
-                            core::channel_planes(u, meta[0].first, meta[0].channels)};
+                            core::channel_planes(u, layout[0].first, layout[0].channels)};
         });
     return out;
 }

@@ -13,9 +13,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <future>
 #include <iostream>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <thread>
@@ -125,8 +125,8 @@ alternating projections and prints a JSON summary (id, RME, mean, timings) on st
 Many exemplars in one process (several EXEMPLARs, --from-list, --jobs, or -o naming a directory
 or ending in /): each texton
 goes to DIR/NAME.exr (NAME from the exemplar's file name), and each exemplar gets one JSON line
-on stdout, in the order given: its summary, or {"exemplar": {"path"}, "error": {"code",
-"message"}}. A bad file does not stop the others; the exit status is 1 if any failed.
+on stdout as soon as it is done (with --jobs, not in the order given): its summary, or
+{"exemplar": {"path"}, "error": {"code", "message"}}, both naming the exemplar's path. A bad file does not stop the others; the exit status is 1 if any failed.
   --from-list FILE      also the exemplars named in FILE, one path a line ("-": stdin; blank
                         lines and lines starting with # are skipped)
   --jobs N              exemplars analysed at once, 1..64; each gets --threads, or its share
@@ -209,40 +209,38 @@ std::optional<std::string> overwrites_an_input(const std::vector<std::string>& i
     return std::nullopt;
 }
 
-// Analyses paths[i] into outputs[i] on `jobs` threads and prints a line each in the given order;
-// 1 if any failed.
+// Analyses paths[i] into outputs[i] on `jobs` threads and prints each file's line as soon as it
+// is done (the line names its exemplar), so that a batch stopped by Ctrl-C has printed a line for
+// every file it finished; 1 if any failed.
 int run_batch(const std::vector<std::string>& paths, const std::vector<std::string>& outputs,
               const core::AnalysisParams& params, const io::DecodeLimits& limits, int jobs) {
-    std::vector<std::promise<std::pair<nlohmann::json, bool>>> promises(paths.size());
-    std::vector<std::future<std::pair<nlohmann::json, bool>>> results;
-    results.reserve(promises.size());
-    for (auto& p : promises) results.push_back(p.get_future());
     std::atomic<std::size_t> next{0};
+    std::atomic<bool> failed{false};
+    std::mutex print;
     auto work = [&] {
         for (std::size_t i; (i = next++) < paths.size();) {
+            std::pair<nlohmann::json, bool> done;
             try {
-                promises[i].set_value(analyse_one(paths[i], outputs[i], params, limits));
+                done = analyse_one(paths[i], outputs[i], params, limits);
             } catch (const std::exception& e) { // out of memory, say: this file fails
-                promises[i].set_value({error_line(paths[i], "internal", e.what()), false});
+                done = {error_line(paths[i], "internal", e.what()), false};
             } catch (...) {
-                promises[i].set_value({error_line(paths[i], "internal", "unknown error"), false});
+                done = {error_line(paths[i], "internal", "unknown error"), false};
             }
+            if (!done.second) failed = true;
+            // A path need not be UTF-8: replaced, not thrown.
+            const std::string line =
+                done.first.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+            std::lock_guard lock(print);
+            std::printf("%s\n", line.c_str());
+            std::fflush(stdout);
         }
     };
-    std::vector<std::thread> workers; // this thread prints each line as soon as it is ready
+    std::vector<std::thread> workers;
     for (int w = 0; w < std::min<int>(jobs, static_cast<int>(paths.size())); ++w)
         workers.emplace_back(work);
-    int status = 0;
-    for (auto& r : results) {
-        const auto [line, ok] = r.get();
-        // A path need not be UTF-8: replaced, not thrown.
-        std::printf("%s\n",
-                    line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
-        std::fflush(stdout);
-        if (!ok) status = 1;
-    }
     for (auto& t : workers) t.join();
-    return status;
+    return failed ? 1 : 0;
 }
 
 int analyze_many(const Args& a, core::AnalysisParams params, const io::DecodeLimits& limits) {

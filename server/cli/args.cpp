@@ -58,7 +58,7 @@ Result<double> Args::get_double(const std::string& name, double fallback, double
 
 Result<Args> parse_args(const std::vector<std::string>& argv,
                         const std::set<std::string>& value_options,
-                        const std::set<std::string>& flag_options) {
+                        const std::set<std::string>& flag_options, bool each_once) {
     Args a;
     for (std::size_t i = 0; i < argv.size(); ++i) {
         std::string s = argv[i];
@@ -81,6 +81,10 @@ Result<Args> parse_args(const std::vector<std::string>& argv,
                         return make_error(ErrorCode::invalid_argument, s + " needs a value");
                     value = argv[++i];
                 }
+                // One value an option: "--encoding terrarium --encoding mapbox" is refused, as
+                // a URL naming a field twice is.
+                if (each_once && a.options.count(s))
+                    return make_error(ErrorCode::invalid_argument, s + " is given twice");
                 a.options[s] = value;
             } else {
                 return make_error(ErrorCode::invalid_argument, "unknown option " + s);

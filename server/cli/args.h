@@ -25,9 +25,11 @@ struct Args {
 };
 
 // `value_options` take a value; `flag_options` do not. Names include the dashes ("--size");
-// "-o" is accepted as an alias of "--output".
+// "-o" is accepted as an alias of "--output". A value option given twice: the last wins (serve's
+// flags override its TEXTOND_* environment), or, with `each_once` (options that are a URL's
+// fields, as export's), an error.
 Result<Args> parse_args(const std::vector<std::string>& argv,
                         const std::set<std::string>& value_options,
-                        const std::set<std::string>& flag_options);
+                        const std::set<std::string>& flag_options, bool each_once = false);
 
 } // namespace textond::cli

@@ -42,8 +42,8 @@ const char* kHelp =
 Writes the web-map tiles of TEXTON (a texton file: `textond analyze -o`, or a service's
 /v1/textons/{id}/texton.exr) over a box of the plane into one archive: MBTiles 1.3 (SQLite) or
 PMTiles v3 (one file a browser reads by range requests). Each tile has the bytes of the
-service's /v1/textons/{id}/map/{z}/{x}/{y} with the same options (and the same --png-compression:
-serve stores PNGs, level 0, by default). Tiles render in parallel into
+service's /v1/textons/{id}/map/{z}/{x}/{y} with the same options and --png-compression (both
+store PNGs, level 0, by default). Tiles render in parallel into
 OUT.partial; run the same command again after an interruption and it resumes from there.
 
   --zooms A-B         map zooms, 0..24 (level = 24 - zoom; 24: one texel per pixel)
@@ -55,7 +55,7 @@ OUT.partial; run the same command again after an interruption and it resumes fro
   --seed N, --mni M, --marginals gaussian|exemplar, --map NAME, --strength S, --light AZ,EL,
   --encoding terrarium|mapbox, --height_scale METRES (elevation tiles of --map height)
                       the noise, as the tile URLs take them (api/README.md "HTTP API")
-  --png-compression N zlib level of PNG tiles, 0..9           [1]
+  --png-compression N zlib level of PNG tiles, 0..9           [0, as serve]
   --jobs N            tiles rendered at once, 1..64           [one per core]
   --backend B         auto | cpu | osmesa | egl               [auto]
   --quiet             no progress bar
@@ -72,7 +72,7 @@ extern "C" void on_interrupt(int sig) {
 struct Options {
     std::string texton, output, archive, ext = "png";
     api::Query query;
-    int png_compression = 1, jobs = 1, tile_size = 256;
+    int png_compression = 0, jobs = 1, tile_size = 256;
     render::BackendKind backend = render::BackendKind::automatic;
     bool quiet = false;
 };
@@ -135,7 +135,7 @@ Result<Options> options_from(const Args& a) {
         return make_error(ErrorCode::invalid_argument, "--tile-size is 256 or 512");
     o.tile_size = static_cast<int>(size.value());
     o.query.emplace("size", std::to_string(o.tile_size));
-    auto level = a.get_int("--png-compression", 1, 0, 9);
+    auto level = a.get_int("--png-compression", 0, 0, 9);
     if (!level) return level.error();
     o.png_compression = static_cast<int>(level.value());
     const long long cores = std::max(1U, std::thread::hardware_concurrency());
@@ -508,7 +508,7 @@ int export_command(const Argv& argv) {
         "--zooms",   "--bbox",      "--format",          "--output", "--tile-format",
         "--quality", "--tile-size", "--png-compression", "--jobs",   "--backend"};
     for (const std::string& f : api::noise_field_names(api::kTileRoute)) options.insert("--" + f);
-    auto a = parse_args(argv, options, {"--help", "--quiet"});
+    auto a = parse_args(argv, options, {"--help", "--quiet"}, true);
     if (!a) return fail(2, a.error().message);
     if (a.value().flags.count("--help")) {
         std::fputs(kHelp, stdout);

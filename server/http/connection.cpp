@@ -300,7 +300,11 @@ bool ConnectionStream::body_complete() const {
     return m_chunked ? m_chunk == Chunk::done : m_phase_bytes >= m_expected;
 }
 
-bool ConnectionStream::next_request(milliseconds timeout, const std::function<bool()>& stop) {
+bool ConnectionStream::next_request(milliseconds timeout, const std::function<bool()>& stop,
+                                    const std::function<int()>& crowd) {
+    const bool fresh = m_requests++ == 0;
+    const auto queued = current_task_queued_at();
+    const auto arrived = queued == Clock::time_point{} ? Clock::now() : queued;
     m_phase = Phase::idle;
     m_phase_bytes = 0;
     m_expected = 0;
@@ -319,7 +323,11 @@ bool ConnectionStream::next_request(milliseconds timeout, const std::function<bo
             if (stop()) return false;
             const auto left = std::chrono::duration_cast<milliseconds>(end - Clock::now());
             if (left <= milliseconds(0)) return false;
-            if (wait(POLLIN, std::min(left, milliseconds(250)))) break;
+            if (crowd && crowd() > 0 && !(fresh && Clock::now() < arrived + kNewConnectionGrace)) {
+                if (wait(POLLIN, milliseconds(0))) break; // a request is already here
+                return false;
+            }
+            if (wait(POLLIN, std::min(left, milliseconds(crowd ? 50 : 250)))) break;
         }
         if (stop()) return false;
     }
@@ -361,10 +369,13 @@ std::pair<int, std::size_t> send_connection_error(ConnectionStream& strm, const 
                                          : "Bad Request";
     const std::string body = std::string(R"({"error": {"code": ")") + code + R"(", "message": ")" +
                              message + R"("}, "request_id": ")" + id + "\"}";
-    const std::string head =
+    std::string head =
         "HTTP/1.1 " + std::to_string(status) + " " + reason +
         "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) +
-        "\r\nCache-Control: no-store\r\nX-Request-Id: " + id + "\r\nConnection: close\r\n\r\n";
+        "\r\nCache-Control: no-store\r\nX-Request-Id: " + id + "\r\nConnection: close\r\n";
+    for (const auto& [name, value] : security_headers())
+        head += std::string(name) + ": " + value + "\r\n";
+    head += "\r\n";
     const std::string all = head + body;
     // Straight to the socket, once, without waiting: the client is misbehaving already.
     const ssize_t n = ::send(strm.socket(), all.data(), all.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
@@ -410,7 +421,7 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
     const auto stopping = [this] { return !m_standalone && svr_sock_ == INVALID_SOCKET; };
     bool ok = false;
     for (int left = limits.keep_alive_max; left > 0; --left) {
-        if (!strm.next_request(limits.keep_alive_timeout, stopping)) break;
+        if (!strm.next_request(limits.keep_alive_timeout, stopping, crowd)) break;
         bool closed = false;
         ok = process_request(strm, left == 1, closed, nullptr);
         answer_failure(strm);
@@ -424,6 +435,14 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
     ::shutdown(sock, SHUT_RDWR);
     ::close(sock);
     return ok;
+}
+
+namespace {
+thread_local std::chrono::steady_clock::time_point t_task_queued_at{};
+} // namespace
+
+std::chrono::steady_clock::time_point current_task_queued_at() {
+    return t_task_queued_at;
 }
 
 ElasticThreadPool::ElasticThreadPool(std::size_t core, std::size_t max)
@@ -446,7 +465,8 @@ void ElasticThreadPool::start_thread_locked() {
 
 void ElasticThreadPool::enqueue(std::function<void()> fn) {
     std::lock_guard lock(m_mutex);
-    m_queue.push_back(std::move(fn));
+    m_queue.emplace_back(std::move(fn), std::chrono::steady_clock::now());
+    m_waiting.store(m_queue.size(), std::memory_order_relaxed);
     if (m_idle < m_queue.size() && m_threads < m_max) start_thread_locked();
     m_work.notify_one();
 }
@@ -455,18 +475,22 @@ void ElasticThreadPool::worker(bool core) {
     std::unique_lock lock(m_mutex);
     for (;;) {
         ++m_idle;
-        const bool woke = m_work.wait_for(lock, std::chrono::seconds(60),
+        const bool woke = m_work.wait_for(lock, std::chrono::seconds(10),
                                           [this] { return m_shutdown || !m_queue.empty(); });
         --m_idle;
         if (m_queue.empty()) {
             if (m_shutdown || (!woke && !core)) break;
             continue;
         }
-        std::function<void()> fn = std::move(m_queue.front());
+        std::function<void()> fn = std::move(m_queue.front().first);
+        t_task_queued_at = m_queue.front().second;
         m_queue.pop_front();
+        m_waiting.store(m_queue.size(), std::memory_order_relaxed);
+        m_busy.fetch_add(1, std::memory_order_relaxed);
         lock.unlock();
         fn();
         lock.lock();
+        m_busy.fetch_sub(1, std::memory_order_relaxed);
     }
     --m_threads;
     m_exited.notify_all();

@@ -61,8 +61,13 @@ public:
     int socket() const override { return m_sock; }
 
     // Waits up to `timeout` for the first byte of the next request (buffered bytes of a
-    // pipelined one count), giving up early when `stop` turns true. Then the head phase starts.
-    bool next_request(std::chrono::milliseconds timeout, const std::function<bool()>& stop);
+    // pipelined one count), giving up early when `stop` turns true, or when the threads run
+    // short (`crowd`, ElasticThreadPool::crowd) while nothing has come: an idle connection gives
+    // its thread up first. A new connection has kNewConnectionGrace from its accept (time spent
+    // waiting for a thread included) for its first bytes. Then the head phase starts.
+    bool next_request(std::chrono::milliseconds timeout, const std::function<bool()>& stop,
+                      const std::function<int()>& crowd = {});
+    static constexpr std::chrono::milliseconds kNewConnectionGrace{100};
     // The head has been parsed (pre-routing): from here on bytes count against the body.
     void begin_body();
     // What the head said of the body: `length` bytes, or chunked. The connection closes after
@@ -133,6 +138,7 @@ private:
     bool m_close = false;
     std::size_t m_written = 0;
     bool m_write_failed = false;
+    int m_requests = 0; // begun on this connection
 };
 
 // The connection the calling thread is serving (null outside a request): the routes use it to
@@ -157,12 +163,27 @@ std::pair<int, std::size_t> send_connection_error(ConnectionStream& strm, const 
 // a thread without sending (slowloris) do not stop new clients from being served; extra threads
 // end after a minute idle. cpp-httplib's ThreadPool is fixed-size: 128 slow clients took every
 // one of its threads.
+//
+// Idle connections (keep-alive, or open and silent) hold a thread each while they wait for a
+// request: 1,100 of them, reopened as they closed, took every thread and kept /healthz waiting
+// 4-5 s. When the pool is crowded (a connection is waiting for a thread, or three quarters of
+// `max` are busy) an idle connection is closed instead (crowd(); ConnectionStream::next_request
+// says when); one with a request in flight never is. Extra threads end after 10 s idle.
+// When the task running on this thread was queued (accepted, for a connection); epoch if none.
+std::chrono::steady_clock::time_point current_task_queued_at();
+
 class ElasticThreadPool final : public httplib::TaskQueue {
 public:
     ElasticThreadPool(std::size_t core, std::size_t max);
     ~ElasticThreadPool() override;
     void enqueue(std::function<void()> fn) override;
     void shutdown() override;
+    // Whether idle connections should give their threads up now: 2 when connections wait for a
+    // thread, 1 when three quarters of the threads are busy, else 0.
+    int crowd() const {
+        if (m_waiting.load(std::memory_order_relaxed) > 0) return 2;
+        return m_busy.load(std::memory_order_relaxed) * 4 >= m_max * 3 ? 1 : 0;
+    }
 
 private:
     void start_thread_locked();
@@ -172,8 +193,9 @@ private:
     std::mutex m_mutex;
     std::condition_variable m_work;
     std::condition_variable m_exited;
-    std::deque<std::function<void()>> m_queue;
+    std::deque<std::pair<std::function<void()>, std::chrono::steady_clock::time_point>> m_queue;
     std::size_t m_threads = 0, m_idle = 0;
+    std::atomic<std::size_t> m_waiting{0}, m_busy{0}; // queued connections, threads serving one
     bool m_shutdown = false;
 };
 
@@ -184,6 +206,8 @@ class HttpServer : public httplib::Server {
 public:
     socket_t listening_socket() const { return svr_sock_; }
     ConnectionLimits limits; // set before listening
+    // Says when an idle connection should close to free its thread (the pool's crowd()).
+    std::function<int()> crowd;
     // The access log and metrics of a request answered by the connection loop itself (408, 413,
     // 431, a broken chunked body): status, bytes sent, request id.
     std::function<void(int, std::size_t, const std::string&)> on_connection_error;

@@ -21,6 +21,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"map_size_mismatch", 400},
         {"bad_request", 400},
         {"bad_framing", 400},
+        {"non_canonical_url", 400},
         {"unsupported_transfer_encoding", 400},
         {"invalid_body", 400},
         {"unauthorized", 401},

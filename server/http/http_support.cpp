@@ -205,4 +205,16 @@ bool authorised(const std::string& api_key, const httplib::Request& req, httplib
     return false;
 }
 
+const std::vector<std::pair<const char*, const char*>>& security_headers() {
+    static const std::vector<std::pair<const char*, const char*>> headers = {
+        {"X-Content-Type-Options", "nosniff"},
+        {"Referrer-Policy", "no-referrer"},
+        {"X-Frame-Options", "DENY"},
+        {"Content-Security-Policy",
+         "default-src 'self'; img-src 'self' data: blob:; style-src 'self' 'unsafe-inline'; "
+         "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'"},
+    };
+    return headers;
+}
+
 } // namespace textond::http

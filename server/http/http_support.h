@@ -30,9 +30,10 @@ struct RequestContext {
 };
 RequestContext& current_request();
 // Cache-Control of what a DELETE takes away and that is not content-addressed noise (the
-// exemplar, the texton's files): a minute in any cache, the edge's included. Noise images are
-// immutable and stay in caches until they expire (deploy/README.md "Run at scale").
-inline constexpr const char* kDeletableFor = "public, max-age=60";
+// exemplar, the texton's files, the engine kit): revalidated on every use, so no cache, the
+// edge's included, serves one after its texton is deleted (a minute's max-age did). Noise images
+// are immutable and stay in caches until they expire (deploy/README.md "Run at scale").
+inline constexpr const char* kDeletableFor = "no-cache";
 // cpp-httplib 0.11 applies a Range to a body without fitting it (bytes=0-99999999 of a 100 kB
 // body read past its end from a content provider, and named a false Content-Range otherwise):
 // the request's ranges are made to fit `size` here, suffix and open ranges resolved, and a Range
@@ -69,5 +70,9 @@ bool authorised(const std::string& api_key, const httplib::Request& req, httplib
 
 // "a, b,c" -> {"a", "b", "c"}: spaces trimmed, empty items dropped (--formats, --cors-origin).
 std::vector<std::string> split_list(std::string_view s);
+
+// The headers every answer carries (the page framed or sniffed; deploy/README.md "Hostile
+// clients"), the connection's own canned answers included.
+const std::vector<std::pair<const char*, const char*>>& security_headers();
 
 } // namespace textond::http

@@ -464,7 +464,7 @@ ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& pro
     const api::ApiError no_marginals{
         "invalid_parameter",
         "marginals=exemplar needs the exemplar's marginals, which this texton does not keep "
-        "(a mix, or analysed before they were kept); use marginals=gaussian"};
+        "(analysed before they were kept); use marginals=gaussian"};
     if (source == Source::splat) {
         if (auto order = m_images.interpolation_order(id, source); !order)
             return to_api_error(order.error());
@@ -476,13 +476,21 @@ ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& pro
     }
     if (source == Source::mix) {
         if (auto meta = m_mixes.meta(id); !meta) return to_api_error(meta.error());
-        if (probe.noise.exemplar_marginals) return no_marginals;
+        if (probe.noise.exemplar_marginals)
+            return api::ApiError{"invalid_parameter",
+                                 "marginals=exemplar is for textons of one exemplar: a mix "
+                                 "interpolates two Gaussian models; use marginals=gaussian"};
         return std::nullopt;
     }
     if (auto meta = m_textons.find(id); !meta)
         return to_api_error(meta.error());
     else if (probe.noise.exemplar_marginals && !meta.value().exemplar_marginals)
-        return no_marginals;
+        return meta.value().maps.empty()
+                   ? no_marginals
+                   : api::ApiError{"invalid_parameter",
+                                   "marginals=exemplar is for textons of one exemplar: a material "
+                                   "set's maps are analysed as one joint Gaussian model, without "
+                                   "exemplar marginals; use marginals=gaussian"};
     if (!probe.noise.map.name.empty())
         if (auto view = render::map_view(m_textons.prepared(id), probe.noise.map.name); !view)
             return to_api_error(view.error());

@@ -25,8 +25,9 @@ nlohmann::json mix_json(const api::MixMeta& meta) {
 } // namespace
 
 MixRoutes::MixRoutes(const ServeConfig& config, MixService& service, MixStore& mixes,
-                     AnalysisPool& pool, Gate& gate)
-    : m_config(config), m_service(service), m_mixes(mixes), m_pool(pool), m_gate(gate) {}
+                     AnalysisPool& pool, ImageCache& cache, Gate& gate)
+    : m_config(config), m_service(service), m_mixes(mixes), m_pool(pool), m_cache(cache),
+      m_gate(gate) {}
 
 bool MixRoutes::read_mask(Res res, const std::string& bytes, api::MixRequest& m) {
     io::DecodeLimits limits;
@@ -82,7 +83,18 @@ void MixRoutes::get(Req req, Res res) {
     if (auto e = api::check_mix_id(id)) return send_error(res, *e);
     auto meta = m_mixes.meta(id);
     if (!meta) return send_error(res, to_api_error(meta.error()));
-    send_json(res, 200, mix_json(meta.value()), "public, max-age=86400");
+    send_json(res, 200, mix_json(meta.value()), "no-cache"); // it may be deleted
+}
+
+void MixRoutes::remove(Req req, Res res) {
+    set_route("/v1/mixes/{id}");
+    const std::string id = req.matches[1].str();
+    if (!authorised(m_config.api_key, req, res)) return;
+    if (auto e = api::check_mix_id(id)) return send_error(res, *e);
+    auto r = m_mixes.remove(id);
+    if (!r) return send_error(res, to_api_error(r.error()));
+    m_cache.erase_texton(id); // its images, by their source's id
+    res.status = 204;
 }
 
 void MixRoutes::fallback(Req req, Res res) {

@@ -6,6 +6,7 @@
 #include "server/http/config.h"
 #include "server/http/gate.h"
 #include "server/http/layers.h"
+#include "server/store/image_cache.h"
 #include "server/store/mix_store.h"
 
 #include <httplib.h>
@@ -15,12 +16,14 @@ namespace textond::http {
 class MixRoutes {
 public:
     MixRoutes(const ServeConfig& config, MixService& service, MixStore& mixes, AnalysisPool& pool,
-              Gate& gate);
+              ImageCache& cache, Gate& gate);
 
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
     void create(Req req, Res res, const httplib::ContentReader& reader);
     void get(Req req, Res res);
+    // DELETE: here, in the shared store (every replica) and in this replica's image cache.
+    void remove(Req req, Res res);
     // Anything else under /v1/mixes/: a bad id is a 400 (never a path), a good one a 404.
     static void fallback(Req req, Res res);
 
@@ -33,6 +36,7 @@ private:
     MixService& m_service;
     MixStore& m_mixes;
     AnalysisPool& m_pool;
+    ImageCache& m_cache;
     Gate& m_gate;
 };
 

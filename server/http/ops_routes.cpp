@@ -65,6 +65,13 @@ void OpsRoutes::readyz(Req, Res res) {
         degraded = !ping;
         shared = {{"url", r->describe()}, {"up", ping.ok()}};
         if (!ping) shared["error"] = ping.error().message;
+        // A full (or evicting) Redis is seen before a write fails, by its own figures: a replica
+        // that never wrote said "degraded": false until an upload found out (issue 43 item 8).
+        if (ping)
+            if (auto full = r->memory_warning()) {
+                degraded = true;
+                shared["error"] = *full;
+            }
     }
     nlohmann::json calibration = nlohmann::json::array();
     for (const auto& c : m_renderer.calibration())

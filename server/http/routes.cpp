@@ -47,6 +47,10 @@ void Service::install_routes() {
     });
     m_http.Delete(R"(/v1/textons/([^/]+))", call(t, &TextonRoutes::remove));
     m_http.Delete(R"(/v1/textons/(.*))", &TextonRoutes::fallback);
+    m_http.Delete(R"(/v1/mixes/([^/]+))", call(m_mix_routes.get(), &MixRoutes::remove));
+    m_http.Delete(R"(/v1/mixes/(.*))", &MixRoutes::fallback);
+    m_http.Delete(R"(/v1/splats/([^/]+))", call(m_splat_routes.get(), &SplatRoutes::remove));
+    m_http.Delete(R"(/v1/splats/(.*))", &SplatRoutes::fallback);
 }
 
 // A mix's and a splat's images: the same routes as a texton's (no tileable, spectrum or kit).

@@ -82,10 +82,11 @@ std::optional<Error> Service::open_parts() {
                                    static_cast<std::size_t>(m_config.meta_cache));
     if (!store) return store.error();
     m_store = std::move(store.value());
-    auto mixes = MixStore::open(m_config.data_dir);
+    const std::chrono::milliseconds recheck(1000LL * m_config.store_recheck_s);
+    auto mixes = MixStore::open(m_config.data_dir, m_store->shared(), recheck);
     if (!mixes) return mixes.error();
     m_mixes = std::move(mixes.value());
-    auto splats = SplatStore::open(m_config.data_dir, *m_store);
+    auto splats = SplatStore::open(m_config.data_dir, *m_store, recheck);
     if (!splats) return splats.error();
     m_splats = std::move(splats.value());
 
@@ -123,8 +124,10 @@ void Service::make_services() {
                                                    m_gate, m_metrics, m_port);
     m_texton_routes = std::make_unique<TextonRoutes>(m_config, *m_store, *m_textons, *m_pool,
                                                      m_cache, m_gate, m_stopping);
-    m_mix_routes = std::make_unique<MixRoutes>(m_config, *m_mix_service, *m_mixes, *m_pool, m_gate);
-    m_splat_routes = std::make_unique<SplatRoutes>(m_config, *m_splat_service, *m_splats, m_gate);
+    m_mix_routes =
+        std::make_unique<MixRoutes>(m_config, *m_mix_service, *m_mixes, *m_pool, m_cache, m_gate);
+    m_splat_routes =
+        std::make_unique<SplatRoutes>(m_config, *m_splat_service, *m_splats, m_cache, m_gate);
     m_surfaces = std::make_unique<SurfaceService>(*m_renderer);
     m_surface_routes = std::make_unique<SurfaceRoutes>(*m_store, *m_surfaces, m_gate);
     m_sign_routes = std::make_unique<SignRoutes>(m_config, m_gate);
@@ -182,7 +185,11 @@ void configure(HttpServer& http, const ServeConfig& c) {
     const std::size_t threads = static_cast<std::size_t>(c.http_threads < 1 ? 1 : c.http_threads);
     const std::size_t most = static_cast<std::size_t>(std::max(c.max_connections, 1));
     // Debian's prebuilt cpp-httplib ignores CPPHTTPLIB_THREAD_POOL_COUNT in our code.
-    http.new_task_queue = [threads, most] { return new ElasticThreadPool(threads, most); };
+    http.new_task_queue = [&http, threads, most] {
+        auto* pool = new ElasticThreadPool(threads, most);
+        http.crowd = [pool] { return pool->crowd(); };
+        return pool;
+    };
     http.set_payload_max_length(c.max_upload_bytes);
     http.set_read_timeout(c.read_timeout_s, 0);
     http.set_write_timeout(c.write_timeout_s, 0);
@@ -220,13 +227,7 @@ bool ranges_allowed(const httplib::Ranges& ranges) {
 // Every answer: no MIME sniffing, no referrer leaving with a signed URL, and the page (which
 // holds an API key field) neither framed by another site nor running any script but its own.
 void apply_security_headers(httplib::Response& res) {
-    res.set_header("X-Content-Type-Options", "nosniff");
-    res.set_header("Referrer-Policy", "no-referrer");
-    res.set_header("X-Frame-Options", "DENY");
-    res.set_header("Content-Security-Policy",
-                   "default-src 'self'; img-src 'self' data: blob:; style-src 'self' "
-                   "'unsafe-inline'; object-src 'none'; base-uri 'none'; form-action 'self'; "
-                   "frame-ancestors 'none'");
+    for (const auto& [name, value] : security_headers()) res.set_header(name, value);
 }
 
 httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
@@ -269,12 +270,11 @@ httplib::Server::HandlerResponse Service::pre_route(const httplib::Request& req,
         send_error(res, *e);
         return httplib::Server::HandlerResponse::Handled;
     }
-    if (const auto q = req.target.find('?'); q != std::string::npos)
-        if (auto e = api::check_query_text(std::string_view(req.target).substr(q + 1))) {
-            set_route("query");
-            send_error(res, *e);
-            return httplib::Server::HandlerResponse::Handled;
-        }
+    if (auto e = api::check_target_text(req.target)) {
+        set_route("query");
+        send_error(res, *e);
+        return httplib::Server::HandlerResponse::Handled;
+    }
     // Ranges past the limit are ignored, as nginx does past max_ranges: the whole answer, once.
     if (!ranges_allowed(req.ranges)) current_request().request->ranges.clear();
     if (req.method == "OPTIONS") { // CORS preflight

@@ -28,8 +28,8 @@ nlohmann::json splat_json(const api::SplatMeta& meta) {
 } // namespace
 
 SplatRoutes::SplatRoutes(const ServeConfig& config, SplatService& service, SplatStore& splats,
-                         Gate& gate)
-    : m_config(config), m_service(service), m_splats(splats), m_gate(gate) {}
+                         ImageCache& cache, Gate& gate)
+    : m_config(config), m_service(service), m_splats(splats), m_cache(cache), m_gate(gate) {}
 
 void SplatRoutes::create(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/splats");
@@ -104,6 +104,17 @@ void SplatRoutes::get(Req req, Res res) {
     auto meta = m_splats.meta(id);
     if (!meta) return send_error(res, to_api_error(meta.error()));
     send_json(res, 200, splat_json(meta.value()), "no-cache"); // its layers may be deleted
+}
+
+void SplatRoutes::remove(Req req, Res res) {
+    set_route("/v1/splats/{id}");
+    const std::string id = req.matches[1].str();
+    if (!authorised(m_config.api_key, req, res)) return;
+    if (auto e = api::check_splat_id(id)) return send_error(res, *e);
+    auto r = m_splats.remove(id);
+    if (!r) return send_error(res, to_api_error(r.error()));
+    m_cache.erase_texton(id); // its images, by their source's id
+    res.status = 204;
 }
 
 void SplatRoutes::fallback(Req req, Res res) {

@@ -5,6 +5,7 @@
 #include "server/http/config.h"
 #include "server/http/gate.h"
 #include "server/http/layers.h"
+#include "server/store/image_cache.h"
 #include "server/store/splat_store.h"
 
 #include <httplib.h>
@@ -13,12 +14,15 @@ namespace textond::http {
 
 class SplatRoutes {
 public:
-    SplatRoutes(const ServeConfig& config, SplatService& service, SplatStore& splats, Gate& gate);
+    SplatRoutes(const ServeConfig& config, SplatService& service, SplatStore& splats,
+                ImageCache& cache, Gate& gate);
 
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
     void create(Req req, Res res, const httplib::ContentReader& reader);
     void get(Req req, Res res);
+    // DELETE: here, in the shared store (every replica) and in this replica's image cache.
+    void remove(Req req, Res res);
     // Anything else under /v1/splats/: a bad id is a 400 (never a path), a good one a 404.
     static void fallback(Req req, Res res);
 
@@ -26,6 +30,7 @@ private:
     const ServeConfig& m_config;
     SplatService& m_service;
     SplatStore& m_splats;
+    ImageCache& m_cache;
     Gate& m_gate;
 };
 

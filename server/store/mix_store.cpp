@@ -5,30 +5,82 @@
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
+#include <optional>
 
 namespace textond::store {
 
-Result<std::unique_ptr<MixStore>> MixStore::open(const std::string& data_dir) {
+namespace {
+// A mix's files as the shared store holds them (server/io/mix_file.h): the mask (a float image of
+// at most --max-pixels) first, the levels (64 of 256 x 256 RGB at most) last. With room for
+// EXR's headers and incompressible data.
+std::vector<SharedObjects::File> mix_files() {
+    return {{".mask.exr", (16LL << 20) * 4 + (8LL << 20)},
+            {".exr", 64LL * 256 * 256 * 3 * 4 + (8LL << 20)}};
+}
+} // namespace
+
+MixStore::MixStore(std::string dir, RedisStore* shared, std::chrono::milliseconds recheck)
+    : m_dir(dir), m_shared(shared, "mix", dir, mix_files(), recheck) {}
+
+Result<std::unique_ptr<MixStore>> MixStore::open(const std::string& data_dir, RedisStore* shared,
+                                                 std::chrono::milliseconds recheck) {
     const std::string dir = data_dir + "/mixes";
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
-    return std::unique_ptr<MixStore>(new MixStore(dir));
+    return std::unique_ptr<MixStore>(new MixStore(dir, shared, recheck));
 }
 
-bool MixStore::contains(const std::string& id) {
+bool MixStore::held(const std::string& id) const {
     std::error_code ec;
     return std::filesystem::is_regular_file(m_dir + "/" + id + ".exr", ec);
 }
 
+bool MixStore::contains(const std::string& id) {
+    if (held(id)) return true;
+    auto fetched = m_shared.fetch(id);
+    return fetched && fetched.value();
+}
+
+void MixStore::forget(const std::string& id) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_lru.remove_if([&](const Entry& e) { return e.id == id; });
+}
+
+Result<bool> MixStore::remove(const std::string& id) {
+    bool there = false;
+    if (m_shared.enabled()) {
+        auto r = m_shared.remove(id);
+        if (!r) return r.error();
+        there = r.value();
+    }
+    there = held(id) || there;
+    m_shared.erase_local(id);
+    forget(id);
+    if (!there) return make_error(ErrorCode::not_found, "no mix " + id);
+    return true;
+}
+
 Result<MixStore::Entry> MixStore::load(const std::string& id) {
+    std::optional<Entry> kept;
     {
         std::lock_guard<std::mutex> lock(m_mutex);
         for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
             if (it->id == id) {
                 m_lru.splice(m_lru.begin(), m_lru, it);
-                return *it;
+                kept = *it;
+                break;
             }
+    }
+    if (kept || held(id)) {
+        if (m_shared.deleted_elsewhere(id)) { // deleted on another replica
+            m_shared.erase_local(id);
+            forget(id);
+            return make_error(ErrorCode::not_found, "no mix " + id + " (deleted)");
+        }
+        if (kept) return *kept;
+    } else if (auto fetched = m_shared.fetch(id); !fetched) {
+        return fetched.error();
     }
     auto record = io::read_mix_files(m_dir, id);
     if (!record && record.error().code == ErrorCode::io) {
@@ -81,7 +133,12 @@ Result<bool> MixStore::put(const io::MixRecord& record) {
     if (contains(id)) return false;
     auto ok = io::write_mix_files(m_dir, record);
     if (!ok) return ok.error();
-    return true;
+    auto shared = m_shared.publish(id);
+    if (!shared) { // not stored where the other replicas look: not stored at all
+        m_shared.erase_local(id);
+        return shared.error();
+    }
+    return shared.value(); // false: another replica stored it first
 }
 
 } // namespace textond::store

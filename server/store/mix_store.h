@@ -1,11 +1,14 @@
 #pragma once
 // Texture mixes on local disk (`<data>/mixes/`, see server/io/mix_file.h), content addressed like
-// textons, with a small LRU of prepared mixes. Not shared through --store: a replica that lacks a
-// mix answers 404 and the client creates it again there (same id).
+// textons, with a small LRU of prepared mixes. With --store they are shared as textons are
+// (shared_objects.h): written there on creation, fetched by a replica that lacks one, and deleted
+// everywhere.
 #include "core/result.h"
 #include "render/prepared_mix.h"
 #include "server/io/mix_file.h"
+#include "server/store/shared_objects.h"
 
+#include <chrono>
 #include <list>
 #include <memory>
 #include <mutex>
@@ -16,9 +19,14 @@ namespace textond::store {
 
 class MixStore {
 public:
-    static Result<std::unique_ptr<MixStore>> open(const std::string& data_dir);
+    static Result<std::unique_ptr<MixStore>>
+    open(const std::string& data_dir, RedisStore* shared = nullptr,
+         std::chrono::milliseconds recheck = std::chrono::seconds(30));
 
+    // Held here, or fetched from the shared store.
     bool contains(const std::string& id);
+    // Gone here and from the shared store (a tombstone); not_found when neither held it.
+    Result<bool> remove(const std::string& id);
     Result<api::MixMeta> meta(const std::string& id);
     Result<std::shared_ptr<const render::PreparedMix>> prepared(const std::string& id);
     // Writes the files (atomically); false when the mix was already there.
@@ -33,10 +41,13 @@ private:
         api::MixMeta meta;
         std::shared_ptr<const render::PreparedMix> prepared;
     };
-    explicit MixStore(std::string dir) : m_dir(std::move(dir)) {}
+    MixStore(std::string dir, RedisStore* shared, std::chrono::milliseconds recheck);
     Result<Entry> load(const std::string& id);
+    bool held(const std::string& id) const;
+    void forget(const std::string& id);
     void quarantine(const std::string& id, const std::string& why);
     std::string m_dir;
+    SharedObjects m_shared;
     mutable std::mutex m_mutex;
     std::vector<std::string> m_quarantined;
     std::list<Entry> m_lru; // front = most recent

@@ -1,5 +1,6 @@
 #include "server/store/redis_store.h"
 
+#include "api/safe_text.h"
 #include "server/io/sha256.h"
 
 #include <hiredis/hiredis.h>
@@ -9,6 +10,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdlib>
 #include <sys/time.h>
 
 namespace textond::store {
@@ -38,6 +40,27 @@ redis.call('ZADD', KEYS[2], 0, ARGV[6])
 redis.call('DEL', KEYS[3])
 return 1
 )lua";
+
+// Splats and mixes: the same write-once rule, with any number of fields.
+constexpr const char* kPutObjectScript = R"lua(
+if redis.call('EXISTS', KEYS[1]) == 1 then return 0 end
+redis.call('HSET', KEYS[1], unpack(ARGV))
+redis.call('DEL', KEYS[2])
+return 1
+)lua";
+
+constexpr const char* kRemoveObjectScript = R"lua(
+local n = redis.call('DEL', KEYS[1])
+redis.call('SET', KEYS[2], '1')
+return n
+)lua";
+
+std::string object_key(const std::string& kind, const std::string& id) {
+    return std::string(kPrefix) + kind + ":" + id;
+}
+std::string object_tombstone_key(const std::string& kind, const std::string& id) {
+    return std::string(kPrefix) + "deleted-" + kind + ":" + id;
+}
 
 constexpr const char* kRemoveScript = R"lua(
 local n = redis.call('DEL', KEYS[1])
@@ -271,9 +294,13 @@ std::string RedisStore::write_refusal() const {
 
 Result<bool> RedisStore::put(const std::string& id, const std::string& file,
                              const std::string& meta_json, const std::string& exemplar_png) {
-    auto r =
-        command({"EVAL", kPutScript, "3", texton_key(id), ids_key(), tombstone_key(id), file,
-                 io::sha256_hex(file), meta_json, exemplar_png, io::sha256_hex(exemplar_png), id});
+    return write_script({"EVAL", kPutScript, "3", texton_key(id), ids_key(), tombstone_key(id),
+                         file, io::sha256_hex(file), meta_json, exemplar_png,
+                         io::sha256_hex(exemplar_png), id});
+}
+
+Result<bool> RedisStore::write_script(const std::vector<std::string>& argv) {
+    auto r = command(argv);
     const auto refused = [&](const std::string& why) {
         std::lock_guard lock(m_mutex);
         m_write_refusal = why;
@@ -476,6 +503,124 @@ Result<bool> RedisStore::ping() {
     if (std::string why = write_refusal(); !why.empty())
         return make_error(ErrorCode::unavailable, "the shared store refuses writes: " + why);
     return true;
+}
+
+Result<bool> RedisStore::put_object(const std::string& kind, const std::string& id,
+                                    const Files& files) {
+    std::vector<std::string> argv = {"EVAL", kPutObjectScript, "2", object_key(kind, id),
+                                     object_tombstone_key(kind, id)};
+    for (const auto& [suffix, bytes] : files) {
+        argv.push_back(suffix);
+        argv.push_back(bytes);
+        argv.push_back(suffix + ".sha256");
+        argv.push_back(io::sha256_hex(bytes));
+    }
+    return write_script(argv);
+}
+
+Result<std::optional<RedisStore::Files>>
+RedisStore::get_object(const std::string& kind, const std::string& id,
+                       const std::map<std::string, long long>& caps) {
+    const std::string key = object_key(kind, id);
+    // The fields' names and sizes first (HSTRLEN): nothing past its cap is read, and an object
+    // refused once is not read again until its sizes change.
+    auto names = command({"HKEYS", key});
+    if (!names) return names.error();
+    const redisReply* a = names.value()->r;
+    std::vector<std::string> suffixes;
+    for (std::size_t i = 0; a->type == REDIS_REPLY_ARRAY && i < a->elements; ++i)
+        if (auto n = Reply::string(a->element[i]);
+            n && !(n->size() >= 7 && n->compare(n->size() - 7, 7, ".sha256") == 0))
+            suffixes.push_back(*n);
+    if (suffixes.empty()) return std::optional<Files>{};
+    const std::string what = kind + " " + id;
+    for (const std::string& suffix : suffixes)
+        if (!caps.count(suffix))
+            return make_error(ErrorCode::io, what + " in the shared store has a field '" +
+                                                 api::printable(suffix, 40) +
+                                                 "' it cannot hold; it is not read");
+    std::vector<std::vector<std::string>> lengths;
+    for (const std::string& suffix : suffixes) lengths.push_back({"HSTRLEN", key, suffix});
+    auto sizes = pipeline(lengths);
+    if (!sizes) return sizes.error();
+    std::string signature;
+    for (std::size_t i = 0; i < suffixes.size(); ++i)
+        signature += suffixes[i] + "=" + std::to_string(sizes.value()[i]->integer()) + ";";
+    const std::string memo = kind + ":" + id;
+    if (refused_before(memo, signature))
+        return make_error(ErrorCode::io, what + " in the shared store was refused before and has "
+                                                "not changed; it is not read again");
+    for (std::size_t i = 0; i < suffixes.size(); ++i) {
+        const long long n = sizes.value()[i]->integer(), cap = caps.at(suffixes[i]);
+        if (n > cap) {
+            remember_refused(memo, signature);
+            return make_error(ErrorCode::io, what + " in the shared store has a " + suffixes[i] +
+                                                 " of " + std::to_string(n) +
+                                                 " bytes, more than it can hold (" +
+                                                 std::to_string(cap) + "); it is not read");
+        }
+    }
+    Files out;
+    for (const std::string& suffix : suffixes) { // one at a time: one copy in flight
+        auto r = command({"HMGET", key, suffix, suffix + ".sha256"});
+        if (!r) return r.error();
+        const redisReply* b = r.value()->r;
+        if (b->type != REDIS_REPLY_ARRAY || b->elements != 2)
+            return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
+        auto bytes = Reply::string(b->element[0]);
+        const auto sha = Reply::string(b->element[1]);
+        if (!bytes) return std::optional<Files>{}; // removed meanwhile
+        if (!sha || static_cast<long long>(bytes->size()) > caps.at(suffix) ||
+            io::sha256_hex(*bytes) != *sha) {
+            remember_refused(memo, signature);
+            return make_error(ErrorCode::io, what + " in the shared store fails its " + suffix +
+                                                 " checksum (damaged or half-written); it is "
+                                                 "not served");
+        }
+        out.emplace(suffix, std::move(*bytes));
+    }
+    return std::optional<Files>{std::move(out)};
+}
+
+Result<RedisStore::Presence> RedisStore::object_presence(const std::string& kind,
+                                                         const std::string& id) {
+    auto r =
+        pipeline({{"EXISTS", object_key(kind, id)}, {"EXISTS", object_tombstone_key(kind, id)}});
+    if (!r) return r.error();
+    if (r.value()[0]->integer() == 1) return Presence::present;
+    return r.value()[1]->integer() == 1 ? Presence::deleted : Presence::unknown;
+}
+
+Result<bool> RedisStore::remove_object(const std::string& kind, const std::string& id) {
+    auto r = command(
+        {"EVAL", kRemoveObjectScript, "2", object_key(kind, id), object_tombstone_key(kind, id)});
+    if (!r) return r.error();
+    return r.value()->integer() == 1;
+}
+
+std::optional<std::string> RedisStore::memory_warning() {
+    auto r = command({"INFO", "memory"});
+    if (!r) return r.error().message;
+    const redisReply* v = r.value()->r;
+    if (v->type != REDIS_REPLY_STRING || !v->str) return "the store does not answer INFO memory";
+    const std::string info(v->str, v->len);
+    auto field = [&](const std::string& name) -> std::string {
+        const auto at = info.find("\n" + name + ":");
+        if (at == std::string::npos) return "";
+        const auto from = at + name.size() + 2;
+        return info.substr(from, info.find_first_of("\r\n", from) - from);
+    };
+    const std::string policy = field("maxmemory_policy");
+    if (!policy.empty() && policy != "noeviction")
+        return "Redis evicts keys (maxmemory-policy " + api::printable(policy, 40) +
+               "): textons, splats and mixes would be lost; set noeviction";
+    const long long max = std::atoll(field("maxmemory").c_str());
+    const long long used = std::atoll(field("used_memory").c_str());
+    // Full once less than 5% or 16 MiB is left: the next texton with its exemplar may not fit.
+    if (max > 0 && used > max - std::max(max / 20, 16LL << 20))
+        return "Redis is nearly full: " + std::to_string(used) + " of " + std::to_string(max) +
+               " bytes (maxmemory) used";
+    return std::nullopt;
 }
 
 } // namespace textond::store

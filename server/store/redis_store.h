@@ -90,6 +90,22 @@ public:
     Result<std::uint64_t> count();
     Result<bool> ping();
 
+    // Splats and mixes (issue 43 item 1): an object of `kind` ("splat", "mix") is the files of
+    // its directory by suffix, under "<kind>:<id>" as {<suffix>: bytes, <suffix>.sha256: hex},
+    // written once (true when this call stored it) and tombstoned by "deleted-<kind>:<id>" when
+    // removed, as textons are.
+    using Files = std::map<std::string, std::string>; // suffix -> bytes
+    Result<bool> put_object(const std::string& kind, const std::string& id, const Files& files);
+    // Each file's size checked against `caps` (suffix -> most bytes; a stored suffix not named is
+    // refused) before anything is read, then its checksum; nullopt when absent.
+    Result<std::optional<Files>> get_object(const std::string& kind, const std::string& id,
+                                            const std::map<std::string, long long>& caps);
+    Result<Presence> object_presence(const std::string& kind, const std::string& id);
+    Result<bool> remove_object(const std::string& kind, const std::string& id);
+    // Room left under Redis's maxmemory (INFO memory), for the readiness probe: an error when it
+    // is full or evicts (a policy other than noeviction loses textons).
+    std::optional<std::string> memory_warning();
+
 private:
     struct Reply;
     class Connection;
@@ -100,6 +116,8 @@ private:
     Result<std::vector<std::shared_ptr<Reply>>>
     pipeline(const std::vector<std::vector<std::string>>& commands);
     Result<std::unique_ptr<Connection>> acquire();
+    // Runs a write script that answers 0 or 1, remembering a refusal (full, read-only).
+    Result<bool> write_script(const std::vector<std::string>& argv);
     void release(std::unique_ptr<Connection> c);
     Error unavailable(const std::string& why);
     void mark(bool up, const std::string& error = {});

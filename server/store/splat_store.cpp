@@ -9,18 +9,63 @@
 
 namespace textond::store {
 
+namespace {
+// A splat's files as the shared store holds them (server/io/splat_file.h): the weights (8 float
+// planes of 2048 x 2048 at most, with room for EXR's headers and incompressible data) first, the
+// metadata last.
+std::vector<SharedObjects::File> splat_files() {
+    return {{".weights.exr", 8 * core::kMaxSplatWeightPixels * 4 + (8LL << 20)},
+            {".json", 1LL << 20}};
+}
+} // namespace
+
+SplatStore::SplatStore(std::string dir, TextonStore& textons, std::chrono::milliseconds recheck)
+    : m_dir(dir), m_textons(textons),
+      m_shared(textons.shared(), "splat", dir, splat_files(), recheck) {}
+
 Result<std::unique_ptr<SplatStore>> SplatStore::open(const std::string& data_dir,
-                                                     TextonStore& textons) {
+                                                     TextonStore& textons,
+                                                     std::chrono::milliseconds recheck) {
     const std::string dir = data_dir + "/splats";
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
-    return std::unique_ptr<SplatStore>(new SplatStore(dir, textons));
+    return std::unique_ptr<SplatStore>(new SplatStore(dir, textons, recheck));
+}
+
+bool SplatStore::held(const std::string& id) const {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(m_dir + "/" + id + ".json", ec);
 }
 
 bool SplatStore::contains(const std::string& id) {
-    std::error_code ec;
-    return std::filesystem::is_regular_file(m_dir + "/" + id + ".json", ec);
+    if (held(id)) return true;
+    auto fetched = m_shared.fetch(id);
+    return fetched && fetched.value();
+}
+
+void SplatStore::forget(const std::string& id) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
+        if (it->id == id) {
+            m_bytes -= it->bytes;
+            m_lru.erase(it);
+            return;
+        }
+}
+
+Result<bool> SplatStore::remove(const std::string& id) {
+    bool there = false;
+    if (m_shared.enabled()) {
+        auto r = m_shared.remove(id);
+        if (!r) return r.error();
+        there = r.value();
+    }
+    there = held(id) || there;
+    m_shared.erase_local(id);
+    forget(id);
+    if (!there) return make_error(ErrorCode::not_found, "no splat " + id);
+    return true;
 }
 
 Result<std::shared_ptr<const render::PreparedSplat>>
@@ -101,19 +146,20 @@ Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
                 break;
             }
     }
+    if ((kept || held(id)) && m_shared.deleted_elsewhere(id)) { // deleted on another replica
+        m_shared.erase_local(id);
+        forget(id);
+        return make_error(ErrorCode::not_found, "no splat " + id + " (deleted)");
+    }
     if (kept) {
         // A prepared splat holds its layers: one deleted since must not go on rendering here.
         auto gone = layers_stored(kept->meta);
         if (!gone) return *kept;
-        std::lock_guard<std::mutex> lock(m_mutex);
-        for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-            if (it->id == id) {
-                m_bytes -= it->bytes;
-                m_lru.erase(it);
-                break;
-            }
+        forget(id);
         return *gone;
     }
+    if (!held(id))
+        if (auto fetched = m_shared.fetch(id); !fetched) return fetched.error();
     auto record = io::read_splat_files(m_dir, id);
     if (!record && record.error().code == ErrorCode::io) {
         quarantine(id, record.error().message);
@@ -166,7 +212,12 @@ Result<bool> SplatStore::put(const io::SplatRecord& record) {
     if (contains(record.meta.id)) return false;
     auto ok = io::write_splat_files(m_dir, record);
     if (!ok) return ok.error();
-    return true;
+    auto shared = m_shared.publish(record.meta.id);
+    if (!shared) { // not stored where the other replicas look: not stored at all
+        m_shared.erase_local(record.meta.id);
+        return shared.error();
+    }
+    return shared.value(); // false: another replica stored it first
 }
 
 } // namespace textond::store

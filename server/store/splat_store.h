@@ -2,14 +2,17 @@
 // Splat maps on local disk (`<data>/splats/`, see server/io/splat_file.h), content addressed, with
 // a small LRU of prepared splats (at most 16, and 256 MB of weight images). A splat names its
 // layers (and a rules height) by texton id and takes them from the texton store when it is
-// prepared: one whose texton was deleted answers not_found until the texton is uploaded again (the
-// same id). Like mixes, not shared through
-// --store: a replica that lacks a splat answers 404 and the client creates it there (same id).
+// prepared (fetching them from the shared store like any texton): one whose texton was deleted
+// answers not_found until the texton is uploaded again (the same id). With --store, splats are
+// shared as textons are (shared_objects.h): written there on creation, fetched by a replica that
+// lacks one, and deleted everywhere.
 #include "core/result.h"
 #include "render/prepared_splat.h"
 #include "server/io/splat_file.h"
+#include "server/store/shared_objects.h"
 #include "server/store/texton_store.h"
 
+#include <chrono>
 #include <list>
 #include <memory>
 #include <mutex>
@@ -21,10 +24,14 @@ namespace textond::store {
 
 class SplatStore {
 public:
-    static Result<std::unique_ptr<SplatStore>> open(const std::string& data_dir,
-                                                    TextonStore& textons);
+    static Result<std::unique_ptr<SplatStore>>
+    open(const std::string& data_dir, TextonStore& textons,
+         std::chrono::milliseconds recheck = std::chrono::seconds(30));
 
+    // Held here, or fetched from the shared store.
     bool contains(const std::string& id);
+    // Gone here and from the shared store (a tombstone); not_found when neither held it.
+    Result<bool> remove(const std::string& id);
     Result<api::SplatMeta> meta(const std::string& id);
     Result<std::shared_ptr<const render::PreparedSplat>> prepared(const std::string& id);
     // The record made ready: its layers (and height) from the texton store, validated. What
@@ -45,11 +52,14 @@ private:
     };
     // not_found when a layer (or the rules' height) is no longer stored.
     std::optional<Error> layers_stored(const api::SplatMeta& meta);
-    SplatStore(std::string dir, TextonStore& textons) : m_dir(std::move(dir)), m_textons(textons) {}
+    SplatStore(std::string dir, TextonStore& textons, std::chrono::milliseconds recheck);
     Result<Entry> load(const std::string& id);
+    bool held(const std::string& id) const;
+    void forget(const std::string& id);
     void quarantine(const std::string& id, const std::string& why);
     std::string m_dir;
     TextonStore& m_textons;
+    SharedObjects m_shared;
     mutable std::mutex m_mutex;
     std::mutex m_put_mutex;
     std::vector<std::string> m_quarantined;

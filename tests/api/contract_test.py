@@ -379,10 +379,20 @@ def run(c, spec, exemplar_dir):
                                        "expires_in": 60}).encode()
                 target = path.replace("{id}", plain)
                 c.exchange(path, method, target, body, {"Content-Type": ctype})
-    # DELETE last: a texton of its own, then the same id again (404).
+    # DELETE last: a texton, a mix and a splat of their own, then the same id again (404).
     doomed = upload(sand, {"Content-Type": "image/png"}, "size=16&iterations=5&seed=99")
     for _ in range(2):
         c.exchange("/v1/textons/{id}", "delete", f"/v1/textons/{doomed}")
+    st, _, b = c.exchange("/v1/mixes", "post", f"/v1/mixes?u={plain}&v={other}&levels=2")
+    if st in (200, 201):
+        doomed_mix = json.loads(b)["id"]
+        for _ in range(2):
+            c.exchange("/v1/mixes/{id}", "delete", f"/v1/mixes/{doomed_mix}")
+    doomed_splat = post_splat([("textons", f"{plain},{other}", None),
+                               ("weights", rgba_png(4, 4, 7), "w.png")])
+    if doomed_splat:
+        for _ in range(2):
+            c.exchange("/v1/splats/{id}", "delete", f"/v1/splats/{doomed_splat}")
     return True
 
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cctype>
 #include <cmath>
@@ -83,7 +84,7 @@ std::string file_bytes(const std::string& path) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-// Many exemplars in one process: a JSON line each in the order given, a bad file reported and
+// Many exemplars in one process: a JSON line each, naming its exemplar, a bad file reported and
 // passed over (exit 1), names kept apart, and each texton the bytes of a run on its own.
 TEST(Cli, AnalyzeManyWritesEachTextonAndKeepsGoingPastABadFile) {
     const fs::path dir = test::temp_path("batch");
@@ -105,6 +106,14 @@ TEST(Cli, AnalyzeManyWritesEachTextonAndKeepsGoingPastABadFile) {
     std::istringstream out(r.out);
     for (std::string line; std::getline(out, line);) lines.push_back(nlohmann::json::parse(line));
     ASSERT_EQ(lines.size(), 3u) << r.out;
+    // Printed as each is done: in the order given only where the work says so. Each line names
+    // its exemplar; the two with one path are told apart by their outputs.
+    // Order them as given: sand, the bad file, then the other photo named etr_sand01.
+    auto rank = [&](const nlohmann::json& l) {
+        return l.at("exemplar").at("path") == bad ? 1 : l.at("exemplar").at("path") == sand ? 0 : 2;
+    };
+    std::sort(lines.begin(), lines.end(),
+              [&](const nlohmann::json& x, const nlohmann::json& y) { return rank(x) < rank(y); });
     EXPECT_EQ(lines[0].at("exemplar").at("path"), sand);
     EXPECT_EQ(lines[1].at("exemplar").at("path"), bad);
     EXPECT_TRUE(lines[1].contains("error")) << lines[1];
@@ -130,6 +139,36 @@ TEST(Cli, AnalyzeManyWritesEachTextonAndKeepsGoingPastABadFile) {
                         (dir / "out").string())
                   .code,
               2);
+    fs::remove_all(dir);
+}
+
+// Issue 43 item 14: with --jobs, a file's line is printed when that file is done, not after every
+// file given before it: a batch stopped by Ctrl-C has a line for each texton it wrote. A large
+// exemplar first, then small ones: their lines come first.
+TEST(Cli, AnalyzeManyPrintsEachLineWhenItsFileIsDone) {
+    const fs::path dir = test::temp_path("batch-order");
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    core::Image big(2048, 2048, 1);
+    for (int y = 0; y < big.height; ++y)
+        for (int x = 0; x < big.width; ++x)
+            big.data[static_cast<std::size_t>(y) * big.width + x] =
+                static_cast<float>((x * 7 + y * 13 + (x * y) % 17) % 256) / 255.0f;
+    const std::string big_path = (dir / "big.png").string();
+    ASSERT_TRUE(io::encode_image_file(big, big_path, io::Encoding::png8));
+    std::string inputs = big_path;
+    for (const char* name : {"etr_sand01.png", "etr_pave02.png", "etr_floor01.png"})
+        inputs += " " + test::exemplar_path(name);
+    const test::RunResult r =
+        test::run("analyze " + inputs + " --jobs 2 --size 16 --iterations 60 -o " +
+                  (dir / "out").string() + "/");
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::vector<std::string> order;
+    std::istringstream out(r.out);
+    for (std::string line; std::getline(out, line);)
+        order.push_back(nlohmann::json::parse(line).at("exemplar").at("path"));
+    ASSERT_EQ(order.size(), 4u) << r.out;
+    EXPECT_EQ(order.back(), big_path) << "a small file's line waited for the large one";
     fs::remove_all(dir);
 }
 

@@ -89,6 +89,9 @@ cmp -s "$tmp/tile-$TEXTOND_REPLICA_1_PORT.png" "$tmp/tile-$TEXTOND_REPLICA_2_POR
 cmp -s "$tmp/tile-$TEXTOND_REPLICA_1_PORT.png" "$tmp/tile-$TEXTOND_EDGE_PORT.png" ||
     fail "the edge's tile differs from the replicas'"
 echo "upload through the edge; the same tile bytes from both replicas and the edge"
+# A splat and a mix through the edge, read 20 times from both replicas, deleted everywhere.
+python3 "$root/tests/deploy/shared_objects_check.py" "$edge" "$r1" "$r2" --exemplars "$exemplars" ||
+    fail "splats and mixes through the edge"
 
 # kill -9 of replica 1's process (a crash, not an engine stop) under load through the edge.
 c1=${project}_textond-1_1

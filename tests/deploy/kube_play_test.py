@@ -268,6 +268,11 @@ def main():
                 raise SystemExit(f"FAIL: the replica at {ip} serves other bytes than the edge")
         print(f"upload and tile through the edge ({len(png)} bytes, X-Cache-Status "
               f"{headers['X-Cache-Status']}), the same bytes from both textond pods")
+        # A splat and a mix through the edge, read 20 times from both pods, deleted everywhere.
+        subprocess.run([sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                     "shared_objects_check.py"), edge,
+                        *[f"http://{ip}:8080" for ip in addresses["textond"]],
+                        "--exemplars", exemplars], check=True)
         print("kube_play_test: passed")
     finally:
         if os.environ.get("KEEP"):  # debugging: leave it up

@@ -78,6 +78,9 @@ for s in $(seq "$TEXTONS"); do
     ids+=("$id")
 done
 id_list=$(IFS=,; echo "${ids[*]}")
+# A splat and a mix through the edge, read 20 times from both replicas, deleted everywhere.
+python3 "$here/../deploy/shared_objects_check.py" "$edge" "${urls[@]}" \
+    --exemplars "$(dirname "$EXEMPLAR")" || exit 1
 start=("$(rss_mib "${replica_pids[0]}")" "$(rss_mib "${replica_pids[1]}")")
 
 tiles_of() { curl -sf "$1/metrics" | awk '/^textond_tile_cache_requests_total/ {n += $2} END {print n + 0}'; }

@@ -142,6 +142,16 @@ TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
     EXPECT_EQ(status(base + "/tiles/0/0/0.png?strength=3"), "invalid_parameter 400");
     EXPECT_EQ(status(base + "/tiles/0/0/0.png?map=height&marginals=exemplar"),
               "invalid_parameter 400");
+    // The true reason (issue 43 item 13): a set has no exemplar marginals at all, however fresh;
+    // "analysed before they were kept" was said of every set, tiles, elevation and TileJSON alike.
+    for (const char* q : {"/tiles/0/0/0.png?map=height&marginals=exemplar",
+                          "/map/24/0/0.png?map=height&encoding=terrarium&marginals=exemplar",
+                          "/tilejson.json?map=height&encoding=terrarium&marginals=exemplar",
+                          "/tiles/0/0/0.png?marginals=exemplar"}) {
+        const std::string body = c.Get(base + q)->body;
+        EXPECT_EQ(body.find("analysed before"), std::string::npos) << q << ": " << body;
+        EXPECT_NE(body.find("material set"), std::string::npos) << q << ": " << body;
+    }
 }
 
 // Elevation tiles (encoding=terrarium|mapbox): each pixel is the float height tile's value times

@@ -340,7 +340,8 @@ TEST_F(Tiles, EtagNotModifiedCacheHeadersCorsAndHead) {
     EXPECT_EQ(cache_control(base), "no-cache");
     EXPECT_EQ(cache_control("/v1/textons"), "no-cache");
     for (const char* file : {"/exemplar.png", "/texton.png", "/texton.exr", "/texton.texton"})
-        EXPECT_EQ(cache_control(base + file), "public, max-age=60") << file;
+        EXPECT_EQ(cache_control(base + file), "no-cache") << file;
+    EXPECT_EQ(cache_control(base + "/kit.tar"), "no-cache");
     EXPECT_EQ(cache_control(base + "/tiles/0/0/0.png"), "public, max-age=31536000, immutable");
 }
 

@@ -1,0 +1,132 @@
+#include "server/store/shared_objects.h"
+
+#include "server/io/image_io.h"
+
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+#include <malloc.h>
+
+namespace textond::store {
+
+SharedObjects::SharedObjects(RedisStore* shared, std::string kind, std::string dir,
+                             std::vector<File> files, std::chrono::milliseconds recheck)
+    : m_shared(shared), m_kind(std::move(kind)), m_dir(std::move(dir)), m_files(std::move(files)),
+      m_recheck(recheck) {}
+
+Result<bool> SharedObjects::publish(const std::string& id) {
+    if (!m_shared) return true;
+    RedisStore::Files files;
+    std::error_code ec;
+    for (const File& f : m_files) {
+        const std::string path = m_dir + "/" + id + f.suffix;
+        if (!std::filesystem::is_regular_file(path, ec)) continue; // optional (no mask)
+        auto bytes = io::read_file(path);
+        if (!bytes) return bytes.error();
+        files.emplace(f.suffix, std::move(bytes.value()));
+    }
+    auto stored = m_shared->put_object(m_kind, id, files);
+    if (stored) {
+        std::lock_guard lock(m_mutex);
+        m_checked[id] = std::chrono::steady_clock::now();
+    }
+    return stored;
+}
+
+Result<bool> SharedObjects::fetch(const std::string& id) {
+    if (!m_shared) return false;
+    std::shared_ptr<Fetch> fetch;
+    bool leader = false;
+    {
+        std::lock_guard lock(m_mutex);
+        auto& slot = m_fetching[id];
+        if (!slot) {
+            slot = std::make_shared<Fetch>();
+            leader = true;
+        }
+        fetch = slot;
+    }
+    if (!leader) {
+        std::unique_lock lock(m_mutex);
+        m_fetched.wait(lock, [&] { return fetch->result.has_value(); });
+        return *fetch->result;
+    }
+    auto result = fetch_once(id);
+    {
+        std::lock_guard lock(m_mutex);
+        fetch->result = result;
+        m_fetching.erase(id);
+        if (result && result.value()) m_checked[id] = std::chrono::steady_clock::now();
+    }
+    m_fetched.notify_all();
+    ::malloc_trim(0); // weights and masks are large transient buffers
+    return result;
+}
+
+Result<bool> SharedObjects::fetch_once(const std::string& id) {
+    std::map<std::string, long long> caps;
+    for (const File& f : m_files) caps[f.suffix] = f.cap;
+    auto got = m_shared->get_object(m_kind, id, caps);
+    if (!got) {
+        if (got.error().code != ErrorCode::unavailable)
+            spdlog::error("store: {}", got.error().message);
+        return got.error();
+    }
+    if (!got.value()) return false;
+    const RedisStore::Files& files = *got.value();
+    if (!files.count(m_files.back().suffix))
+        return make_error(ErrorCode::io, m_kind + " " + id +
+                                             " in the shared store lacks its main file; it is "
+                                             "not served");
+    // In writing order, the main file last: a crash between leaves no whole-looking object.
+    for (const File& f : m_files) {
+        const auto it = files.find(f.suffix);
+        if (it == files.end()) continue;
+        if (auto w = io::write_file_atomic(m_dir + "/" + id + f.suffix, it->second); !w)
+            return w.error();
+    }
+    return true;
+}
+
+bool SharedObjects::deleted_elsewhere(const std::string& id) {
+    if (!m_shared) return false;
+    {
+        std::lock_guard lock(m_mutex);
+        const auto now = std::chrono::steady_clock::now();
+        auto& checked = m_checked[id];
+        if (now < checked + m_recheck) return false;
+        checked = now; // one request an interval makes the round trip
+    }
+    auto presence = m_shared->object_presence(m_kind, id);
+    if (!presence) return false; // down: serve what we hold
+    if (presence.value() == RedisStore::Presence::deleted) {
+        spdlog::info("store: {} {} was deleted from the shared store; dropped here", m_kind, id);
+        return true;
+    }
+    if (presence.value() == RedisStore::Presence::unknown) {
+        // Held here, absent there (a flushed Redis, or made before the shared store was
+        // configured): written back so the other replicas find it.
+        if (auto put = publish(id); put && put.value())
+            spdlog::warn("store: {} {} was missing from the shared store; written back", m_kind,
+                         id);
+    }
+    return false;
+}
+
+Result<bool> SharedObjects::remove(const std::string& id) {
+    if (!m_shared) return false;
+    auto r = m_shared->remove_object(m_kind, id);
+    if (r) {
+        std::lock_guard lock(m_mutex);
+        m_checked.erase(id);
+    }
+    return r;
+}
+
+void SharedObjects::erase_local(const std::string& id) const {
+    std::error_code ec; // the main file first: what is left never looks whole
+    for (auto f = m_files.rbegin(); f != m_files.rend(); ++f)
+        std::filesystem::remove(m_dir + "/" + id + f->suffix, ec);
+}
+
+} // namespace textond::store
