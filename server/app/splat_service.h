@@ -1,8 +1,8 @@
 #pragma once
 // The splat-map workflow without HTTP: the layers (and a rules height) must be stored textons;
-// the weight images (one or two, RGBA = four layers each) become one channel a layer; the splat
-// is prepared (so nothing is stored that cannot be drawn), named by its content and written.
-// Nothing is analysed: it answers at once.
+// the weight images (one or two, RGBA = four layers each) become one channel a layer, and are
+// kept as uploaded (server/io/splat_file.h); the splat is prepared (so nothing is stored that
+// cannot be drawn), named by its content and written. Nothing is analysed: it answers at once.
 #include "api/requests.h"
 #include "api/splat_meta.h"
 #include "core/image.h"

@@ -22,6 +22,49 @@ std::vector<std::string> weight_channel_names(int n) {
 
 } // namespace
 
+DecodeLimits splat_weight_limits(const std::vector<std::string>& formats) {
+    DecodeLimits limits;
+    limits.max_pixels = static_cast<std::uint64_t>(core::kMaxSplatWeightPixels);
+    limits.formats = formats;
+    limits.all_channels = true; // RGBA: four layers
+    return limits;
+}
+
+Result<core::Image> decode_splat_weights(const std::vector<std::string_view>& encoded,
+                                         const DecodeLimits& limits, int layers) {
+    core::Image w;
+    int k = 0, channels = 0;
+    for (std::size_t i = 0; i < encoded.size(); ++i) {
+        auto decoded = decode_image_memory(encoded[i], limits);
+        if (!decoded) return decoded.error();
+        const core::Image& im = decoded.value();
+        if (im.channels > 4)
+            return make_error(ErrorCode::invalid_argument,
+                              "a weight image has at most 4 channels (R, G, B, A), not " +
+                                  std::to_string(im.channels));
+        if (i == 0) {
+            if (encoded.size() > 1 && im.channels != 4)
+                return make_error(ErrorCode::invalid_argument,
+                                  "with 'weights2', 'weights' must be RGBA (layers 1 to 4); it "
+                                  "has " +
+                                      std::to_string(im.channels) + " channels");
+            w = core::Image(im.width, im.height, layers);
+        } else if (im.width != w.width || im.height != w.height) {
+            return make_error(ErrorCode::invalid_argument,
+                              "'weights' and 'weights2' must have the same size");
+        }
+        channels += im.channels;
+        for (int c = 0; c < im.channels && k < layers; ++c, ++k)
+            std::copy(im.plane(c), im.plane(c) + im.plane_size(), w.plane(k));
+    }
+    if (channels < layers)
+        return make_error(ErrorCode::invalid_argument,
+                          "the weight images have " + std::to_string(channels) + " channels for " +
+                              std::to_string(layers) +
+                              " layers (an RGBA PNG holds four: R is layer 1, G 2, B 3, A 4)");
+    return w;
+}
+
 std::string splat_id(const std::vector<std::string>& textons, const nlohmann::json& weights) {
     Sha256 h;
     h.update(core::kSplatVersion).update("\n");
@@ -32,7 +75,13 @@ std::string splat_id(const std::vector<std::string>& textons, const nlohmann::js
 
 Result<bool> write_splat_files(const std::string& dir, const SplatRecord& r) {
     const std::string& id = r.meta.id;
-    if (r.weights.kind == core::SplatWeights::Kind::image) {
+    if (r.weights.kind == core::SplatWeights::Kind::image && !r.weight_uploads.empty()) {
+        for (std::size_t i = 0; i < r.weight_uploads.size(); ++i) {
+            const std::string name = i == 0 ? ".weights.upload" : ".weights2.upload";
+            auto ok = write_file_atomic(dir + "/" + id + name, r.weight_uploads[i]);
+            if (!ok) return ok.error();
+        }
+    } else if (r.weights.kind == core::SplatWeights::Kind::image) {
         const core::Image& w = r.weights.image.weights;
         auto bytes = encode_image_memory(w, Encoding::exr, {}, 6, weight_channel_names(w.channels));
         if (!bytes) return bytes.error();
@@ -57,9 +106,23 @@ Result<SplatRecord> read_splat_files(const std::string& dir, const std::string& 
         if (r.meta.id != id || r.meta.version != core::kSplatVersion)
             return bad(path, "id or version disagree with the file");
         if (r.weights.kind == core::SplatWeights::Kind::image) {
-            DecodeLimits limits;
-            limits.all_channels = true;
-            auto w = decode_image_file(dir + "/" + id + ".weights.exr", limits);
+            const std::string upload = dir + "/" + id + ".weights.upload";
+            Result<core::Image> w = make_error(ErrorCode::io, "no weights");
+            if (std::filesystem::is_regular_file(upload, ec)) {
+                std::vector<std::string> bytes;
+                for (const char* name : {".weights.upload", ".weights2.upload"}) {
+                    const std::string file = dir + "/" + id + name;
+                    if (!std::filesystem::is_regular_file(file, ec)) continue;
+                    auto b = read_file(file);
+                    if (!b) return bad(path, "weights: " + b.error().message);
+                    bytes.push_back(std::move(b.value()));
+                }
+                w = decode_splat_weights({bytes.begin(), bytes.end()}, splat_weight_limits(), k);
+            } else { // stored before the uploads were kept
+                DecodeLimits limits;
+                limits.all_channels = true;
+                w = decode_image_file(dir + "/" + id + ".weights.exr", limits);
+            }
             if (!w) return bad(path, "weights: " + w.error().message);
             r.weights.image.weights = std::move(w.value());
             if (pixels_sha256(r.weights.image.weights) !=

@@ -10,11 +10,14 @@
 namespace textond::store {
 
 namespace {
-// A splat's files as the shared store holds them (server/io/splat_file.h): the weights (8 float
-// planes of 2048 x 2048 at most, with room for EXR's headers and incompressible data) first, the
-// metadata last.
+// A splat's files as the shared store holds them (server/io/splat_file.h): the weight images as
+// uploaded (2048 x 2048 x 4 channels of 16 bits at most, stored uncompressed at worst, 32 MiB),
+// or the float planes of a splat stored before (8 of 2048 x 2048), first; the metadata last.
 std::vector<SharedObjects::File> splat_files() {
+    constexpr long long kUpload = core::kMaxSplatWeightPixels * 4 * 2 + (8LL << 20);
     return {{".weights.exr", 8 * core::kMaxSplatWeightPixels * 4 + (8LL << 20)},
+            {".weights.upload", kUpload},
+            {".weights2.upload", kUpload},
             {".json", 1LL << 20}};
 }
 } // namespace
@@ -195,7 +198,8 @@ Result<std::shared_ptr<const render::PreparedSplat>> SplatStore::prepared(const 
 }
 
 void SplatStore::quarantine(const std::string& id, const std::string& why) {
-    const std::string dir = quarantine_files(m_dir, id, {".json", ".weights.exr"});
+    const std::string dir = quarantine_files(
+        m_dir, id, {".json", ".weights.exr", ".weights.upload", ".weights2.upload"});
     spdlog::error("splats: {} refused at load ({}); moved to {}", id, why, dir);
     std::lock_guard<std::mutex> lock(m_mutex);
     m_quarantined.push_back(id);

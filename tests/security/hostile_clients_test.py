@@ -1004,6 +1004,21 @@ class HostileClients(unittest.TestCase):
             st, _, got = self.get(links[name])
             self.assertEqual(st, 200, (name, links[name], got[:200]))
 
+    # Round 3, item 7: splat weights are stored at their own depth (as uploaded), not as float
+    # EXR three times their size; the splat reads back the same (its tiles do not change).
+    def test_splat_weights_are_stored_at_their_own_depth(self):
+        rows = [os.urandom(4 * 768) for _ in range(768)]
+        weights = grey_png(768, 768, lambda y: rows[y], colour_type=6)
+        st, _, body = self.splat_form([("scale", "2", None)], weights=weights)
+        self.assertIn(st, (200, 201), body[:200])
+        sid = json.loads(body)["id"]
+        stored = sum(os.path.getsize(os.path.join(self.dir, "splats", f))
+                     for f in os.listdir(os.path.join(self.dir, "splats")) if f.startswith(sid))
+        self.assertLess(stored, 1.05 * len(weights) + 64 * 1024,
+                        f"{stored} bytes stored for {len(weights)} bytes of weights")
+        st, _, tile = self.get(f"/v1/splats/{sid}/tiles/0/1/1.png")
+        self.assertEqual(st, 200)
+
     def test_rules_name_each_key_once(self):
         u, v = self.ids
         layers = '[{"height": [null, 0.5]}, {"height": [0.5, null]}]'
