@@ -71,8 +71,15 @@ std::optional<ApiError> check_percent_encodings(std::string_view target) {
 } // namespace
 
 std::optional<ApiError> check_target_text(std::string_view target) {
-    if (auto e = check_percent_encodings(target)) return e;
+    if (target.find('#') != std::string_view::npos)
+        return non_canonical("a '#' in the request: a fragment is the client's, never sent");
     const std::size_t q = target.find('?');
+    // No path here needs a percent-encoding (ids are hex, the rest plain words and numbers):
+    // '%2F' or '%40' would be routed as '/' and '@', another spelling of one answer.
+    if (const std::size_t pct = target.substr(0, q).find('%'); pct != std::string_view::npos)
+        return non_canonical("'" + std::string(target.substr(pct, 3)) +
+                             "' in the path: paths here are written without percent-encoding");
+    if (auto e = check_percent_encodings(target)) return e;
     if (q == std::string_view::npos) return std::nullopt;
     const std::string_view query = target.substr(q + 1);
     if (auto e = check_query_text(query)) return e;

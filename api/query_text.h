@@ -14,8 +14,9 @@ std::optional<ApiError> check_query_text(std::string_view query);
 
 // One URL for one answer (issue 43 item 5): caches key on the URL as sent, so every spelling of a
 // request that names the same answer would be its own entry. Refused, with the canonical
-// form in the message: a percent-encoded unreserved character (ALPHA, DIGIT, "-", ".", "_", "~")
-// or lowercase hex digits of a percent-encoding anywhere in the target; in the query, an empty
+// form in the message: any percent-encoding in the path (none is needed there), a fragment, a
+// percent-encoded unreserved character (ALPHA, DIGIT, "-", ".", "_", "~") or lowercase hex
+// digits of a percent-encoding in the query; in the query, an empty
 // item ("&&", a leading or trailing "&") or an empty query ("?" alone): non_canonical_url; a field
 // named twice, even with one value: invalid_parameter, as every route's own check says.
 std::optional<ApiError> check_target_text(std::string_view target);

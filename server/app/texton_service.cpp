@@ -67,7 +67,7 @@ TextonService::ingest(std::string_view bytes, const core::AnalysisParams& params
     out.id = io::texton_id(u, params);
     // Known here or to another replica (shared store): no analysis. With the shared store down,
     // nothing could be stored, so fail now rather than after the analysis.
-    if (auto meta = m_store.find(out.id)) {
+    if (auto meta = m_store.find(out.id, true)) {
         out.known = std::move(meta.value());
         return out;
     } else if (meta.error().code != ErrorCode::not_found) {
@@ -184,7 +184,7 @@ TextonService::ingest_set(const std::vector<MapUpload>& maps, const core::Analys
         return Refused{Stage::check, *err};
     Ingested out;
     out.id = io::texton_id(stacked, params, meta);
-    if (auto known = m_store.find(out.id)) {
+    if (auto known = m_store.find(out.id, true)) {
         out.known = std::move(known.value());
         return out;
     } else if (known.error().code != ErrorCode::not_found) {

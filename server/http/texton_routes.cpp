@@ -348,7 +348,8 @@ void TextonRoutes::list(Req req, Res res) {
     set_route("/v1/textons");
     api::ListRequest q;
     if (auto e = api::parse_list(req.params, q)) return send_error(res, *e);
-    const auto listed = m_store.list(q.after, q.limit + 1);
+    std::string resume; // the page ended early, for its byte budget: go on after this id
+    const auto listed = m_store.list(q.after, q.limit + 1, &resume);
     if (!listed) return send_error(res, to_api_error(listed.error()));
     const auto total = m_store.total();
     if (!total) return send_error(res, to_api_error(total.error()));
@@ -357,8 +358,10 @@ void TextonRoutes::list(Req req, Res res) {
     for (std::size_t i = 0; i < page.size() && static_cast<int>(i) < q.limit; ++i)
         items.push_back(texton_json(page[i]));
     nlohmann::json body = {{"items", items}, {"total", total.value()}};
-    if (static_cast<int>(page.size()) > q.limit) {
-        const std::string& last = page[static_cast<std::size_t>(q.limit) - 1].id;
+    if (static_cast<int>(page.size()) > q.limit || !resume.empty()) {
+        const std::string& last = static_cast<int>(page.size()) > q.limit
+                                      ? page[static_cast<std::size_t>(q.limit) - 1].id
+                                      : resume;
         body["next"] = "/v1/textons?limit=" + std::to_string(q.limit) + "&after=" + last;
     } else {
         body["next"] = nullptr;

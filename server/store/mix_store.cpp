@@ -4,6 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <optional>
 
@@ -37,7 +38,14 @@ bool MixStore::held(const std::string& id) const {
 }
 
 bool MixStore::contains(const std::string& id) {
-    if (held(id)) return true;
+    // A copy held here that another replica deleted is not "stored already": a creation after
+    // a delete elsewhere stores it again (it answered 200 and stored nothing).
+    if (held(id) && !m_shared.deleted_elsewhere(id, true)) return true;
+    if (held(id)) {
+        m_shared.erase_local(id);
+        forget(id);
+        return false;
+    }
     auto fetched = m_shared.fetch(id);
     return fetched && fetched.value();
 }
@@ -79,10 +87,21 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
             return make_error(ErrorCode::not_found, "no mix " + id + " (deleted)");
         }
         if (kept) return *kept;
-    } else if (auto fetched = m_shared.fetch(id); !fetched) {
-        return fetched.error();
+    }
+    bool fetched = false;
+    if (!kept && !held(id)) {
+        auto got = m_shared.fetch(id);
+        if (!got) return got.error();
+        fetched = got.value();
     }
     auto record = io::read_mix_files(m_dir, id);
+    if (!record && fetched && record.error().code == ErrorCode::io) {
+        // What the shared store holds is damaged: refused (500), not fetched or kept again.
+        m_shared.reject(id);
+        spdlog::error("mixes: {} from the shared store refused ({})", id, record.error().message);
+        return make_error(ErrorCode::io, "mix " + id + " in the shared store is damaged (" +
+                                             record.error().message + "); it is not served");
+    }
     if (!record && record.error().code == ErrorCode::io) {
         quarantine(id, record.error().message);
         return make_error(ErrorCode::not_found, "no mix " + id +
@@ -91,6 +110,11 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
     }
     if (!record) return record.error();
     auto prepared = render::PreparedMix::make(record.value().levels, record.value().field);
+    if (!prepared && fetched) {
+        m_shared.reject(id);
+        return make_error(ErrorCode::io, "mix " + id + " in the shared store fails validation (" +
+                                             prepared.error().message + "); it is not served");
+    }
     if (!prepared) {
         quarantine(id, prepared.error().message);
         return make_error(ErrorCode::not_found, "no mix " + id +
@@ -120,7 +144,8 @@ void MixStore::quarantine(const std::string& id, const std::string& why) {
     const std::string dir = quarantine_files(m_dir, id, {".exr", ".mask.exr"});
     spdlog::error("mixes: {} refused at load ({}); moved to {}", id, why, dir);
     std::lock_guard<std::mutex> lock(m_mutex);
-    m_quarantined.push_back(id);
+    if (std::find(m_quarantined.begin(), m_quarantined.end(), id) == m_quarantined.end())
+        m_quarantined.push_back(id);
 }
 
 std::vector<std::string> MixStore::quarantined() const {

@@ -168,8 +168,20 @@ public:
 
     // Sends every command, then reads every reply (one round trip). An error here means the
     // connection is broken and must be dropped.
+    // `timeout`: this round trip's, when longer than the connection's (a large value's read).
     Result<std::vector<std::shared_ptr<Reply>>>
-    run(const std::vector<std::vector<std::string>>& commands) {
+    run(const std::vector<std::vector<std::string>>& commands,
+        std::chrono::milliseconds timeout = std::chrono::milliseconds(0),
+        std::chrono::milliseconds usual = std::chrono::milliseconds(0)) {
+        if (timeout > usual) redisSetTimeout(m_c, to_timeval(timeout));
+        auto out = run_all(commands);
+        if (timeout > usual && out) redisSetTimeout(m_c, to_timeval(usual));
+        return out;
+    }
+
+private:
+    Result<std::vector<std::shared_ptr<Reply>>>
+    run_all(const std::vector<std::vector<std::string>>& commands) {
         for (const auto& argv : commands) {
             std::vector<const char*> ptrs;
             std::vector<std::size_t> lens;
@@ -191,7 +203,6 @@ public:
         return out;
     }
 
-private:
     explicit Connection(redisContext* c) : m_c(c) {}
     redisContext* m_c;
 };
@@ -252,11 +263,16 @@ void RedisStore::release(std::unique_ptr<Connection> c) {
 }
 
 Result<std::vector<std::shared_ptr<RedisStore::Reply>>>
-RedisStore::pipeline(const std::vector<std::vector<std::string>>& commands) {
+RedisStore::pipeline(const std::vector<std::vector<std::string>>& commands,
+                     std::size_t large_bytes) {
+    // A large value's read gets the time its size takes (10 MB/s at worst) on top of the usual
+    // timeout: a slow 100 MB read once timed out and called the whole store down.
+    const std::chrono::milliseconds timeout =
+        m_timeout + std::chrono::milliseconds(large_bytes / (10 * 1000));
     for (int attempt = 0;; ++attempt) {
         auto conn = acquire();
         if (!conn) return conn.error();
-        auto replies = conn.value()->run(commands);
+        auto replies = conn.value()->run(commands, timeout, m_timeout);
         if (!replies) {
             // A pooled connection may have died with an earlier Redis (restart, timeout): one
             // retry on a fresh connection before calling the store down.
@@ -270,16 +286,20 @@ RedisStore::pipeline(const std::vector<std::vector<std::string>>& commands) {
         }
         release(std::move(conn.value()));
         mark(true);
+        // OOM, READONLY, NOAUTH...: the store cannot serve this. WRONGTYPE is one key's (a value
+        // of another type where ours should be): left in its reply for the caller, which refuses
+        // that key alone (one such key made every list 503 store_unavailable).
         for (const auto& r : replies.value())
-            if (r->r->type == REDIS_REPLY_ERROR) // OOM, READONLY, NOAUTH...: cannot serve this
+            if (r->r->type == REDIS_REPLY_ERROR &&
+                std::string_view(r->r->str, r->r->len).rfind("WRONGTYPE", 0) != 0)
                 return unavailable(std::string(r->r->str, r->r->len));
         return replies;
     }
 }
 
-Result<std::shared_ptr<RedisStore::Reply>>
-RedisStore::command(const std::vector<std::string>& argv) {
-    auto r = pipeline({argv});
+Result<std::shared_ptr<RedisStore::Reply>> RedisStore::command(const std::vector<std::string>& argv,
+                                                               std::size_t large_bytes) {
+    auto r = pipeline({argv}, large_bytes);
     if (!r) return r.error();
     return r.value()[0];
 }
@@ -294,6 +314,7 @@ std::string RedisStore::write_refusal() const {
 
 Result<bool> RedisStore::put(const std::string& id, const std::string& file,
                              const std::string& meta_json, const std::string& exemplar_png) {
+    forget_refused(id);
     return write_script({"EVAL", kPutScript, "3", texton_key(id), ids_key(), tombstone_key(id),
                          file, io::sha256_hex(file), meta_json, exemplar_png,
                          io::sha256_hex(exemplar_png), id});
@@ -326,12 +347,14 @@ Result<bool> RedisStore::repair_if_differs(const std::string& id, const std::str
                                            const std::string& meta_json,
                                            const std::string& exemplar_png) {
     const std::string sha = io::sha256_hex(file);
-    auto r = pipeline({{"HSTRLEN", texton_key(id), "file"}, {"HGET", texton_key(id), "sha256"}});
+    auto r = pipeline({{"HSTRLEN", texton_key(id), "file"}, {"HSTRLEN", texton_key(id), "sha256"}});
     if (!r) return r.error();
-    const auto stored_sha = Reply::string(r.value()[1]->r);
-    if (r.value()[0]->integer() == static_cast<long long>(file.size()) && stored_sha &&
-        *stored_sha == sha)
-        return false;
+    if (r.value()[0]->integer() == static_cast<long long>(file.size()) &&
+        r.value()[1]->integer() == static_cast<long long>(sha.size())) {
+        auto stored = command({"HGET", texton_key(id), "sha256"}); // 64 bytes, checked above
+        if (!stored) return stored.error();
+        if (Reply::string(stored.value()->r) == sha) return false;
+    }
     auto w = command({"HSET", texton_key(id), "file", file, "sha256", sha, "meta", meta_json,
                       "exemplar", exemplar_png, "exemplar_sha256", io::sha256_hex(exemplar_png)});
     if (!w) return w.error();
@@ -359,50 +382,94 @@ void RedisStore::remember_refused(const std::string& id, const std::string& size
     m_refused[id] = sizes;
 }
 
+RedisStore::FetchLease::~FetchLease() {
+    if (!m_store) return;
+    {
+        std::lock_guard lock(m_store->m_fetch_mutex);
+        m_store->m_fetching_bytes -= m_bytes;
+    }
+    m_store->m_fetch_cv.notify_all();
+}
+
+Result<std::unique_ptr<RedisStore::FetchLease>> RedisStore::reserve_fetch(std::size_t bytes) {
+    bytes = std::min(bytes, kFetchBudget); // one alone always fits
+    std::unique_lock lock(m_fetch_mutex);
+    if (!m_fetch_cv.wait_for(lock, std::chrono::seconds(10),
+                             [&] { return m_fetching_bytes + bytes <= kFetchBudget; }))
+        return make_error(ErrorCode::unavailable,
+                          "the shared store's reads are busy (large values in flight); retry");
+    m_fetching_bytes += bytes;
+    return std::make_unique<FetchLease>(this, bytes);
+}
+
 Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
-    // The values' sizes first: a value past what a texton can hold (100 MB in `file` once cost
-    // every request 100 MB, and its slow read called the whole store down) is refused unread,
-    // as damaged, and the store stays up. A value refused once (by size or checksum) is not read
-    // again while its sizes stay the same.
+    // Every field's size before any value is read (100 MB in `file` once cost every request 100
+    // MB, and its slow read called the whole store down), its checksums' too; what a texton
+    // cannot hold is refused unread, as damaged, and the store stays up. A texton refused once
+    // (by size or checksum) is not read again while its sizes and checksums stay the same: a
+    // repair or a new upload changes them.
     const std::string key = texton_key(id);
     auto sizes = pipeline({{"HSTRLEN", key, "file"},
                            {"HSTRLEN", key, "exemplar"},
                            {"HSTRLEN", key, "meta"},
-                           {"EXISTS", key}});
+                           {"EXISTS", key},
+                           {"HSTRLEN", key, "sha256"},
+                           {"HSTRLEN", key, "exemplar_sha256"},
+                           {"HLEN", key}});
     if (!sizes) return sizes.error();
-    if (sizes.value()[3]->integer() != 1) return std::optional<Texton>{};
-    const long long len[3] = {sizes.value()[0]->integer(), sizes.value()[1]->integer(),
-                              sizes.value()[2]->integer()};
-    const std::string signature =
-        std::to_string(len[0]) + ":" + std::to_string(len[1]) + ":" + std::to_string(len[2]);
-    auto refuse = [&](const std::string& why) {
-        remember_refused(id, signature);
-        return make_error(ErrorCode::io, "texton " + id + " in the shared store " + why);
+    const auto& z = sizes.value();
+    if (z[3]->integer() != 1) return std::optional<Texton>{};
+    const std::string what = "texton " + id + " in the shared store";
+    for (const auto& r : z)
+        if (r->r->type == REDIS_REPLY_ERROR)
+            return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
+    const long long len[3] = {z[0]->integer(), z[1]->integer(), z[2]->integer()};
+    auto too_big = [&](const std::string& name, long long n, long long cap) {
+        return make_error(ErrorCode::io, what + " has a " + name + " of " + std::to_string(n) +
+                                             " bytes, more than it can hold (" +
+                                             std::to_string(cap) + "); it is not read");
     };
-    if (refused_before(id, signature))
-        return make_error(ErrorCode::io, "texton " + id +
-                                             " in the shared store was refused "
-                                             "before and has not changed; it is not "
-                                             "read again");
-    auto too_big = [&](const char* name, long long n, long long cap) {
-        return refuse("has a " + std::string(name) + " of " + std::to_string(n) +
-                      " bytes, more than it can hold (" + std::to_string(cap) +
-                      "); it is not read");
-    };
-    if (len[0] > kMaxFileBytes) return too_big("file", len[0], kMaxFileBytes);
-    if (len[2] > kMaxMetaBytes) return too_big("meta", len[2], kMaxMetaBytes);
-    // The file and metadata (a few kB) first: the metadata's exemplar size bounds the exemplar.
-    auto r = command({"HMGET", key, "file", "sha256", "meta"});
-    if (!r) return r.error();
-    const redisReply* a = r.value()->r;
-    if (a->type != REDIS_REPLY_ARRAY || a->elements != 3)
+    if (z[4]->integer() > 64 || z[5]->integer() > 64)
+        return too_big("checksum", std::max(z[4]->integer(), z[5]->integer()), 64);
+    if (z[6]->integer() > 5)
+        return make_error(ErrorCode::io, what + " has " + std::to_string(z[6]->integer()) +
+                                             " fields, more than a texton's 5; it is not read");
+    auto shas = command({"HMGET", key, "sha256", "exemplar_sha256"}); // 128 bytes at most
+    if (!shas) return shas.error();
+    const redisReply* h = shas.value()->r;
+    if (h->type != REDIS_REPLY_ARRAY || h->elements != 2)
         return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-    std::optional<std::string> file = Reply::string(a->element[0]);
-    const std::optional<std::string> file_sha = Reply::string(a->element[1]);
-    std::string meta = Reply::string(a->element[2]).value_or("");
-    r.value().reset(); // the reply's copy goes before the exemplar is read
-    if (!file || !file_sha || io::sha256_hex(*file) != *file_sha)
-        return refuse("fails its file checksum (damaged or half-written); it is not served");
+    const std::optional<std::string> file_sha = Reply::string(h->element[0]);
+    const std::optional<std::string> png_sha = Reply::string(h->element[1]);
+    const std::string signature = std::to_string(len[0]) + ":" + std::to_string(len[1]) + ":" +
+                                  std::to_string(len[2]) + ":" + file_sha.value_or("-") + ":" +
+                                  png_sha.value_or("-");
+    if (refused_before(id, signature))
+        return make_error(ErrorCode::io, what + " was refused before and has not changed; it is "
+                                                "not read again");
+    auto refuse = [&](Error e) {
+        remember_refused(id, signature);
+        return e;
+    };
+    if (len[0] > kMaxFileBytes) return refuse(too_big("file", len[0], kMaxFileBytes));
+    if (len[2] > kMaxMetaBytes) return refuse(too_big("meta", len[2], kMaxMetaBytes));
+    // The file and metadata (a few kB) first: the metadata's exemplar size bounds the exemplar.
+    std::string file, meta;
+    {
+        auto lease = reserve_fetch(static_cast<std::size_t>(len[0] + len[2]));
+        if (!lease) return lease.error();
+        auto r = command({"HMGET", key, "file", "meta"}, static_cast<std::size_t>(len[0] + len[2]));
+        if (!r) return r.error();
+        const redisReply* a = r.value()->r;
+        if (a->type != REDIS_REPLY_ARRAY || a->elements != 2)
+            return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
+        auto f = Reply::string(a->element[0]);
+        if (!f || !file_sha || io::sha256_hex(*f) != *file_sha)
+            return refuse(make_error(ErrorCode::io, what + " fails its file checksum (damaged or "
+                                                           "half-written); it is not served"));
+        file = std::move(*f);
+        meta = Reply::string(a->element[1]).value_or("");
+    }
     long long cap = 0;
     try {
         const auto j = nlohmann::json::parse(meta).at("exemplar");
@@ -410,24 +477,23 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
     } catch (const std::exception&) {
         cap = 0; // no size to bound it by: only an empty exemplar is read
     }
-    if (len[1] > cap) return too_big("exemplar", len[1], cap);
+    if (len[1] > cap) return refuse(too_big("exemplar", len[1], cap));
     std::string exemplar;
     if (len[1] > 0) {
-        auto e = command({"HMGET", key, "exemplar", "exemplar_sha256"});
+        auto lease = reserve_fetch(static_cast<std::size_t>(len[1]));
+        if (!lease) return lease.error();
+        auto e = command({"HGET", key, "exemplar"}, static_cast<std::size_t>(len[1]));
         if (!e) return e.error();
-        const redisReply* b = e.value()->r;
-        if (b->type != REDIS_REPLY_ARRAY || b->elements != 2)
-            return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-        auto png = Reply::string(b->element[0]);
-        const auto png_sha = Reply::string(b->element[1]);
+        auto png = Reply::string(e.value()->r);
         e.value().reset();
-        if (!png || !png_sha || static_cast<long long>(png->size()) > cap ||
+        if (!png || static_cast<long long>(png->size()) > cap || !png_sha ||
             io::sha256_hex(*png) != *png_sha)
-            return refuse("fails its exemplar checksum (damaged, half-written or changed while "
-                          "read); it is not served");
+            return refuse(make_error(ErrorCode::io, what + " fails its exemplar checksum "
+                                                           "(damaged, half-written or changed "
+                                                           "while read); it is not served"));
         exemplar = std::move(*png);
     }
-    return std::optional<Texton>{Texton{std::move(*file), std::move(exemplar), std::move(meta)}};
+    return std::optional<Texton>{Texton{std::move(file), std::move(exemplar), std::move(meta)}};
 }
 
 Result<RedisStore::Presence> RedisStore::presence(const std::string& id) {
@@ -438,6 +504,7 @@ Result<RedisStore::Presence> RedisStore::presence(const std::string& id) {
 }
 
 Result<bool> RedisStore::remove(const std::string& id) {
+    forget_refused(id);
     auto r =
         command({"EVAL", kRemoveScript, "3", texton_key(id), ids_key(), tombstone_key(id), id});
     if (!r) return r.error();
@@ -445,7 +512,8 @@ Result<bool> RedisStore::remove(const std::string& id) {
 }
 
 Result<std::vector<std::pair<std::string, std::string>>>
-RedisStore::list_meta(const std::string& after, int limit) {
+RedisStore::list_meta(const std::string& after, int limit, bool* more) {
+    if (more) *more = false;
     auto ids = command({"ZRANGEBYLEX", ids_key(), after.empty() ? "-" : "(" + after, "+", "LIMIT",
                         "0", std::to_string(limit)});
     if (!ids) return ids.error();
@@ -465,14 +533,22 @@ RedisStore::list_meta(const std::string& after, int limit) {
     if (!sizes) return sizes.error();
     std::vector<std::string> read;
     std::vector<std::vector<std::string>> gets;
+    std::size_t page = 0;
     for (std::size_t i = 0; i < listed.size(); ++i) {
-        const long long n = sizes.value()[i]->integer();
-        if (n > kMaxMetaBytes) {
-            spdlog::error("store: the metadata of {} in the shared store is {} bytes, over {}; "
-                          "not read, not listed",
-                          listed[i], n, kMaxMetaBytes);
+        const long long n = sizes.value()[i]->integer(); // -1: a value of another type
+        if (n < 0 || n > kMaxListedMetaBytes) {
+            spdlog::error("store: the metadata of {} in the shared store is {} bytes (a list "
+                          "takes {} at most) or no hash; not read, not listed",
+                          listed[i], n, kMaxListedMetaBytes);
             continue;
         }
+        // A page reads kListPageBytes at most: past it the page ends early, and `more` says the
+        // list goes on after its last id (1000 ids of 1 MiB once cost a list 1 GB and 31 s).
+        if (page + static_cast<std::size_t>(n) > kListPageBytes && !read.empty()) {
+            if (more) *more = true;
+            break;
+        }
+        page += static_cast<std::size_t>(n);
         read.push_back(listed[i]);
         gets.push_back({"HGET", texton_key(listed[i]), "meta"});
     }
@@ -505,8 +581,14 @@ Result<bool> RedisStore::ping() {
     return true;
 }
 
+void RedisStore::forget_refused(const std::string& memo) {
+    std::lock_guard lock(m_mutex);
+    m_refused.erase(memo);
+}
+
 Result<bool> RedisStore::put_object(const std::string& kind, const std::string& id,
                                     const Files& files) {
+    forget_refused(kind + ":" + id);
     std::vector<std::string> argv = {"EVAL", kPutObjectScript, "2", object_key(kind, id),
                                      object_tombstone_key(kind, id)};
     for (const auto& [suffix, bytes] : files) {
@@ -520,66 +602,90 @@ Result<bool> RedisStore::put_object(const std::string& kind, const std::string& 
 
 Result<std::optional<RedisStore::Files>>
 RedisStore::get_object(const std::string& kind, const std::string& id,
-                       const std::map<std::string, long long>& caps) {
+                       const std::map<std::string, long long>& caps, std::string* signature_out) {
     const std::string key = object_key(kind, id);
-    // The fields' names and sizes first (HSTRLEN): nothing past its cap is read, and an object
-    // refused once is not read again until its sizes change.
-    auto names = command({"HKEYS", key});
-    if (!names) return names.error();
-    const redisReply* a = names.value()->r;
+    const std::string what = kind + " " + id + " in the shared store";
+    // The known files' sizes and their checksums' sizes, and the field count (no field name is
+    // read: a 200 MB name is as costly as a value), before anything is read.
     std::vector<std::string> suffixes;
-    for (std::size_t i = 0; a->type == REDIS_REPLY_ARRAY && i < a->elements; ++i)
-        if (auto n = Reply::string(a->element[i]);
-            n && !(n->size() >= 7 && n->compare(n->size() - 7, 7, ".sha256") == 0))
-            suffixes.push_back(*n);
-    if (suffixes.empty()) return std::optional<Files>{};
-    const std::string what = kind + " " + id;
-    for (const std::string& suffix : suffixes)
-        if (!caps.count(suffix))
-            return make_error(ErrorCode::io, what + " in the shared store has a field '" +
-                                                 api::printable(suffix, 40) +
-                                                 "' it cannot hold; it is not read");
-    std::vector<std::vector<std::string>> lengths;
-    for (const std::string& suffix : suffixes) lengths.push_back({"HSTRLEN", key, suffix});
+    std::vector<std::vector<std::string>> lengths = {{"HLEN", key}};
+    for (const auto& [suffix, cap] : caps) {
+        suffixes.push_back(suffix);
+        lengths.push_back({"HSTRLEN", key, suffix});
+        lengths.push_back({"HSTRLEN", key, suffix + ".sha256"});
+    }
     auto sizes = pipeline(lengths);
     if (!sizes) return sizes.error();
+    for (const auto& r : sizes.value())
+        if (r->r->type == REDIS_REPLY_ERROR)
+            return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
+    const long long fields = sizes.value()[0]->integer();
+    if (fields <= 0) return std::optional<Files>{};
+    std::vector<std::string> present;
+    std::vector<std::vector<std::string>> sha_gets;
+    long long counted = 0;
+    std::size_t total = 0;
     std::string signature;
-    for (std::size_t i = 0; i < suffixes.size(); ++i)
-        signature += suffixes[i] + "=" + std::to_string(sizes.value()[i]->integer()) + ";";
+    for (std::size_t i = 0; i < suffixes.size(); ++i) {
+        const long long n = sizes.value()[1 + 2 * i]->integer();
+        const long long sha = sizes.value()[2 + 2 * i]->integer();
+        counted += (n > 0) + (sha > 0);
+        if (n <= 0) continue;
+        if (n > caps.at(suffixes[i]) || sha > 64)
+            return make_error(ErrorCode::io,
+                              what + " has a " + suffixes[i] + " of " + std::to_string(n) +
+                                  " bytes (checksum " + std::to_string(sha) +
+                                  "), more than it can hold (" +
+                                  std::to_string(caps.at(suffixes[i])) + "); it is not read");
+        present.push_back(suffixes[i]);
+        total += static_cast<std::size_t>(n);
+        signature += suffixes[i] + "=" + std::to_string(n) + ";";
+    }
+    if (counted != fields)
+        return make_error(ErrorCode::io, what + " has " + std::to_string(fields - counted) +
+                                             " fields it cannot hold; it is not read");
+    if (present.empty()) return std::optional<Files>{};
+    std::vector<std::string> sha_argv = {"HMGET", key};
+    for (const std::string& suffix : present) sha_argv.push_back(suffix + ".sha256");
+    auto shas = command(sha_argv); // 64 bytes each, checked above
+    if (!shas) return shas.error();
+    const redisReply* h = shas.value()->r;
+    if (h->type != REDIS_REPLY_ARRAY || h->elements != present.size())
+        return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
+    std::vector<std::string> sums;
+    for (std::size_t i = 0; i < present.size(); ++i) {
+        sums.push_back(Reply::string(h->element[i]).value_or(""));
+        signature += sums.back() + ";";
+    }
+    if (signature_out) *signature_out = signature;
     const std::string memo = kind + ":" + id;
     if (refused_before(memo, signature))
-        return make_error(ErrorCode::io, what + " in the shared store was refused before and has "
-                                                "not changed; it is not read again");
-    for (std::size_t i = 0; i < suffixes.size(); ++i) {
-        const long long n = sizes.value()[i]->integer(), cap = caps.at(suffixes[i]);
-        if (n > cap) {
-            remember_refused(memo, signature);
-            return make_error(ErrorCode::io, what + " in the shared store has a " + suffixes[i] +
-                                                 " of " + std::to_string(n) +
-                                                 " bytes, more than it can hold (" +
-                                                 std::to_string(cap) + "); it is not read");
-        }
-    }
+        return make_error(ErrorCode::io, what + " was refused before and has not changed; it is "
+                                                "not read again");
+    auto lease = reserve_fetch(total);
+    if (!lease) return lease.error();
     Files out;
-    for (const std::string& suffix : suffixes) { // one at a time: one copy in flight
-        auto r = command({"HMGET", key, suffix, suffix + ".sha256"});
+    for (std::size_t i = 0; i < present.size(); ++i) { // one at a time: one copy in flight
+        auto r = command({"HGET", key, present[i]}, total);
         if (!r) return r.error();
-        const redisReply* b = r.value()->r;
-        if (b->type != REDIS_REPLY_ARRAY || b->elements != 2)
-            return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-        auto bytes = Reply::string(b->element[0]);
-        const auto sha = Reply::string(b->element[1]);
+        auto bytes = Reply::string(r.value()->r);
+        r.value().reset();
         if (!bytes) return std::optional<Files>{}; // removed meanwhile
-        if (!sha || static_cast<long long>(bytes->size()) > caps.at(suffix) ||
-            io::sha256_hex(*bytes) != *sha) {
+        if (static_cast<long long>(bytes->size()) > caps.at(present[i]) ||
+            io::sha256_hex(*bytes) != sums[i]) {
             remember_refused(memo, signature);
-            return make_error(ErrorCode::io, what + " in the shared store fails its " + suffix +
+            return make_error(ErrorCode::io, what + " fails its " + present[i] +
                                                  " checksum (damaged or half-written); it is "
                                                  "not served");
         }
-        out.emplace(suffix, std::move(*bytes));
+        out.emplace(present[i], std::move(*bytes));
     }
     return std::optional<Files>{std::move(out)};
+}
+
+void RedisStore::refuse_object(const std::string& kind, const std::string& id,
+                               const std::string& signature) {
+    remember_refused(kind + ":" + id, signature);
 }
 
 Result<RedisStore::Presence> RedisStore::object_presence(const std::string& kind,
@@ -592,6 +698,7 @@ Result<RedisStore::Presence> RedisStore::object_presence(const std::string& kind
 }
 
 Result<bool> RedisStore::remove_object(const std::string& kind, const std::string& id) {
+    forget_refused(kind + ":" + id);
     auto r = command(
         {"EVAL", kRemoveObjectScript, "2", object_key(kind, id), object_tombstone_key(kind, id)});
     if (!r) return r.error();

@@ -15,6 +15,7 @@
 #include "core/result.h"
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -85,8 +86,12 @@ public:
     // Metadata JSON of the ids after `after` (exclusive), ascending, at most `limit`.
     // (id, metadata JSON) of the ids after `after`, as stored: the id is the key's, the JSON
     // whatever the value holds (the caller checks that they agree).
-    Result<std::vector<std::pair<std::string, std::string>>> list_meta(const std::string& after,
-                                                                       int limit);
+    // A page reads at most kListPageBytes of metadata, each at most kMaxListedMetaBytes (a
+    // texton's is a few kB): `more` is set when the page ended early for it.
+    Result<std::vector<std::pair<std::string, std::string>>>
+    list_meta(const std::string& after, int limit, bool* more = nullptr);
+    static constexpr long long kMaxListedMetaBytes = 64LL << 10;
+    static constexpr std::size_t kListPageBytes = std::size_t{8} << 20;
     Result<std::uint64_t> count();
     Result<bool> ping();
 
@@ -98,8 +103,13 @@ public:
     Result<bool> put_object(const std::string& kind, const std::string& id, const Files& files);
     // Each file's size checked against `caps` (suffix -> most bytes; a stored suffix not named is
     // refused) before anything is read, then its checksum; nullopt when absent.
+    // `signature` receives what identifies the values read (sizes and checksums): a caller that
+    // finds them damaged gives it back to refuse_object, and they are not read again.
     Result<std::optional<Files>> get_object(const std::string& kind, const std::string& id,
-                                            const std::map<std::string, long long>& caps);
+                                            const std::map<std::string, long long>& caps,
+                                            std::string* signature = nullptr);
+    void refuse_object(const std::string& kind, const std::string& id,
+                       const std::string& signature);
     Result<Presence> object_presence(const std::string& kind, const std::string& id);
     Result<bool> remove_object(const std::string& kind, const std::string& id);
     // Room left under Redis's maxmemory (INFO memory), for the readiness probe: an error when it
@@ -112,9 +122,27 @@ private:
     // Runs one command (argv) on a pooled connection; on a broken connection, retries once on a
     // fresh one (every command here is idempotent), then reports the store unavailable and
     // fails fast for a second so a dead Redis does not slow every request.
-    Result<std::shared_ptr<Reply>> command(const std::vector<std::string>& argv);
+    // `large_bytes`: what the replies may hold, which lengthens the timeout.
+    Result<std::shared_ptr<Reply>> command(const std::vector<std::string>& argv,
+                                           std::size_t large_bytes = 0);
     Result<std::vector<std::shared_ptr<Reply>>>
-    pipeline(const std::vector<std::vector<std::string>>& commands);
+    pipeline(const std::vector<std::vector<std::string>>& commands, std::size_t large_bytes = 0);
+    // Values read from the store at once, all requests together, are held to kFetchBudget
+    // (eight ids of 100 MB each once took a replica +874 MB and the store down for a second).
+    class FetchLease {
+    public:
+        FetchLease(RedisStore* store, std::size_t bytes) : m_store(store), m_bytes(bytes) {}
+        ~FetchLease();
+        FetchLease(const FetchLease&) = delete;
+        FetchLease& operator=(const FetchLease&) = delete;
+
+    private:
+        RedisStore* m_store;
+        std::size_t m_bytes;
+    };
+    Result<std::unique_ptr<FetchLease>> reserve_fetch(std::size_t bytes);
+    static constexpr std::size_t kFetchBudget = std::size_t{192} << 20;
+    void forget_refused(const std::string& memo);
     Result<std::unique_ptr<Connection>> acquire();
     // Runs a write script that answers 0 or 1, remembering a refusal (full, read-only).
     Result<bool> write_script(const std::vector<std::string>& argv);
@@ -136,6 +164,9 @@ private:
     std::string m_last_error = "not connected yet";
     std::string m_write_refusal;
     std::map<std::string, std::string> m_refused; // id -> sizes when refused
+    std::mutex m_fetch_mutex;
+    std::condition_variable m_fetch_cv;
+    std::size_t m_fetching_bytes = 0;
     std::chrono::steady_clock::time_point m_write_refused_at{};
 };
 

@@ -66,7 +66,8 @@ Result<bool> SharedObjects::fetch(const std::string& id) {
 Result<bool> SharedObjects::fetch_once(const std::string& id) {
     std::map<std::string, long long> caps;
     for (const File& f : m_files) caps[f.suffix] = f.cap;
-    auto got = m_shared->get_object(m_kind, id, caps);
+    std::string signature;
+    auto got = m_shared->get_object(m_kind, id, caps, &signature);
     if (!got) {
         if (got.error().code != ErrorCode::unavailable)
             spdlog::error("store: {}", got.error().message);
@@ -85,16 +86,32 @@ Result<bool> SharedObjects::fetch_once(const std::string& id) {
         if (auto w = io::write_file_atomic(m_dir + "/" + id + f.suffix, it->second); !w)
             return w.error();
     }
+    std::lock_guard lock(m_mutex);
+    m_fetched_signature[id] = signature;
     return true;
 }
 
-bool SharedObjects::deleted_elsewhere(const std::string& id) {
+void SharedObjects::reject(const std::string& id) {
+    erase_local(id);
+    if (!m_shared) return;
+    std::string signature;
+    {
+        std::lock_guard lock(m_mutex);
+        const auto it = m_fetched_signature.find(id);
+        if (it == m_fetched_signature.end()) return;
+        signature = it->second;
+        m_fetched_signature.erase(it);
+    }
+    m_shared->refuse_object(m_kind, id, signature);
+}
+
+bool SharedObjects::deleted_elsewhere(const std::string& id, bool now_) {
     if (!m_shared) return false;
     {
         std::lock_guard lock(m_mutex);
         const auto now = std::chrono::steady_clock::now();
         auto& checked = m_checked[id];
-        if (now < checked + m_recheck) return false;
+        if (!now_ && now < checked + m_recheck) return false;
         checked = now; // one request an interval makes the round trip
     }
     auto presence = m_shared->object_presence(m_kind, id);

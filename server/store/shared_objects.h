@@ -35,8 +35,12 @@ public:
     // The object's files fetched into the directory (one fetch an id at a time): false when the
     // shared store has none (or a tombstone), unavailable when it cannot say.
     Result<bool> fetch(const std::string& id);
-    // A local copy was deleted in the shared store (asked at most every recheck an id).
-    bool deleted_elsewhere(const std::string& id);
+    // A local copy was deleted in the shared store (asked at most every recheck an id, or now
+    // when `now`: before a creation answers that it is stored already).
+    bool deleted_elsewhere(const std::string& id, bool now = false);
+    // The copy just fetched failed the reader's checks: its files go, and the shared store's
+    // values are not read again until they change.
+    void reject(const std::string& id);
     // Removed from the shared store, leaving a tombstone: false when it was not there.
     Result<bool> remove(const std::string& id);
     // The local files, as a removal leaves them: gone.
@@ -54,6 +58,7 @@ private:
         std::optional<Result<bool>> result;
     };
     std::map<std::string, std::shared_ptr<Fetch>> m_fetching;
+    std::map<std::string, std::string> m_fetched_signature; // of the values last fetched, by id
     std::condition_variable m_fetched;
 };
 

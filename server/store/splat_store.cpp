@@ -5,6 +5,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 
 namespace textond::store {
@@ -42,7 +43,14 @@ bool SplatStore::held(const std::string& id) const {
 }
 
 bool SplatStore::contains(const std::string& id) {
-    if (held(id)) return true;
+    // A copy held here that another replica deleted is not "stored already": a creation after
+    // a delete elsewhere stores it again (it answered 200 and stored nothing).
+    if (held(id) && !m_shared.deleted_elsewhere(id, true)) return true;
+    if (held(id)) {
+        m_shared.erase_local(id);
+        forget(id);
+        return false;
+    }
     auto fetched = m_shared.fetch(id);
     return fetched && fetched.value();
 }
@@ -161,9 +169,20 @@ Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
         forget(id);
         return *gone;
     }
-    if (!held(id))
-        if (auto fetched = m_shared.fetch(id); !fetched) return fetched.error();
+    bool fetched = false;
+    if (!held(id)) {
+        auto got = m_shared.fetch(id);
+        if (!got) return got.error();
+        fetched = got.value();
+    }
     auto record = io::read_splat_files(m_dir, id);
+    if (!record && fetched && record.error().code == ErrorCode::io) {
+        // What the shared store holds is damaged: refused (500), not fetched or kept again.
+        m_shared.reject(id);
+        spdlog::error("splats: {} from the shared store refused ({})", id, record.error().message);
+        return make_error(ErrorCode::io, "splat " + id + " in the shared store is damaged (" +
+                                             record.error().message + "); it is not served");
+    }
     if (!record && record.error().code == ErrorCode::io) {
         quarantine(id, record.error().message);
         return make_error(ErrorCode::not_found, "no splat " + id +
@@ -202,7 +221,8 @@ void SplatStore::quarantine(const std::string& id, const std::string& why) {
         m_dir, id, {".json", ".weights.exr", ".weights.upload", ".weights2.upload"});
     spdlog::error("splats: {} refused at load ({}); moved to {}", id, why, dir);
     std::lock_guard<std::mutex> lock(m_mutex);
-    m_quarantined.push_back(id);
+    if (std::find(m_quarantined.begin(), m_quarantined.end(), id) == m_quarantined.end())
+        m_quarantined.push_back(id);
 }
 
 std::vector<std::string> SplatStore::quarantined() const {

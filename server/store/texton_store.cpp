@@ -77,7 +77,7 @@ void TextonStore::forget(const std::string& id) {
     m_prepared.remove_if([&](const auto& p) { return p.first == id; });
 }
 
-Result<api::TextonMeta> TextonStore::find(const std::string& id) {
+Result<api::TextonMeta> TextonStore::find(const std::string& id, bool now_) {
     auto local = m_local->meta(id);
     if (!local) {
         if (!m_shared) return make_error(ErrorCode::not_found, "no texton " + id);
@@ -88,7 +88,7 @@ Result<api::TextonMeta> TextonStore::find(const std::string& id) {
         std::lock_guard lock(m_mutex);
         const auto now = std::chrono::steady_clock::now();
         auto& checked = m_checked[id];
-        if (now < checked + m_recheck) return std::move(*local);
+        if (!now_ && now < checked + m_recheck) return std::move(*local);
         checked = now; // one request per interval makes the round trip
     }
     return recheck(id, std::move(*local));
@@ -298,10 +298,14 @@ Result<std::string> TextonStore::exemplar_png(const std::string& id) {
     return png;
 }
 
-Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after, int limit) {
+Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after, int limit,
+                                                       std::string* resume) {
+    if (resume) resume->clear();
     if (!m_shared) return m_local->list(after, limit);
-    auto metas = m_shared->list_meta(after, limit);
+    bool more = false;
+    auto metas = m_shared->list_meta(after, limit, &more);
     if (!metas) return metas.error();
+    if (more && resume && !metas.value().empty()) *resume = metas.value().back().first;
     // A verified local copy's metadata wins over what Redis says; Redis metadata naming another
     // id than its key's is not listed (the key is the content address, the JSON is just text).
     std::vector<api::TextonMeta> out;

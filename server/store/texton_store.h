@@ -44,7 +44,9 @@ public:
 
     // The texton's metadata: local, else fetched from the shared store. not_found, or
     // unavailable when only the (unreachable) shared store could tell.
-    Result<api::TextonMeta> find(const std::string& id);
+    // `now`: a local copy is rechecked against the shared store now, not within --store-recheck-s
+    // (an upload must not answer "stored already" for a texton another replica deleted).
+    Result<api::TextonMeta> find(const std::string& id, bool now = false);
     // Verified and ready to render; kept in a small LRU of prepared textons.
     Result<std::shared_ptr<const render::PreparedTexton>> prepared(const std::string& id);
     // The file read and verified (fetched first when only the shared store holds it).
@@ -61,7 +63,10 @@ public:
 
     // Ids in ascending order after `after` (exclusive), at most `limit`: the shared store's when
     // there is one.
-    Result<std::vector<api::TextonMeta>> list(const std::string& after, int limit);
+    // `resume`, when given, receives the id after which the list goes on when the page ended
+    // before `limit` for its byte budget (RedisStore::list_meta), else "".
+    Result<std::vector<api::TextonMeta>> list(const std::string& after, int limit,
+                                              std::string* resume = nullptr);
     Result<std::uint64_t> total();
     // This replica's copy (counts, size, quarantine, the readiness probe).
     const TextonDirectory& local() const { return *m_local; }

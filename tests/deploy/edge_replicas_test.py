@@ -15,6 +15,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.error
 import urllib.request
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -39,6 +40,109 @@ def wait(what, probe, seconds=30):
             pass
         time.sleep(0.1)
     raise SystemExit(f"FAIL: {what} never happened")
+
+
+def redis(port, *args):
+    """One command over RESP (values of any size, which redis-cli's argv does not take)."""
+    s = socket.create_connection(("127.0.0.1", port))
+    parts = [a if isinstance(a, bytes) else str(a).encode() for a in args]
+    s.sendall(b"*%d\r\n" % len(parts) + b"".join(b"$%d\r\n%s\r\n" % (len(p), p) for p in parts))
+    f = s.makefile("rb")
+    line = f.readline()
+    if line.startswith(b"$") and int(line[1:]) >= 0:
+        f.read(int(line[1:]) + 2)
+    s.close()
+    return line.strip()
+
+
+def http(url, method="GET", body=None, headers=None):
+    req = urllib.request.Request(url, data=body, method=method, headers=headers or {})
+    try:
+        with urllib.request.urlopen(req, timeout=60) as r:
+            return r.status, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.read()
+
+
+def damaged_values(rport, edge, replicas, tmp, exemplars):
+    """The review's attacks on the shared store (issue 43, round 3 review): each is refused once,
+    for what it is, without reading what cannot be held, and a fixed or recreated value serves."""
+    import hashlib
+    sys.path.insert(0, os.path.join(HERE, "..", "support"))
+    from form_bytes import multipart
+    from png_bytes import rgba_png
+    a, b = replicas
+    ids = []
+    for name, seed in (("etr_sand01.png", 51), ("etr_pebbles04.png", 52)):
+        with open(os.path.join(exemplars, name), "rb") as f:
+            st, body = http(f"{a}/v1/textons?size=16&iterations=5&seed={seed}", "POST", f.read(),
+                            {"Content-Type": "image/png"})
+        assert st in (200, 201), body
+        ids.append(json.loads(body)["id"])
+    # A mix whose levels are 2 MB of noise under a matching checksum: refused (500), never
+    # fetched, kept or quarantined again.
+    fake = "f" * 64
+    junk = os.urandom(2 << 20)
+    redis(rport, "HSET", f"textond:v1:mix:{fake}", ".exr", junk, ".exr.sha256",
+          hashlib.sha256(junk).hexdigest())
+    sts = [http(f"{b}/v1/mixes/{fake}")[0] for _ in range(5)]
+    assert sts == [500] * 5, sts
+    left = [f for f in os.listdir(os.path.join(tmp, "data-b", "mixes")) if fake in f]
+    quarantine = os.path.join(tmp, "data-b", "mixes", "quarantine")
+    kept = os.listdir(quarantine) if os.path.isdir(quarantine) else []
+    assert not left and not kept, (left, kept)
+    print("a damaged mix under a matching checksum: 500 five times, fetched once, nothing kept")
+    # A splat whose metadata's checksum is damaged: 500; repaired: served again.
+    body, headers = multipart([("textons", f"{ids[0]},{ids[1]}", None),
+                               ("weights", rgba_png(8, 8, 3), "w.png")])
+    st, made = http(f"{a}/v1/splats", "POST", body, headers)
+    assert st in (200, 201), made
+    sid = json.loads(made)["id"]
+    key = f"textond:v1:splat:{sid}"
+    good = subprocess.run(["redis-cli", "-p", str(rport), "HGET", key, ".json.sha256"],
+                          capture_output=True, text=True).stdout.strip()
+    redis(rport, "HSET", key, ".json.sha256", "0" * 64)
+    assert http(f"{b}/v1/splats/{sid}")[0] == 500
+    redis(rport, "HSET", key, ".json.sha256", good)
+    st, got = http(f"{b}/v1/splats/{sid}")
+    assert st == 200, (st, got[:200])
+    print("a splat refused for its checksum is served again once the checksum is right")
+    # Deleted on b, created again on a at once: 201, and stored for every replica.
+    assert http(f"{b}/v1/splats/{sid}", "DELETE")[0] == 204
+    st, again = http(f"{a}/v1/splats", "POST", body, headers)
+    assert st == 201, (st, again[:200])
+    wait("the splat created again reaches b", lambda: http(f"{b}/v1/splats/{sid}")[0] == 200)
+    print("a splat deleted on one replica and created again on the other: 201, served by both")
+    # A checksum field of 400 kB and a field name of 1 MB: refused unread.
+    redis(rport, "HSET", f"textond:v1:texton:{'d' * 64}", "file", "x", "sha256", "s" * 400000)
+    redis(rport, "ZADD", "textond:v1:ids", 0, "d" * 64)
+    st, got = http(f"{b}/v1/textons/{'d' * 64}")
+    assert st == 500 and b"not read" in got, (st, got[:200])
+    redis(rport, "HSET", key, b"n" * (1 << 20) + b".sha256", "x")
+    st, got = http(f"{b}/v1/splats/{sid}/tiles/4/0/0.png")
+    assert st in (200, 500), (st, got[:200])  # b may still hold its copy; a fresh fetch refuses
+    redis(rport, "HSET", f"textond:v1:mix:{'c' * 64}", ".exr", "x", b"n" * (1 << 20), "y")
+    st, got = http(f"{b}/v1/mixes/{'c' * 64}")
+    assert st == 500 and b"cannot hold" in got, (st, got[:200])
+    print("a 400 kB checksum and a 1 MB field name: refused unread")
+    # A key of another type: that id is refused (500), the list and the store stay up.
+    redis(rport, "SET", f"textond:v1:texton:{'e' * 64}", "junk")
+    redis(rport, "ZADD", "textond:v1:ids", 0, "e" * 64)
+    st, got = http(f"{b}/v1/textons?limit=50")
+    assert st == 200, (st, got[:200])
+    assert http(f"{b}/v1/textons/{'e' * 64}")[0] == 500
+    assert not get_json(b + "/readyz")["degraded"]
+    print("a key of another type: 500 for its id, the list 200, the store up")
+    # Metadata past what a list reads (64 KiB an item, 8 MiB a page): skipped or left to the
+    # next page, which the answer names.
+    for i in range(150):
+        tid = "%064x" % (i + 1)
+        redis(rport, "HSET", f"textond:v1:texton:{tid}", "meta", "{" + " " * (60 << 10) + "}")
+        redis(rport, "ZADD", "textond:v1:ids", 0, tid)
+    st, got = http(f"{b}/v1/textons?limit=1000")
+    page = json.loads(got)
+    assert st == 200 and page["next"], (st, got[:300])
+    print("150 metadata of 60 KiB: the page ends at 8 MiB and names the next")
 
 
 def get_json(url):
@@ -114,6 +218,12 @@ def main():
                 print(f"Redis {' '.join(setting)}: /readyz degraded {degraded}"
                       + (f" ({ready['shared_store'].get('error')})" if degraded else ""))
         passed, failed = (passed + 1, failed) if ok else (passed, failed + 1)
+        try:
+            damaged_values(rport, edge, replicas, tmp, exemplars)
+            passed += 1
+        except AssertionError as e:
+            print(f"FAIL: damaged values in the shared store: {e}")
+            failed += 1
     finally:
         if os.path.exists(os.path.join(tmp, "edge", "nginx.pid")):
             subprocess.run(["/usr/sbin/nginx", "-p", os.path.join(tmp, "edge"), "-c", nginx_conf,

@@ -108,12 +108,21 @@ def main():
     tile = f"/v1/splats/{splat}/tiles/0/0/1.png"
     for odd in (f"{tile}?seed=%37", f"{tile}?s%65ed=7", f"{tile}?seed=7&seed=7", f"{tile}?&seed=7",
                 f"{tile}?seed=7&&", f"/v1/splats/{splat}/tiles/%30/0/1.png",
-                f"/v1/splats/{splat}/tiles/0/0/1%2Epng"):
+                f"/v1/splats/{splat}/tiles/0/0/1%2Epng", f"/v1%2Fsplats%2F{splat}/tiles/0/0/1.png",
+                f"/v1/splats/{splat}%2Ftiles/0/0/1.png", f"/v1/splats/{splat}/tiles/0/0/1%402x.png",
+                f"{tile}?seed=%3d7"):
         for t in targets:
             st, _, b = request(t, "GET", odd)
             if st != 400:
                 fail(f"{t}{odd}: {st}, not 400 {b[:200]!r}")
     print("non-canonical spellings of a tile URL: 400 at the edge and at every replica")
+    # The edge keys an image on its URI alone: a made-up Host is no new cache entry.
+    tile = f"/v1/splats/{splat}/tiles/0/2/2.png"
+    request(a.edge, "GET", tile)
+    st, h, _ = request(a.edge, "GET", tile, headers={"Host": "made-up.example"})
+    if st != 200 or h.get("X-Cache-Status") != "HIT":
+        fail(f"a tile asked with another Host: {st}, X-Cache-Status {h.get('X-Cache-Status')}")
+    print("the edge caches an image once whatever the Host")
 
     # Item 7: deleted through the edge, gone on every replica.
     for kind, oid in (("splats", splat), ("mixes", mix)):

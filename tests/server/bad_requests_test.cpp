@@ -120,8 +120,10 @@ TEST(BadRequests, EachGetsItsStatusAndCodeAndNothingBreaks) {
          "not_found"},
         {"unknown id, delete", "DELETE", "/v1/textons/" + unknown, "", 404, "not_found"},
         {"../ in the id", "GET", "/v1/textons/../../etc/passwd", "", 400, "invalid_id"},
+        // Refused before routing: no path here is written with a percent-encoding.
         {"encoded ../ in the id", "GET", "/v1/textons/..%2F..%2Fetc%2Fpasswd/tiles/0/0/0.png", "",
-         400, "invalid_id"},
+         400, "non_canonical_url"},
+        {"encoded / in a path", "GET", "/v1%2Ftextons", "", 400, "non_canonical_url"},
         {"uppercase id", "GET", "/v1/textons/" + std::string(64, 'A'), "", 400, "invalid_id"},
         {"overlong id", "GET", "/v1/textons/" + std::string(65, 'a'), "", 400, "invalid_id"},
         {"very long id", "GET", "/v1/textons/" + std::string(4000, 'a') + "/texton.png", "", 400,
