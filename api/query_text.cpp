@@ -60,8 +60,9 @@ std::optional<ApiError> check_percent_encodings(std::string_view target) {
             std::string upper = spelled;
             for (char& c : upper)
                 c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-            return non_canonical("'" + spelled + "' in the URL: write '" + upper +
-                                 "' (uppercase hex digits)");
+            std::string why = "'";
+            why.append(spelled).append("' in the URL: write '").append(upper);
+            return non_canonical(why + "' (uppercase hex digits)");
         }
         i += 2;
     }

@@ -61,10 +61,13 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m) {
     if (!v) return v.error();
     Started out;
     out.id = io::mix_id(m.u, m.v, m.levels, m.field);
-    if (auto meta = m_mixes.meta(out.id)) {
-        out.known = std::move(meta.value());
-        return out;
-    }
+    // contains() asks the shared store now whether a copy held here was deleted elsewhere: a
+    // creation after a delete stores the mix again (it answered 200 and stored nothing).
+    if (m_mixes.contains(out.id))
+        if (auto meta = m_mixes.meta(out.id)) {
+            out.known = std::move(meta.value());
+            return out;
+        }
     // A mix is R texton analyses: it runs on the analysis pool, single flight per id, and a
     // full pool answers 429 at once (it waited on a mutex before: 15 s became 159 s).
     store::TextonStore* textons = &m_textons;

@@ -22,7 +22,7 @@ Gate::Gate(const ServeConfig& config, Metrics& metrics)
       m_render_slots(config.render_slots > 0 ? config.render_slots : cores(),
                      static_cast<std::size_t>(config.render_queue)),
       m_decode_slots(cores(), static_cast<std::size_t>(config.render_queue)),
-      m_bodies(config.body_budget_bytes) {}
+      m_bodies(config.body_budget_bytes), m_decoded(config.body_budget_bytes) {}
 
 bool Gate::within_budget(httplib::Response& res, double work_s, double cpu_share) {
     work_s *= cpu_share + (1.0 - cpu_share) * m_work_factor;
@@ -89,14 +89,22 @@ std::optional<SlotGuard> Gate::admit_decode(httplib::Response& res) {
 }
 
 std::shared_ptr<BudgetLease> Gate::lease_transfer(httplib::Response& res, std::size_t bytes) {
+    return lease(m_bodies, res, bytes, "too many large responses in flight; retry shortly");
+}
+
+std::shared_ptr<BudgetLease> Gate::lease_decode(httplib::Response& res, std::size_t bytes) {
+    return lease(m_decoded, res, bytes, "too many large images being decoded; retry shortly");
+}
+
+std::shared_ptr<BudgetLease> Gate::lease(BodyBudget& budget, httplib::Response& res,
+                                         std::size_t bytes, const char* busy) {
     ConnectionStream* conn = current_connection();
     const auto end =
         std::chrono::steady_clock::now() + std::chrono::milliseconds(m_config.queue_timeout_ms);
-    // One lease alone always fits, beside a quarter of the budget held by other requests'
-    // bodies: clamped to the whole budget, a lease waited for every small body in flight to end
-    // (twelve splat creations of 33 KB each starved one another into 429s).
-    bytes = std::min(bytes, m_bodies.cap() / 4 * 3);
-    while (!m_bodies.reserve(bytes)) {
+    // One lease alone always fits, beside a quarter of the budget held by other requests:
+    // clamped to the whole budget, a lease waited for every small body in flight to end.
+    bytes = std::min(bytes, budget.cap() / 4 * 3);
+    while (!budget.reserve(bytes)) {
         if (conn && conn->client_gone()) {
             m_metrics.not_admitted("gone");
             send_error(res, {"client_gone", "the client left before the work started"});
@@ -105,13 +113,12 @@ std::shared_ptr<BudgetLease> Gate::lease_transfer(httplib::Response& res, std::s
         if (std::chrono::steady_clock::now() >= end) {
             m_metrics.not_admitted("busy");
             res.set_header("Retry-After", "1");
-            send_error(res, {"overloaded", "too many large responses in flight; retry "
-                                           "shortly"});
+            send_error(res, {"overloaded", busy});
             return nullptr;
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
-    return std::make_shared<BudgetLease>(m_bodies, bytes);
+    return std::make_shared<BudgetLease>(budget, bytes);
 }
 
 bool Gate::read_request_body(const httplib::ContentReader& reader, httplib::Response& res,

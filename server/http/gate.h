@@ -48,6 +48,10 @@ public:
                          const std::string& code = {});
     // `bytes` of the body budget for a large response, waiting like admit() (429 sent).
     std::shared_ptr<BudgetLease> lease_transfer(httplib::Response& res, std::size_t bytes);
+    // `bytes` of the decode budget (the decoded pixels of uploads and splat weights), waiting
+    // like admit(). Apart from the body budget: twelve splat creations whose bodies held most of
+    // it each waited for the rest, and nothing moved until their queue timeouts.
+    std::shared_ptr<BudgetLease> lease_decode(httplib::Response& res, std::size_t bytes);
     // The body of a POST route, read with the upload limit or a smaller `limit` of the route's
     // own (sends the error on failure).
     bool read_request_body(const httplib::ContentReader& reader, httplib::Response& res, Body& body,
@@ -67,7 +71,10 @@ private:
     // Decoding an upload takes up to 16 bytes a pixel (268 MB at the 16.8 MP default): bounded
     // so that many simultaneous large uploads cannot exhaust memory.
     WorkSlots m_decode_slots;
-    BodyBudget m_bodies; // request bodies held in memory, all requests together
+    BodyBudget m_bodies;  // request bodies held in memory, all requests together
+    BodyBudget m_decoded; // decoded pixels of uploads and splat weights, all requests together
+    std::shared_ptr<BudgetLease> lease(BodyBudget& budget, httplib::Response& res,
+                                       std::size_t bytes, const char* busy);
     double m_work_factor = 1.0;
 };
 

@@ -65,36 +65,39 @@ void SplatRoutes::create(Req req, Res res, const httplib::ContentReader& reader)
     const int sent = images[1] ? 2 : images[0] ? 1 : 0;
     api::SplatRequest request;
     if (auto e = api::parse_splat(fields, sent, request)) return send_error(res, *e);
-    // Held from the first header to the files written: a decoder slot, and the memory the
-    // creation will hold (its weights' headers say how much) from the byte budget.
-    std::optional<SlotGuard> slot;
-    std::shared_ptr<BudgetLease> lease;
-    std::vector<std::string_view> encoded;
-    io::DecodeLimits limits;
-    if (sent > 0) {
-        limits.max_pixels = std::min<std::uint64_t>(
-            m_config.max_pixels, static_cast<std::uint64_t>(core::kMaxSplatWeightPixels));
-        limits.formats = m_config.formats;
-        limits.all_channels = true; // RGBA: four layers
-        std::vector<io::ImageHeader> headers;
-        for (int i = 0; i < sent; ++i) {
-            auto h = io::image_header_memory(images[i]->content, limits);
-            if (!h) return send_error(res, content_error(h.error(), "invalid_weights"));
-            headers.push_back(h.value());
-            encoded.emplace_back(images[i]->content);
-        }
-        const int layers = static_cast<int>(request.textons.size());
-        lease = m_gate.lease_transfer(res, SplatService::creation_bytes(headers, layers));
-        if (!lease) return;
-        auto admitted = m_gate.admit_decode(res);
-        if (!admitted) return;
-        slot.emplace(std::move(*admitted));
-    }
-    auto created = m_service.create(request, encoded, limits);
+    Admitted admitted;
+    if (sent > 0 &&
+        !admit_weights(res, images, sent, static_cast<int>(request.textons.size()), admitted))
+        return;
+    auto created = m_service.create(request, admitted.encoded, admitted.limits);
     if (!created) return send_error(res, content_error(created.error(), "invalid_weights"));
     const auto& c = created.value();
     if (c.created) res.set_header("Location", "/v1/splats/" + c.meta.id);
     send_json(res, c.created ? 201 : 200, splat_json(c.meta));
+}
+
+bool SplatRoutes::admit_weights(Res res, const httplib::MultipartFormData* const* images, int sent,
+                                int layers, Admitted& out) {
+    out.limits.max_pixels = std::min<std::uint64_t>(
+        m_config.max_pixels, static_cast<std::uint64_t>(core::kMaxSplatWeightPixels));
+    out.limits.formats = m_config.formats;
+    out.limits.all_channels = true; // RGBA: four layers
+    std::vector<io::ImageHeader> headers;
+    for (int i = 0; i < sent; ++i) {
+        auto h = io::image_header_memory(images[i]->content, out.limits);
+        if (!h) {
+            send_error(res, content_error(h.error(), "invalid_weights"));
+            return false;
+        }
+        headers.push_back(h.value());
+        out.encoded.emplace_back(images[i]->content);
+    }
+    out.lease = m_gate.lease_decode(res, SplatService::creation_bytes(headers, layers));
+    if (!out.lease) return false;
+    auto slot = m_gate.admit_decode(res);
+    if (!slot) return false;
+    out.slot.emplace(std::move(*slot));
+    return true;
 }
 
 void SplatRoutes::get(Req req, Res res) {

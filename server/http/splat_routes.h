@@ -5,10 +5,17 @@
 #include "server/http/config.h"
 #include "server/http/gate.h"
 #include "server/http/layers.h"
+#include "server/http/request_body.h"
+#include "server/io/image_io.h"
 #include "server/store/image_cache.h"
 #include "server/store/splat_store.h"
 
 #include <httplib.h>
+
+#include <memory>
+#include <optional>
+#include <string_view>
+#include <vector>
 
 namespace textond::http {
 
@@ -27,6 +34,18 @@ public:
     static void fallback(Req req, Res res);
 
 private:
+    // What a creation from weight images holds from their headers to the files written: the
+    // memory it will need (its weights' headers say how much) from the decode budget, and a
+    // decoder slot. False when the refusal was sent.
+    struct Admitted {
+        std::optional<SlotGuard> slot;
+        std::shared_ptr<BudgetLease> lease;
+        std::vector<std::string_view> encoded;
+        io::DecodeLimits limits;
+    };
+    bool admit_weights(Res res, const httplib::MultipartFormData* const* images, int sent,
+                       int layers, Admitted& out);
+
     const ServeConfig& m_config;
     SplatService& m_service;
     SplatStore& m_splats;

@@ -126,6 +126,7 @@ nlohmann::json texton_json(const api::TextonMeta& meta) {
 namespace {
 std::vector<std::string_view> map_bytes(const std::vector<TextonService::MapUpload>& maps) {
     std::vector<std::string_view> out;
+    out.reserve(maps.size());
     for (const auto& m : maps) out.push_back(m.bytes);
     return out;
 }
@@ -172,27 +173,12 @@ void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader
     }
     core::AnalysisParams params;
     if (auto e = api::parse_analysis(fields, params)) return send_error(res, *e);
-    // The decoded pixels (4 bytes a channel-pixel, from the headers) are reserved from the byte
-    // budget before the decode, and held until the texton's id is known: eight 49 KB PNGs of
-    // 4096 x 4096 sent at once decoded one at a time within it, not two (issue 43 item 3).
-    std::size_t decoded = 0;
-    io::DecodeLimits limits;
-    limits.max_pixels = m_config.max_pixels;
-    limits.formats = m_config.formats;
-    for (const std::string_view b :
-         maps.empty() ? std::vector<std::string_view>{bytes} : map_bytes(maps))
-        if (auto h = io::image_header_memory(b, limits))
-            decoded += static_cast<std::size_t>(h.value().width) *
-                       static_cast<std::size_t>(h.value().height) *
-                       (h.value().channels >= 3 ? 3U : 1U) * sizeof(float);
-    std::shared_ptr<BudgetLease> lease;
-    if (decoded > (std::size_t{1} << 20)) { // what the decode then refuses is said by it
-        lease = m_gate.lease_transfer(res, decoded);
-        if (!lease) return;
-    }
+    auto lease =
+        lease_decodes(res, maps.empty() ? std::vector<std::string_view>{bytes} : map_bytes(maps));
+    if (!lease) return;
     if (!maps.empty()) {
         auto ingest = m_textons.ingest_set(maps, params);
-        lease.reset(); // decoded, named and dropped: a queued job holds the bytes alone
+        lease->reset(); // decoded, named and dropped: a queued job holds the bytes alone
         if (const auto* refused = std::get_if<TextonService::Refused>(&ingest))
             return send_refused(res, *refused);
         return send_ingested(req, res, std::get<TextonService::Ingested>(ingest));
@@ -202,10 +188,31 @@ void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader
                                 "no exemplar: send the image as the body (Content-Type: image/*) "
                                 "or as the 'exemplar' field of a multipart form"});
     auto ingest = m_textons.ingest(bytes, params);
-    lease.reset();
+    lease->reset();
     if (const auto* refused = std::get_if<TextonService::Refused>(&ingest))
         return send_refused(res, *refused);
     send_ingested(req, res, std::get<TextonService::Ingested>(ingest));
+}
+
+// The decoded pixels (4 bytes a channel-pixel, from the headers) are reserved from the decode
+// budget before the decode, and held until the texton's id is known: eight 49 KB PNGs of 4096 x
+// 4096 sent at once are decoded within it, not all at once (issue 43 item 3). What the decode
+// then refuses is said by it. Null when the refusal (429) was sent.
+std::optional<std::shared_ptr<BudgetLease>>
+TextonRoutes::lease_decodes(Res res, const std::vector<std::string_view>& images) {
+    std::size_t decoded = 0;
+    io::DecodeLimits limits;
+    limits.max_pixels = m_config.max_pixels;
+    limits.formats = m_config.formats;
+    for (const std::string_view b : images)
+        if (auto h = io::image_header_memory(b, limits))
+            decoded += static_cast<std::size_t>(h.value().width) *
+                       static_cast<std::size_t>(h.value().height) *
+                       (h.value().channels >= 3 ? 3U : 1U) * sizeof(float);
+    if (decoded <= (std::size_t{1} << 20)) return std::shared_ptr<BudgetLease>();
+    auto lease = m_gate.lease_decode(res, decoded);
+    if (!lease) return std::nullopt;
+    return lease;
 }
 
 void TextonRoutes::send_refused(Res res, const TextonService::Refused& r) {

@@ -36,6 +36,8 @@ public:
     static void fallback(Req req, Res res);
 
 private:
+    std::optional<std::shared_ptr<BudgetLease>>
+    lease_decodes(Res res, const std::vector<std::string_view>& images);
     void send_refused(Res res, const TextonService::Refused& r);
     void send_ingested(Req req, Res res, const TextonService::Ingested& in);
 

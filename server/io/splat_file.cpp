@@ -77,8 +77,9 @@ Result<bool> write_splat_files(const std::string& dir, const SplatRecord& r) {
     const std::string& id = r.meta.id;
     if (r.weights.kind == core::SplatWeights::Kind::image && !r.weight_uploads.empty()) {
         for (std::size_t i = 0; i < r.weight_uploads.size(); ++i) {
-            const std::string name = i == 0 ? ".weights.upload" : ".weights2.upload";
-            auto ok = write_file_atomic(dir + "/" + id + name, r.weight_uploads[i]);
+            std::string path = dir;
+            path.append("/").append(id).append(i == 0 ? ".weights.upload" : ".weights2.upload");
+            auto ok = write_file_atomic(path, r.weight_uploads[i]);
             if (!ok) return ok.error();
         }
     } else if (r.weights.kind == core::SplatWeights::Kind::image) {
@@ -111,7 +112,8 @@ Result<SplatRecord> read_splat_files(const std::string& dir, const std::string& 
             if (std::filesystem::is_regular_file(upload, ec)) {
                 std::vector<std::string> bytes;
                 for (const char* name : {".weights.upload", ".weights2.upload"}) {
-                    const std::string file = dir + "/" + id + name;
+                    std::string file = dir;
+                    file.append("/").append(id).append(name);
                     if (!std::filesystem::is_regular_file(file, ec)) continue;
                     auto b = read_file(file);
                     if (!b) return bad(path, "weights: " + b.error().message);

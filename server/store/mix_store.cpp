@@ -21,7 +21,7 @@ std::vector<SharedObjects::File> mix_files() {
 } // namespace
 
 MixStore::MixStore(std::string dir, RedisStore* shared, std::chrono::milliseconds recheck)
-    : m_dir(dir), m_shared(shared, "mix", dir, mix_files(), recheck) {}
+    : m_dir(std::move(dir)), m_shared(shared, "mix", m_dir, mix_files(), recheck) {}
 
 Result<std::unique_ptr<MixStore>> MixStore::open(const std::string& data_dir, RedisStore* shared,
                                                  std::chrono::milliseconds recheck) {

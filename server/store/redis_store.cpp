@@ -62,6 +62,17 @@ std::string object_tombstone_key(const std::string& kind, const std::string& id)
     return std::string(kPrefix) + "deleted-" + kind + ":" + id;
 }
 
+// A page of ids, leaving out any member that is no id (64 hex digits): a 60 MB member once cost
+// each list its size in the replica. Redis reads it; the replica never receives it.
+constexpr const char* kListIdsScript = R"lua(
+local ids = redis.call('ZRANGEBYLEX', KEYS[1], ARGV[1], '+', 'LIMIT', 0, tonumber(ARGV[2]))
+local out = {}
+for _, id in ipairs(ids) do
+  if #id == 64 and not string.find(id, '[^0-9a-f]') then out[#out + 1] = id end
+end
+return out
+)lua";
+
 constexpr const char* kRemoveScript = R"lua(
 local n = redis.call('DEL', KEYS[1])
 redis.call('ZREM', KEYS[2], ARGV[1])
@@ -372,14 +383,17 @@ long long RedisStore::exemplar_cap(long long width, long long height) {
 bool RedisStore::refused_before(const std::string& id, const std::string& sizes) const {
     std::lock_guard lock(m_mutex);
     const auto it = m_refused.find(id);
-    return it != m_refused.end() && it->second == sizes;
+    // A minute at most: a value restored in place with the same sizes and checksums (a
+    // same-length corruption fixed from a backup) is read again then.
+    return it != m_refused.end() && it->second.first == sizes &&
+           std::chrono::steady_clock::now() < it->second.second + kRefusalMemory;
 }
 
 void RedisStore::remember_refused(const std::string& id, const std::string& sizes) {
     std::lock_guard lock(m_mutex);
     if (m_refused.size() >= kMaxRemembered && !m_refused.count(id))
         m_refused.erase(m_refused.begin()); // any: a forgotten one costs one read more
-    m_refused[id] = sizes;
+    m_refused[id] = {sizes, std::chrono::steady_clock::now()};
 }
 
 RedisStore::FetchLease::~FetchLease() {
@@ -402,12 +416,9 @@ Result<std::unique_ptr<RedisStore::FetchLease>> RedisStore::reserve_fetch(std::s
     return std::make_unique<FetchLease>(this, bytes);
 }
 
-Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
-    // Every field's size before any value is read (100 MB in `file` once cost every request 100
-    // MB, and its slow read called the whole store down), its checksums' too; what a texton
-    // cannot hold is refused unread, as damaged, and the store stays up. A texton refused once
-    // (by size or checksum) is not read again while its sizes and checksums stay the same: a
-    // repair or a new upload changes them.
+// A texton's fields sized before any value is read: its values' lengths, its checksums (64
+// bytes each, read once sized) and what identifies them together (the refusal memory's key).
+Result<RedisStore::TextonProbe> RedisStore::probe_texton(const std::string& id) {
     const std::string key = texton_key(id);
     auto sizes = pipeline({{"HSTRLEN", key, "file"},
                            {"HSTRLEN", key, "exemplar"},
@@ -418,58 +429,68 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
                            {"HLEN", key}});
     if (!sizes) return sizes.error();
     const auto& z = sizes.value();
-    if (z[3]->integer() != 1) return std::optional<Texton>{};
+    TextonProbe p;
+    p.exists = z[3]->integer() == 1;
+    if (!p.exists) return p;
     const std::string what = "texton " + id + " in the shared store";
     for (const auto& r : z)
         if (r->r->type == REDIS_REPLY_ERROR)
             return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
-    const long long len[3] = {z[0]->integer(), z[1]->integer(), z[2]->integer()};
-    auto too_big = [&](const std::string& name, long long n, long long cap) {
-        return make_error(ErrorCode::io, what + " has a " + name + " of " + std::to_string(n) +
-                                             " bytes, more than it can hold (" +
-                                             std::to_string(cap) + "); it is not read");
-    };
-    if (z[4]->integer() > 64 || z[5]->integer() > 64)
-        return too_big("checksum", std::max(z[4]->integer(), z[5]->integer()), 64);
-    if (z[6]->integer() > 5)
-        return make_error(ErrorCode::io, what + " has " + std::to_string(z[6]->integer()) +
-                                             " fields, more than a texton's 5; it is not read");
+    for (int i = 0; i < 3; ++i) p.len[i] = z[static_cast<std::size_t>(i)]->integer();
+    if (z[4]->integer() > 64 || z[5]->integer() > 64 || z[6]->integer() > 5)
+        return make_error(ErrorCode::io, what + " has a checksum over 64 bytes or more than a "
+                                                "texton's 5 fields; it is not read");
     auto shas = command({"HMGET", key, "sha256", "exemplar_sha256"}); // 128 bytes at most
     if (!shas) return shas.error();
     const redisReply* h = shas.value()->r;
     if (h->type != REDIS_REPLY_ARRAY || h->elements != 2)
         return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-    const std::optional<std::string> file_sha = Reply::string(h->element[0]);
-    const std::optional<std::string> png_sha = Reply::string(h->element[1]);
-    const std::string signature = std::to_string(len[0]) + ":" + std::to_string(len[1]) + ":" +
-                                  std::to_string(len[2]) + ":" + file_sha.value_or("-") + ":" +
-                                  png_sha.value_or("-");
-    if (refused_before(id, signature))
+    p.file_sha = Reply::string(h->element[0]);
+    p.png_sha = Reply::string(h->element[1]);
+    p.signature = std::to_string(p.len[0]) + ":" + std::to_string(p.len[1]) + ":" +
+                  std::to_string(p.len[2]) + ":" + p.file_sha.value_or("-") + ":" +
+                  p.png_sha.value_or("-");
+    return p;
+}
+
+Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
+    // Every field's size before any value is read (100 MB in `file` once cost every request 100
+    // MB, and its slow read called the whole store down), its checksums' too; what a texton
+    // cannot hold is refused unread, as damaged, and the store stays up. A texton refused once is
+    // not read again while its sizes and checksums stay the same (for a minute at most).
+    auto probe = probe_texton(id);
+    if (!probe) return probe.error();
+    const TextonProbe& p = probe.value();
+    if (!p.exists) return std::optional<Texton>{};
+    const std::string key = texton_key(id), what = "texton " + id + " in the shared store";
+    if (refused_before(id, p.signature))
         return make_error(ErrorCode::io, what + " was refused before and has not changed; it is "
                                                 "not read again");
-    auto refuse = [&](Error e) {
-        remember_refused(id, signature);
-        return e;
+    auto refuse = [&](const std::string& why) {
+        remember_refused(id, p.signature);
+        return make_error(ErrorCode::io, what + " " + why);
     };
-    if (len[0] > kMaxFileBytes) return refuse(too_big("file", len[0], kMaxFileBytes));
-    if (len[2] > kMaxMetaBytes) return refuse(too_big("meta", len[2], kMaxMetaBytes));
+    auto too_big = [&](const char* name, long long n, long long cap) {
+        return refuse("has a " + std::string(name) + " of " + std::to_string(n) +
+                      " bytes, more than it can hold (" + std::to_string(cap) +
+                      "); it is not read");
+    };
+    if (p.len[0] > kMaxFileBytes) return too_big("file", p.len[0], kMaxFileBytes);
+    if (p.len[2] > kMaxMetaBytes) return too_big("meta", p.len[2], kMaxMetaBytes);
     // The file and metadata (a few kB) first: the metadata's exemplar size bounds the exemplar.
-    std::string file, meta;
-    {
-        auto lease = reserve_fetch(static_cast<std::size_t>(len[0] + len[2]));
-        if (!lease) return lease.error();
-        auto r = command({"HMGET", key, "file", "meta"}, static_cast<std::size_t>(len[0] + len[2]));
-        if (!r) return r.error();
-        const redisReply* a = r.value()->r;
-        if (a->type != REDIS_REPLY_ARRAY || a->elements != 2)
-            return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-        auto f = Reply::string(a->element[0]);
-        if (!f || !file_sha || io::sha256_hex(*f) != *file_sha)
-            return refuse(make_error(ErrorCode::io, what + " fails its file checksum (damaged or "
-                                                           "half-written); it is not served"));
-        file = std::move(*f);
-        meta = Reply::string(a->element[1]).value_or("");
-    }
+    const auto small = static_cast<std::size_t>(p.len[0] + p.len[2]);
+    auto lease = reserve_fetch(small);
+    if (!lease) return lease.error();
+    auto r = command({"HMGET", key, "file", "meta"}, small);
+    if (!r) return r.error();
+    const redisReply* a = r.value()->r;
+    if (a->type != REDIS_REPLY_ARRAY || a->elements != 2)
+        return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
+    auto file = Reply::string(a->element[0]);
+    std::string meta = Reply::string(a->element[1]).value_or("");
+    r.value().reset();
+    if (!file || !p.file_sha || io::sha256_hex(*file) != *p.file_sha)
+        return refuse("fails its file checksum (damaged or half-written); it is not served");
     long long cap = 0;
     try {
         const auto j = nlohmann::json::parse(meta).at("exemplar");
@@ -477,23 +498,37 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
     } catch (const std::exception&) {
         cap = 0; // no size to bound it by: only an empty exemplar is read
     }
-    if (len[1] > cap) return refuse(too_big("exemplar", len[1], cap));
-    std::string exemplar;
-    if (len[1] > 0) {
-        auto lease = reserve_fetch(static_cast<std::size_t>(len[1]));
-        if (!lease) return lease.error();
-        auto e = command({"HGET", key, "exemplar"}, static_cast<std::size_t>(len[1]));
-        if (!e) return e.error();
-        auto png = Reply::string(e.value()->r);
-        e.value().reset();
-        if (!png || static_cast<long long>(png->size()) > cap || !png_sha ||
-            io::sha256_hex(*png) != *png_sha)
-            return refuse(make_error(ErrorCode::io, what + " fails its exemplar checksum "
-                                                           "(damaged, half-written or changed "
-                                                           "while read); it is not served"));
-        exemplar = std::move(*png);
-    }
-    return std::optional<Texton>{Texton{std::move(file), std::move(exemplar), std::move(meta)}};
+    if (p.len[1] > cap) return too_big("exemplar", p.len[1], cap);
+    auto exemplar = read_exemplar(key, p, cap);
+    if (!exemplar) return exemplar.error();
+    if (!*exemplar.value())
+        return refuse("fails its exemplar checksum (damaged, half-written or changed while "
+                      "read); it is not served");
+    return std::optional<Texton>{
+        Texton{std::move(*file), std::move(**exemplar.value()), std::move(meta), p.signature}};
+}
+
+// The exemplar of a probed texton, `cap` bytes at most; nullopt when it fails its checksum.
+Result<std::unique_ptr<std::optional<std::string>>>
+RedisStore::read_exemplar(const std::string& key, const TextonProbe& p, long long cap) {
+    auto out = std::make_unique<std::optional<std::string>>(std::string());
+    if (p.len[1] <= 0) return out;
+    auto lease = reserve_fetch(static_cast<std::size_t>(p.len[1]));
+    if (!lease) return lease.error();
+    auto e = command({"HGET", key, "exemplar"}, static_cast<std::size_t>(p.len[1]));
+    if (!e) return e.error();
+    auto png = Reply::string(e.value()->r);
+    e.value().reset();
+    if (!png || static_cast<long long>(png->size()) > cap || !p.png_sha ||
+        io::sha256_hex(*png) != *p.png_sha)
+        out->reset();
+    else
+        *out = std::move(*png);
+    return out;
+}
+
+void RedisStore::refuse_texton(const std::string& id, const std::string& signature) {
+    remember_refused(id, signature);
 }
 
 Result<RedisStore::Presence> RedisStore::presence(const std::string& id) {
@@ -514,8 +549,8 @@ Result<bool> RedisStore::remove(const std::string& id) {
 Result<std::vector<std::pair<std::string, std::string>>>
 RedisStore::list_meta(const std::string& after, int limit, bool* more) {
     if (more) *more = false;
-    auto ids = command({"ZRANGEBYLEX", ids_key(), after.empty() ? "-" : "(" + after, "+", "LIMIT",
-                        "0", std::to_string(limit)});
+    auto ids = command({"EVAL", kListIdsScript, "1", ids_key(), after.empty() ? "-" : "(" + after,
+                        std::to_string(limit)});
     if (!ids) return ids.error();
     const redisReply* a = ids.value()->r;
     std::vector<std::string> listed;
@@ -600,13 +635,11 @@ Result<bool> RedisStore::put_object(const std::string& kind, const std::string& 
     return write_script(argv);
 }
 
-Result<std::optional<RedisStore::Files>>
-RedisStore::get_object(const std::string& kind, const std::string& id,
-                       const std::map<std::string, long long>& caps, std::string* signature_out) {
-    const std::string key = object_key(kind, id);
-    const std::string what = kind + " " + id + " in the shared store";
-    // The known files' sizes and their checksums' sizes, and the field count (no field name is
-    // read: a 200 MB name is as costly as a value), before anything is read.
+// An object's known files sized, with their checksums' sizes, and the field count (no field name
+// is read: a 200 MB name is as costly as a value), before anything is read; then the checksums.
+Result<RedisStore::ObjectProbe>
+RedisStore::probe_object(const std::string& key, const std::string& what,
+                         const std::map<std::string, long long>& caps) {
     std::vector<std::string> suffixes;
     std::vector<std::vector<std::string>> lengths = {{"HLEN", key}};
     for (const auto& [suffix, cap] : caps) {
@@ -619,13 +652,9 @@ RedisStore::get_object(const std::string& kind, const std::string& id,
     for (const auto& r : sizes.value())
         if (r->r->type == REDIS_REPLY_ERROR)
             return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
+    ObjectProbe p;
     const long long fields = sizes.value()[0]->integer();
-    if (fields <= 0) return std::optional<Files>{};
-    std::vector<std::string> present;
-    std::vector<std::vector<std::string>> sha_gets;
     long long counted = 0;
-    std::size_t total = 0;
-    std::string signature;
     for (std::size_t i = 0; i < suffixes.size(); ++i) {
         const long long n = sizes.value()[1 + 2 * i]->integer();
         const long long sha = sizes.value()[2 + 2 * i]->integer();
@@ -637,48 +666,59 @@ RedisStore::get_object(const std::string& kind, const std::string& id,
                                   " bytes (checksum " + std::to_string(sha) +
                                   "), more than it can hold (" +
                                   std::to_string(caps.at(suffixes[i])) + "); it is not read");
-        present.push_back(suffixes[i]);
-        total += static_cast<std::size_t>(n);
-        signature += suffixes[i] + "=" + std::to_string(n) + ";";
+        p.present.push_back(suffixes[i]);
+        p.total += static_cast<std::size_t>(n);
+        p.signature += suffixes[i] + "=" + std::to_string(n) + ";";
     }
     if (counted != fields)
         return make_error(ErrorCode::io, what + " has " + std::to_string(fields - counted) +
                                              " fields it cannot hold; it is not read");
-    if (present.empty()) return std::optional<Files>{};
+    if (p.present.empty()) return p;
     std::vector<std::string> sha_argv = {"HMGET", key};
-    for (const std::string& suffix : present) sha_argv.push_back(suffix + ".sha256");
+    for (const std::string& suffix : p.present) sha_argv.push_back(suffix + ".sha256");
     auto shas = command(sha_argv); // 64 bytes each, checked above
     if (!shas) return shas.error();
     const redisReply* h = shas.value()->r;
-    if (h->type != REDIS_REPLY_ARRAY || h->elements != present.size())
+    if (h->type != REDIS_REPLY_ARRAY || h->elements != p.present.size())
         return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-    std::vector<std::string> sums;
-    for (std::size_t i = 0; i < present.size(); ++i) {
-        sums.push_back(Reply::string(h->element[i]).value_or(""));
-        signature += sums.back() + ";";
+    for (std::size_t i = 0; i < p.present.size(); ++i) {
+        p.sums.push_back(Reply::string(h->element[i]).value_or(""));
+        p.signature += p.sums.back() + ";";
     }
-    if (signature_out) *signature_out = signature;
+    return p;
+}
+
+Result<std::optional<RedisStore::Files>>
+RedisStore::get_object(const std::string& kind, const std::string& id,
+                       const std::map<std::string, long long>& caps, std::string* signature_out) {
+    const std::string key = object_key(kind, id);
+    const std::string what = kind + " " + id + " in the shared store";
+    auto probe = probe_object(key, what, caps);
+    if (!probe) return probe.error();
+    const ObjectProbe& p = probe.value();
+    if (p.present.empty()) return std::optional<Files>{};
+    if (signature_out) *signature_out = p.signature;
     const std::string memo = kind + ":" + id;
-    if (refused_before(memo, signature))
+    if (refused_before(memo, p.signature))
         return make_error(ErrorCode::io, what + " was refused before and has not changed; it is "
                                                 "not read again");
-    auto lease = reserve_fetch(total);
+    auto lease = reserve_fetch(p.total);
     if (!lease) return lease.error();
     Files out;
-    for (std::size_t i = 0; i < present.size(); ++i) { // one at a time: one copy in flight
-        auto r = command({"HGET", key, present[i]}, total);
+    for (std::size_t i = 0; i < p.present.size(); ++i) { // one at a time: one copy in flight
+        auto r = command({"HGET", key, p.present[i]}, p.total);
         if (!r) return r.error();
         auto bytes = Reply::string(r.value()->r);
         r.value().reset();
         if (!bytes) return std::optional<Files>{}; // removed meanwhile
-        if (static_cast<long long>(bytes->size()) > caps.at(present[i]) ||
-            io::sha256_hex(*bytes) != sums[i]) {
-            remember_refused(memo, signature);
-            return make_error(ErrorCode::io, what + " fails its " + present[i] +
+        if (static_cast<long long>(bytes->size()) > caps.at(p.present[i]) ||
+            io::sha256_hex(*bytes) != p.sums[i]) {
+            remember_refused(memo, p.signature);
+            return make_error(ErrorCode::io, what + " fails its " + p.present[i] +
                                                  " checksum (damaged or half-written); it is "
                                                  "not served");
         }
-        out.emplace(present[i], std::move(*bytes));
+        out.emplace(p.present[i], std::move(*bytes));
     }
     return std::optional<Files>{std::move(out)};
 }

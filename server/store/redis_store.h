@@ -65,7 +65,11 @@ public:
         std::string file;
         std::string exemplar_png; // empty when stored without one
         std::string meta_json;    // as put (provenance included); not checksummed, advisory
+        std::string signature;    // sizes and checksums: refuse_texton's key when it fails later
     };
+    // A texton whose values passed their checksums but failed the reader's checks: not read
+    // again while they stay the same.
+    void refuse_texton(const std::string& id, const std::string& signature);
     // Both checked against their sha256; nullopt when absent.
     Result<std::optional<Texton>> get(const std::string& id);
     // What a stored texton's values can hold: its file (256 x 256 x 8 float32 coefficients and
@@ -163,7 +167,25 @@ private:
     std::optional<bool> m_up; // as the last command found it; unset before the first
     std::string m_last_error = "not connected yet";
     std::string m_write_refusal;
-    std::map<std::string, std::string> m_refused; // id -> sizes when refused
+    // id -> (sizes and checksums, when) of a refused value
+    std::map<std::string, std::pair<std::string, std::chrono::steady_clock::time_point>> m_refused;
+    static constexpr auto kRefusalMemory = std::chrono::minutes(1);
+    struct TextonProbe {
+        bool exists = false;
+        long long len[3] = {0, 0, 0}; // file, exemplar, meta
+        std::optional<std::string> file_sha, png_sha;
+        std::string signature;
+    };
+    Result<TextonProbe> probe_texton(const std::string& id);
+    struct ObjectProbe {
+        std::vector<std::string> present, sums; // the files stored, and their checksums
+        std::size_t total = 0;
+        std::string signature;
+    };
+    Result<ObjectProbe> probe_object(const std::string& key, const std::string& what,
+                                     const std::map<std::string, long long>& caps);
+    Result<std::unique_ptr<std::optional<std::string>>>
+    read_exemplar(const std::string& key, const TextonProbe& p, long long cap);
     std::mutex m_fetch_mutex;
     std::condition_variable m_fetch_cv;
     std::size_t m_fetching_bytes = 0;

@@ -24,8 +24,8 @@ std::vector<SharedObjects::File> splat_files() {
 } // namespace
 
 SplatStore::SplatStore(std::string dir, TextonStore& textons, std::chrono::milliseconds recheck)
-    : m_dir(dir), m_textons(textons),
-      m_shared(textons.shared(), "splat", dir, splat_files(), recheck) {}
+    : m_dir(std::move(dir)), m_textons(textons),
+      m_shared(textons.shared(), "splat", m_dir, splat_files(), recheck) {}
 
 Result<std::unique_ptr<SplatStore>> SplatStore::open(const std::string& data_dir,
                                                      TextonStore& textons,

@@ -179,8 +179,14 @@ Result<api::TextonMeta> TextonStore::fetch_shared_once(const std::string& id) {
     } catch (const std::exception&) {
         // Absent or unreadable: the texton is served without it.
     }
+    const std::string signature = got.value()->signature;
     auto w = m_local->write(id, got.value()->file, &got.value()->exemplar_png, provenance);
-    if (!w) return w.error();
+    if (!w) {
+        // Values that pass their checksums but fail the file's own checks (another id's
+        // metadata, coefficients that disagree): not read again while they stay the same.
+        if (w.error().code != ErrorCode::unavailable) m_shared->refuse_texton(id, signature);
+        return w.error();
+    }
     const std::size_t exemplar_bytes = got.value()->exemplar_png.size();
     got.value().reset();
     {
@@ -195,6 +201,7 @@ Result<api::TextonMeta> TextonStore::fetch_shared_once(const std::string& id) {
         RedisStore::exemplar_cap(meta->exemplar_width, meta->exemplar_height)) {
         (void)m_local->erase(id);
         forget(id);
+        m_shared->refuse_texton(id, signature);
         spdlog::error("store: texton {} in the shared store has an exemplar of {} bytes, more "
                       "than its {}x{} exemplar holds; not kept",
                       id, exemplar_bytes, meta->exemplar_width, meta->exemplar_height);

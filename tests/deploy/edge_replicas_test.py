@@ -64,7 +64,7 @@ def http(url, method="GET", body=None, headers=None):
         return e.code, e.read()
 
 
-def damaged_values(rport, edge, replicas, tmp, exemplars):
+def damaged_values(rport, edge, replicas, tmp, exemplars, b_pid):
     """The review's attacks on the shared store (issue 43, round 3 review): each is refused once,
     for what it is, without reading what cannot be held, and a fixed or recreated value serves."""
     import hashlib
@@ -113,6 +113,16 @@ def damaged_values(rport, edge, replicas, tmp, exemplars):
     assert st == 201, (st, again[:200])
     wait("the splat created again reaches b", lambda: http(f"{b}/v1/splats/{sid}")[0] == 200)
     print("a splat deleted on one replica and created again on the other: 201, served by both")
+    mix = f"{a}/v1/mixes?u={ids[0]}&v={ids[1]}&levels=2&width=801"
+    st, got = http(mix, "POST")
+    assert st in (200, 201), got[:200]
+    mid = json.loads(got)["id"]
+    assert http(f"{a}/v1/mixes/{mid}")[0] == 200
+    assert http(f"{b}/v1/mixes/{mid}", "DELETE")[0] == 204
+    st, got = http(mix, "POST")
+    assert st == 201, (st, got[:200])
+    wait("the mix created again reaches b", lambda: http(f"{b}/v1/mixes/{mid}")[0] == 200)
+    print("a mix deleted on one replica and created again on the other: 201, served by both")
     # A checksum field of 400 kB and a field name of 1 MB: refused unread.
     redis(rport, "HSET", f"textond:v1:texton:{'d' * 64}", "file", "x", "sha256", "s" * 400000)
     redis(rport, "ZADD", "textond:v1:ids", 0, "d" * 64)
@@ -133,6 +143,18 @@ def damaged_values(rport, edge, replicas, tmp, exemplars):
     assert http(f"{b}/v1/textons/{'e' * 64}")[0] == 500
     assert not get_json(b + "/readyz")["degraded"]
     print("a key of another type: 500 for its id, the list 200, the store up")
+    # A member of the id index that no id can be (60 MB): left out by Redis, never received.
+    redis(rport, "ZADD", "textond:v1:ids", 0, b"0" * (60 << 20))
+    pid = b_pid
+    def rss():
+        with open(f"/proc/{pid}/status") as f:
+            return int(next(l for l in f if l.startswith("VmRSS:")).split()[1]) // 1024
+    before = rss()
+    for _ in range(3):
+        assert http(f"{b}/v1/textons?limit=1000")[0] == 200
+    assert rss() - before < 40, (before, rss())
+    redis(rport, "ZREM", "textond:v1:ids", b"0" * (60 << 20))
+    print("a 60 MB member of the id index: left out, the list 200 without its memory")
     # Metadata past what a list reads (64 KiB an item, 8 MiB a page): skipped or left to the
     # next page, which the answer names.
     for i in range(150):
@@ -219,7 +241,7 @@ def main():
                       + (f" ({ready['shared_store'].get('error')})" if degraded else ""))
         passed, failed = (passed + 1, failed) if ok else (passed, failed + 1)
         try:
-            damaged_values(rport, edge, replicas, tmp, exemplars)
+            damaged_values(rport, edge, replicas, tmp, exemplars, procs[2].pid)
             passed += 1
         except AssertionError as e:
             print(f"FAIL: damaged values in the shared store: {e}")
