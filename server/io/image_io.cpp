@@ -47,9 +47,8 @@ std::string oiio_message(const std::string& raw) {
     return m.empty() ? "unknown decoder error" : m;
 }
 
-Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits, int* bits = nullptr) {
-    const ImageSpec& spec = in.spec();
-    if (bits) *bits = static_cast<int>(spec.format.size()) * 8;
+// What the header says, checked before a pixel is decoded: a flat image within the budget.
+std::optional<Error> check_header(const ImageSpec& spec, const DecodeLimits& limits) {
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1)
         return unprocessable("image has no pixels or is a volume (" + std::to_string(spec.width) +
                              "x" + std::to_string(spec.height) + ")");
@@ -59,6 +58,13 @@ Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits, int*
                           "image is " + std::to_string(spec.width) + "x" +
                               std::to_string(spec.height) + " = " + std::to_string(pixels) +
                               " pixels, over the budget of " + std::to_string(limits.max_pixels));
+    return std::nullopt;
+}
+
+Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits, int* bits = nullptr) {
+    const ImageSpec& spec = in.spec();
+    if (bits) *bits = static_cast<int>(spec.format.size()) * 8;
+    if (auto e = check_header(spec, limits)) return *e;
     if (spec.nchannels > 16) return unprocessable("image has too many channels");
 
     int alpha = spec.alpha_channel;
@@ -322,14 +328,7 @@ Result<ImageHeader> image_header_memory(std::string_view bytes, const DecodeLimi
     auto opened = open_upload(bytes, limits);
     if (!opened) return opened.error();
     const ImageSpec& spec = opened.value().in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1)
-        return unprocessable("image has no pixels or is a volume");
-    const std::uint64_t pixels = static_cast<std::uint64_t>(spec.width) * spec.height;
-    if (pixels > limits.max_pixels)
-        return make_error(ErrorCode::too_large,
-                          "image is " + std::to_string(spec.width) + "x" +
-                              std::to_string(spec.height) + " = " + std::to_string(pixels) +
-                              " pixels, over the budget of " + std::to_string(limits.max_pixels));
+    if (auto e = check_header(spec, limits)) return *e;
     return ImageHeader{spec.width, spec.height, spec.nchannels,
                        static_cast<int>(spec.format.size()) * 8};
 }

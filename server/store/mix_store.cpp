@@ -32,22 +32,8 @@ Result<std::unique_ptr<MixStore>> MixStore::open(const std::string& data_dir, Re
     return std::unique_ptr<MixStore>(new MixStore(dir, shared, recheck));
 }
 
-bool MixStore::held(const std::string& id) const {
-    std::error_code ec;
-    return std::filesystem::is_regular_file(m_dir + "/" + id + ".exr", ec);
-}
-
 bool MixStore::contains(const std::string& id) {
-    // A copy held here that another replica deleted is not "stored already": a creation after
-    // a delete elsewhere stores it again (it answered 200 and stored nothing).
-    if (held(id) && !m_shared.deleted_elsewhere(id, true)) return true;
-    if (held(id)) {
-        m_shared.erase_local(id);
-        forget(id);
-        return false;
-    }
-    auto fetched = m_shared.fetch(id);
-    return fetched && fetched.value();
+    return m_shared.contains(id, [&] { forget(id); });
 }
 
 void MixStore::forget(const std::string& id) {
@@ -56,16 +42,10 @@ void MixStore::forget(const std::string& id) {
 }
 
 Result<bool> MixStore::remove(const std::string& id) {
-    bool there = false;
-    if (m_shared.enabled()) {
-        auto r = m_shared.remove(id);
-        if (!r) return r.error();
-        there = r.value();
-    }
-    there = held(id) || there;
-    m_shared.erase_local(id);
+    auto there = m_shared.remove_everywhere(id);
+    if (!there) return there.error();
     forget(id);
-    if (!there) return make_error(ErrorCode::not_found, "no mix " + id);
+    if (!there.value()) return make_error(ErrorCode::not_found, "no mix " + id);
     return true;
 }
 
@@ -80,7 +60,7 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
                 break;
             }
     }
-    if (kept || held(id)) {
+    if (kept || m_shared.held(id)) {
         if (m_shared.deleted_elsewhere(id)) { // deleted on another replica
             m_shared.erase_local(id);
             forget(id);
@@ -89,7 +69,7 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
         if (kept) return *kept;
     }
     bool fetched = false;
-    if (!kept && !held(id)) {
+    if (!kept && !m_shared.held(id)) {
         auto got = m_shared.fetch(id);
         if (!got) return got.error();
         fetched = got.value();

@@ -43,7 +43,6 @@ private:
     };
     MixStore(std::string dir, RedisStore* shared, std::chrono::milliseconds recheck);
     Result<Entry> load(const std::string& id);
-    bool held(const std::string& id) const;
     void forget(const std::string& id);
     void quarantine(const std::string& id, const std::string& why);
     std::string m_dir;

@@ -14,6 +14,34 @@ SharedObjects::SharedObjects(RedisStore* shared, std::string kind, std::string d
     : m_shared(shared), m_kind(std::move(kind)), m_dir(std::move(dir)), m_files(std::move(files)),
       m_recheck(recheck) {}
 
+bool SharedObjects::held(const std::string& id) const {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(m_dir + "/" + id + m_files.back().suffix, ec);
+}
+
+bool SharedObjects::contains(const std::string& id, const std::function<void()>& dropped) {
+    if (held(id)) {
+        if (!deleted_elsewhere(id, true)) return true;
+        erase_local(id);
+        dropped();
+        return false;
+    }
+    auto fetched = fetch(id);
+    return fetched && fetched.value();
+}
+
+Result<bool> SharedObjects::remove_everywhere(const std::string& id) {
+    bool there = false;
+    if (m_shared) {
+        auto r = remove(id);
+        if (!r) return r.error();
+        there = r.value();
+    }
+    there = held(id) || there;
+    erase_local(id);
+    return there;
+}
+
 Result<bool> SharedObjects::publish(const std::string& id) {
     if (!m_shared) return true;
     RedisStore::Files files;
@@ -35,30 +63,11 @@ Result<bool> SharedObjects::publish(const std::string& id) {
 
 Result<bool> SharedObjects::fetch(const std::string& id) {
     if (!m_shared) return false;
-    std::shared_ptr<Fetch> fetch;
-    bool leader = false;
-    {
+    auto result = m_fetches.run(id, [&] { return fetch_once(id); });
+    if (result && result.value()) {
         std::lock_guard lock(m_mutex);
-        auto& slot = m_fetching[id];
-        if (!slot) {
-            slot = std::make_shared<Fetch>();
-            leader = true;
-        }
-        fetch = slot;
+        m_checked[id] = std::chrono::steady_clock::now();
     }
-    if (!leader) {
-        std::unique_lock lock(m_mutex);
-        m_fetched.wait(lock, [&] { return fetch->result.has_value(); });
-        return *fetch->result;
-    }
-    auto result = fetch_once(id);
-    {
-        std::lock_guard lock(m_mutex);
-        fetch->result = result;
-        m_fetching.erase(id);
-        if (result && result.value()) m_checked[id] = std::chrono::steady_clock::now();
-    }
-    m_fetched.notify_all();
     ::malloc_trim(0); // weights and masks are large transient buffers
     return result;
 }

@@ -7,9 +7,10 @@
 // checked before a byte of it is read. Without a shared store every call is a no-op.
 #include "core/result.h"
 #include "server/store/redis_store.h"
+#include "server/store/single_flight.h"
 
 #include <chrono>
-#include <condition_variable>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -30,6 +31,14 @@ public:
                   std::chrono::milliseconds recheck);
 
     bool enabled() const { return m_shared != nullptr; }
+    // This replica's copy is whole (its main file, the last of `files`, is there).
+    bool held(const std::string& id) const;
+    // Held here and not deleted elsewhere (asked now: a creation after a delete elsewhere must
+    // store again, where it answered 200 and stored nothing), or fetched. A copy deleted elsewhere
+    // is erased and `dropped` called (the store forgets what it prepared of it).
+    bool contains(const std::string& id, const std::function<void()>& dropped);
+    // Gone from the shared store (a tombstone) and from this replica: whether either held it.
+    Result<bool> remove_everywhere(const std::string& id);
     // The local files just written, stored in the shared store too (false: already there).
     Result<bool> publish(const std::string& id);
     // The object's files fetched into the directory (one fetch an id at a time): false when the
@@ -54,12 +63,8 @@ private:
     const std::chrono::milliseconds m_recheck;
     std::mutex m_mutex;
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked;
-    struct Fetch {
-        std::optional<Result<bool>> result;
-    };
-    std::map<std::string, std::shared_ptr<Fetch>> m_fetching;
+    SingleFlight<Result<bool>> m_fetches;
     std::map<std::string, std::string> m_fetched_signature; // of the values last fetched, by id
-    std::condition_variable m_fetched;
 };
 
 } // namespace textond::store

@@ -37,22 +37,8 @@ Result<std::unique_ptr<SplatStore>> SplatStore::open(const std::string& data_dir
     return std::unique_ptr<SplatStore>(new SplatStore(dir, textons, recheck));
 }
 
-bool SplatStore::held(const std::string& id) const {
-    std::error_code ec;
-    return std::filesystem::is_regular_file(m_dir + "/" + id + ".json", ec);
-}
-
 bool SplatStore::contains(const std::string& id) {
-    // A copy held here that another replica deleted is not "stored already": a creation after
-    // a delete elsewhere stores it again (it answered 200 and stored nothing).
-    if (held(id) && !m_shared.deleted_elsewhere(id, true)) return true;
-    if (held(id)) {
-        m_shared.erase_local(id);
-        forget(id);
-        return false;
-    }
-    auto fetched = m_shared.fetch(id);
-    return fetched && fetched.value();
+    return m_shared.contains(id, [&] { forget(id); });
 }
 
 void SplatStore::forget(const std::string& id) {
@@ -66,16 +52,10 @@ void SplatStore::forget(const std::string& id) {
 }
 
 Result<bool> SplatStore::remove(const std::string& id) {
-    bool there = false;
-    if (m_shared.enabled()) {
-        auto r = m_shared.remove(id);
-        if (!r) return r.error();
-        there = r.value();
-    }
-    there = held(id) || there;
-    m_shared.erase_local(id);
+    auto there = m_shared.remove_everywhere(id);
+    if (!there) return there.error();
     forget(id);
-    if (!there) return make_error(ErrorCode::not_found, "no splat " + id);
+    if (!there.value()) return make_error(ErrorCode::not_found, "no splat " + id);
     return true;
 }
 
@@ -157,7 +137,8 @@ Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
                 break;
             }
     }
-    if ((kept || held(id)) && m_shared.deleted_elsewhere(id)) { // deleted on another replica
+    if ((kept || m_shared.held(id)) &&
+        m_shared.deleted_elsewhere(id)) { // deleted on another replica
         m_shared.erase_local(id);
         forget(id);
         return make_error(ErrorCode::not_found, "no splat " + id + " (deleted)");
@@ -170,7 +151,7 @@ Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
         return *gone;
     }
     bool fetched = false;
-    if (!held(id)) {
+    if (!m_shared.held(id)) {
         auto got = m_shared.fetch(id);
         if (!got) return got.error();
         fetched = got.value();

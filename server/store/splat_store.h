@@ -54,7 +54,6 @@ private:
     std::optional<Error> layers_stored(const api::SplatMeta& meta);
     SplatStore(std::string dir, TextonStore& textons, std::chrono::milliseconds recheck);
     Result<Entry> load(const std::string& id);
-    bool held(const std::string& id) const;
     void forget(const std::string& id);
     void quarantine(const std::string& id, const std::string& why);
     std::string m_dir;

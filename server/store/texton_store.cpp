@@ -131,31 +131,7 @@ Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonM
 }
 
 Result<api::TextonMeta> TextonStore::fetch_shared(const std::string& id) {
-    // One fetch an id at a time: the requests that arrive meanwhile wait for its outcome instead
-    // of each reading the values again (8 tile requests once held 8 copies of a 100 MB value).
-    std::shared_ptr<Fetch> fetch;
-    bool leader = false;
-    {
-        std::lock_guard lock(m_mutex);
-        auto& slot = m_fetching[id];
-        if (!slot) {
-            slot = std::make_shared<Fetch>();
-            leader = true;
-        }
-        fetch = slot;
-    }
-    if (!leader) {
-        std::unique_lock lock(m_mutex);
-        m_fetched.wait(lock, [&] { return fetch->result.has_value(); });
-        return *fetch->result;
-    }
-    auto result = fetch_shared_once(id);
-    {
-        std::lock_guard lock(m_mutex);
-        fetch->result = result;
-        m_fetching.erase(id);
-    }
-    m_fetched.notify_all();
+    auto result = m_fetches.run(id, [&] { return fetch_shared_once(id); });
     // The values were large transient buffers (an exemplar of up to 112 MiB): give the freed
     // pages back rather than keep them in the arenas.
     ::malloc_trim(0);

@@ -14,6 +14,7 @@
 #include "render/prepared_texton.h"
 #include "server/io/texton_file.h"
 #include "server/store/redis_store.h"
+#include "server/store/single_flight.h"
 #include "server/store/texton_directory.h"
 
 #include <chrono>
@@ -94,12 +95,7 @@ private:
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked; // against m_shared
     // Most recently used first.
     std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;
-    // Fetches from the shared store in flight, one an id (fetch_shared): m_mutex guards them.
-    struct Fetch {
-        std::optional<Result<api::TextonMeta>> result;
-    };
-    std::map<std::string, std::shared_ptr<Fetch>> m_fetching;
-    std::condition_variable m_fetched;
+    SingleFlight<Result<api::TextonMeta>> m_fetches; // from the shared store, one an id
     std::mutex m_sweep_mutex;
     std::condition_variable m_sweep_cv;
     bool m_stopping = false;

@@ -36,7 +36,9 @@ import urllib.request
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 import schema_check  # noqa: E402
+from local_ports import free_port  # noqa: E402
 
 BINARY = os.path.abspath(sys.argv[1])
 ROOT = os.path.abspath(sys.argv[2])
@@ -44,12 +46,6 @@ DEPLOY = os.path.join(ROOT, "deploy")
 KUSTOMIZATIONS = ["base"] + ["overlays/" + d for d in sorted(os.listdir(os.path.join(DEPLOY, "overlays")))]
 BASE_IMAGE_PACKAGES = {"libc6", "libstdc++6", "libgcc-s1"}  # in debian:bookworm-slim
 DLOPENED = ["libOSMesa.so.8", "libEGL.so.1"]  # render/osmesa_backend.cpp, render/egl_backend.cpp
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def kustomize_usable():

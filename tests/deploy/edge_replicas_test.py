@@ -20,14 +20,8 @@ import urllib.request
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..", "..")
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
+sys.path.insert(0, os.path.join(HERE, "..", "support"))
+from local_ports import free_port  # noqa: E402
 
 
 def wait(what, probe, seconds=30):
@@ -68,7 +62,6 @@ def damaged_values(rport, edge, replicas, tmp, exemplars, b_pid):
     """The review's attacks on the shared store (issue 43, round 3 review): each is refused once,
     for what it is, without reading what cannot be held, and a fixed or recreated value serves."""
     import hashlib
-    sys.path.insert(0, os.path.join(HERE, "..", "support"))
     from form_bytes import multipart
     from png_bytes import rgba_png
     a, b = replicas

@@ -23,6 +23,9 @@ import tempfile
 import threading
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from local_ports import free_port  # noqa: E402
+
 BINARY = sys.argv[1] if len(sys.argv) > 1 else "build/release/textond"
 EXEMPLARS = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/exemplars"
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -39,14 +42,6 @@ def check(cond, what):
     else:
         failures.append(what)
         print("FAIL:", what, file=sys.stderr)
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def wait_port(port, seconds=20):
