@@ -147,6 +147,9 @@ void Service::add_gauges() {
             count([r] { return r->batches(); }));
     m.gauge("textond_gpu_batched_windows", "Windows rendered in GL batches since start.",
             count([r] { return r->batched_windows(); }));
+    const WorkSlots* slots = &m_gate.render_slots();
+    m.gauge("textond_render_waiting", "Renders waiting for a render slot.",
+            count([slots] { return slots->waiting(); }));
     const AnalysisPool* pool = m_pool.get();
     m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
             count([pool] { return pool->queued(); }));

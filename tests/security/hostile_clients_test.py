@@ -945,23 +945,34 @@ class HostileClients(unittest.TestCase):
         self.assertTrue(all(r in (200, 201, 429) for r in results), results)
 
     def test_a_client_that_left_while_queued_is_dropped(self):
-        # Fill both slots with large regions, queue one whose client then leaves.
-        u = self.ids[0]
-        busy = [threading.Thread(target=lambda i=i: self.s.request(
-            "GET", f"/v1/textons/{u}/region.exr?w=4096&h=2048&seed={100 + i}", timeout=120))
-            for i in range(4)]
-        [t.start() for t in busy]
-        time.sleep(0.3)
-        s = socket.create_connection(("127.0.0.1", self.s.port))
-        s.sendall(f"GET /v1/textons/{u}/region.exr?w=4096&h=2048&seed=999 HTTP/1.1\r\n"
-                  "Host: x\r\n\r\n".encode())
-        s.close()
-        [t.join() for t in busy]
-        time.sleep(0.3)
-        _, _, text = self.get("/metrics")
-        gone = [l for l in text.decode().splitlines()
-                if l.startswith('textond_not_admitted_total{reason="gone"}')]
-        self.assertGreaterEqual(float(gone[0].split()[-1]), 1)
+        # A server of its own whose renders are held at 20x their estimate (slow point): the two
+        # busy renders fill both slots for seconds on a machine of any speed, and each step waits
+        # on the server's gauges, not on a sleep.
+        data = tempfile.mkdtemp(prefix="textond-queued-render-")
+        s = Server(data, slow={"render": 20})
+        try:
+            with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
+                st, _, body = s.request("POST", "/v1/textons?size=32&iterations=5", f.read(),
+                                        {"Content-Type": "image/png"})
+            u = json.loads(body)["id"]
+            region = f"/v1/textons/{u}/region.png?w=1024&h=1024"
+            busy = [threading.Thread(target=lambda i=i: s.request(
+                "GET", f"{region}&seed={100 + i}", timeout=300)) for i in range(SLOTS)]
+            [t.start() for t in busy]
+            before = metric(s, 'textond_not_admitted_total{reason="gone"}')
+            sock = socket.create_connection(("127.0.0.1", s.port))
+            sock.sendall(f"GET {region}&seed=999 HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+            wait_until("the third render waits for a slot",
+                       lambda: metric(s, "textond_render_waiting") == 1)
+            sock.close()  # hangs up while queued
+            wait_until("the waiting render is dropped",
+                       lambda: metric(s, "textond_render_waiting") == 0)
+            self.assertTrue(any(t.is_alive() for t in busy), "the busy renders ended first")
+            self.assertEqual(metric(s, 'textond_not_admitted_total{reason="gone"}'), before + 1)
+            [t.join() for t in busy]
+        finally:
+            s.stop()
+            shutil.rmtree(data, ignore_errors=True)
 
     # Round 3, items 10, 11 and 15: a splat's or mix's form numbers have the tile parameters'
     # one spelling (each spelling would be another id for one placement), a splat must lie where
