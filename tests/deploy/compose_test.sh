@@ -139,11 +139,18 @@ echo "$answered of $(wc -l <"$tmp/uploads") uploads during the kill answered 201
 # The restarted replica is back on the edge's ring (once fail_timeout has passed): the textons
 # that hash to it reach it again.
 tiles_of() { curl -sf "$1/metrics" | awk '/^textond_tile_cache_requests_total/ {n += $2} END {print n + 0}'; }
-sleep 6
-n1=$(tiles_of "$r1")
-for t in "${ids[@]}"; do curl -sf -o /dev/null "$edge/v1/textons/$t/tiles/0/77/77.png" || fail "edge tile of $t"; done
-[ "$(tiles_of "$r1")" -gt "$n1" ] || fail "the edge sends nothing to replica 1 since its restart"
-echo "the edge routes to replica 1 again: $(($(tiles_of "$r1") - n1)) of ${#ids[@]} textons' tiles"
+# Polled, a new tile each round, rather than a sleep sized to fail_timeout on this machine.
+back=""
+for round in $(seq 60); do
+    n1=$(tiles_of "$r1")
+    for t in "${ids[@]}"; do
+        curl -sf -o /dev/null "$edge/v1/textons/$t/tiles/0/77/$round.png" || fail "edge tile of $t"
+    done
+    if [ "$(tiles_of "$r1")" -gt "$n1" ]; then back=$round; break; fi
+    sleep 0.5
+done
+[ -n "$back" ] || fail "the edge sends nothing to replica 1 30 s after its restart"
+echo "the edge routes to replica 1 again (round $back): $(($(tiles_of "$r1") - n1)) of ${#ids[@]} textons' tiles"
 
 # Redis stopped: the replicas go on serving what they hold and refuse uploads.
 podman stop -t 5 "${project}_redis_1" >/dev/null
