@@ -1,5 +1,8 @@
 #include "server/http/mix_routes.h"
 
+#include <algorithm>
+#include <memory>
+
 #include "api/requests.h"
 #include "core/texture_mix.h"
 #include "server/http/http_support.h"
@@ -29,10 +32,21 @@ MixRoutes::MixRoutes(const ServeConfig& config, MixService& service, MixStore& m
     : m_config(config), m_service(service), m_mixes(mixes), m_pool(pool), m_cache(cache),
       m_gate(gate) {}
 
-bool MixRoutes::read_mask(Res res, const std::string& bytes, api::MixRequest& m) {
+bool MixRoutes::read_mask(Res res, const std::string& bytes, api::MixRequest& m,
+                          std::shared_ptr<BudgetLease>& lease) {
     io::DecodeLimits limits;
     limits.max_pixels = m_config.max_pixels;
     limits.formats = m_config.formats;
+    // The decoded image and the mask made from it (4 bytes a channel-pixel) are reserved from the
+    // decode budget first, and held while the mix waits for and runs its analysis: twelve 22 KB
+    // masks of 4096 x 4096 are decoded within the budget, not all at once.
+    if (auto h = io::image_header_memory(bytes, limits)) {
+        const auto px =
+            static_cast<std::size_t>(h.value().width) * static_cast<std::size_t>(h.value().height);
+        lease = m_gate.lease_decode(
+            res, px * (static_cast<std::size_t>(std::max(1, h.value().channels)) + 1) * 4);
+        if (!lease) return false;
+    }
     auto slot = m_gate.admit_decode(res);
     if (!slot) return false;
     auto img = io::decode_image_memory(bytes, limits);
@@ -56,7 +70,8 @@ void MixRoutes::create(Req req, Res res, const httplib::ContentReader& reader) {
     const bool has_mask = !body.bytes.empty();
     api::MixRequest m;
     if (auto e = api::parse_mix(req.params, has_mask, m)) return send_error(res, *e);
-    if (has_mask && !read_mask(res, body.bytes, m)) return;
+    std::shared_ptr<BudgetLease> mask_lease; // held until the answer
+    if (has_mask && !read_mask(res, body.bytes, m, mask_lease)) return;
     body.bytes = std::string();
     auto started = m_service.start(m);
     if (!started) return send_error(res, to_api_error(started.error()));

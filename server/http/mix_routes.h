@@ -28,9 +28,10 @@ public:
     static void fallback(Req req, Res res);
 
 private:
-    // The mask of a masked mix (the body), decoded under a decoder slot; false when the error
-    // was sent.
-    bool read_mask(Res res, const std::string& bytes, api::MixRequest& m);
+    // The mask of a masked mix (the body), decoded under a decoder slot with its decoded size
+    // reserved (`lease`, to hold until the answer); false when the error was sent.
+    bool read_mask(Res res, const std::string& bytes, api::MixRequest& m,
+                   std::shared_ptr<BudgetLease>& lease);
 
     const ServeConfig& m_config;
     MixService& m_service;

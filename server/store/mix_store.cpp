@@ -18,6 +18,14 @@ std::vector<SharedObjects::File> mix_files() {
     return {{".mask.exr", (16LL << 20) * 4 + (8LL << 20)},
             {".exr", 64LL * 256 * 256 * 3 * 4 + (8LL << 20)}};
 }
+
+// What a prepared mix holds beside its mask: each level's texton and its tables, about four
+// copies of the texton's floats.
+std::size_t level_bytes(const std::vector<core::Texton>& levels) {
+    std::size_t n = 0;
+    for (const core::Texton& t : levels) n += t.alpha.data.size() * sizeof(float) * 4;
+    return n;
+}
 } // namespace
 
 MixStore::MixStore(std::string dir, RedisStore* shared, std::chrono::milliseconds recheck)
@@ -38,7 +46,13 @@ bool MixStore::contains(const std::string& id) {
 
 void MixStore::forget(const std::string& id) {
     std::lock_guard<std::mutex> lock(m_mutex);
-    m_lru.remove_if([&](const Entry& e) { return e.id == id; });
+    for (auto it = m_lru.begin(); it != m_lru.end();)
+        if (it->id == id) {
+            m_bytes -= it->bytes;
+            it = m_lru.erase(it);
+        } else {
+            ++it;
+        }
 }
 
 Result<bool> MixStore::remove(const std::string& id) {
@@ -49,17 +63,18 @@ Result<bool> MixStore::remove(const std::string& id) {
     return true;
 }
 
+std::optional<MixStore::Entry> MixStore::kept(const std::string& id) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
+        if (it->id == id) {
+            m_lru.splice(m_lru.begin(), m_lru, it);
+            return *it;
+        }
+    return std::nullopt;
+}
+
 Result<MixStore::Entry> MixStore::load(const std::string& id) {
-    std::optional<Entry> kept;
-    {
-        std::lock_guard<std::mutex> lock(m_mutex);
-        for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-            if (it->id == id) {
-                m_lru.splice(m_lru.begin(), m_lru, it);
-                kept = *it;
-                break;
-            }
-    }
+    std::optional<Entry> kept = this->kept(id);
     if (kept || m_shared.held(id)) {
         if (m_shared.deleted_elsewhere(id)) { // deleted on another replica
             m_shared.erase_local(id);
@@ -68,8 +83,17 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
         }
         if (kept) return *kept;
     }
+    // Not in memory: one load an id (the requests that come meanwhile wait for its outcome), and
+    // a few ids at once (load_limit.h).
+    return m_loads.run(id, [&]() -> Result<Entry> {
+        if (auto again = this->kept(id)) return *again; // a load that just ended
+        return m_limit.run<Entry>("mixes", kLoadWait, [&] { return load_files(id); });
+    });
+}
+
+Result<MixStore::Entry> MixStore::load_files(const std::string& id) {
     bool fetched = false;
-    if (!kept && !m_shared.held(id)) {
+    if (!m_shared.held(id)) {
         auto got = m_shared.fetch(id);
         if (!got) return got.error();
         fetched = got.value();
@@ -101,10 +125,22 @@ Result<MixStore::Entry> MixStore::load(const std::string& id) {
                                                     " (it failed validation and "
                                                     "was quarantined)");
     }
-    Entry e{id, record.value().meta, prepared.value()};
+    const core::MixField& f = record.value().field;
+    Entry e{id, record.value().meta, prepared.value(),
+            f.mask.data.size() * sizeof(float) + level_bytes(record.value().levels)};
     std::lock_guard<std::mutex> lock(m_mutex);
+    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
+        if (it->id == id) { // kept meanwhile (a creation's load): once is enough
+            m_bytes -= it->bytes;
+            m_lru.erase(it);
+            break;
+        }
     m_lru.push_front(e);
-    if (m_lru.size() > kCapacity) m_lru.pop_back();
+    m_bytes += e.bytes;
+    while (m_lru.size() > 1 && (m_lru.size() > kCapacity || m_bytes > kBudgetBytes)) {
+        m_bytes -= m_lru.back().bytes;
+        m_lru.pop_back();
+    }
     return e;
 }
 

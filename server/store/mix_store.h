@@ -1,17 +1,20 @@
 #pragma once
 // Texture mixes on local disk (`<data>/mixes/`, see server/io/mix_file.h), content addressed like
-// textons, with a small LRU of prepared mixes. With --store they are shared as textons are
-// (shared_objects.h): written there on creation, fetched by a replica that lacks one, and deleted
-// everywhere.
+// textons, with a small LRU of prepared mixes (at most 8, and 128 MB of masks and levels). With
+// --store they are shared as textons are (shared_objects.h): written there on creation, fetched
+// by a replica that lacks one, and deleted everywhere.
 #include "core/result.h"
 #include "render/prepared_mix.h"
 #include "server/io/mix_file.h"
+#include "server/store/load_limit.h"
 #include "server/store/shared_objects.h"
+#include "server/store/single_flight.h"
 
 #include <chrono>
 #include <list>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,9 +43,12 @@ private:
         std::string id;
         api::MixMeta meta;
         std::shared_ptr<const render::PreparedMix> prepared;
+        std::size_t bytes = 0; // its mask and levels
     };
     MixStore(std::string dir, RedisStore* shared, std::chrono::milliseconds recheck);
     Result<Entry> load(const std::string& id);
+    std::optional<Entry> kept(const std::string& id); // from the LRU, made most recent
+    Result<Entry> load_files(const std::string& id);  // fetched, read, prepared and kept
     void forget(const std::string& id);
     void quarantine(const std::string& id, const std::string& why);
     std::string m_dir;
@@ -50,7 +56,12 @@ private:
     mutable std::mutex m_mutex;
     std::vector<std::string> m_quarantined;
     std::list<Entry> m_lru; // front = most recent
+    std::size_t m_bytes = 0;
+    SingleFlight<Result<Entry>> m_loads;
+    LoadLimit m_limit{1}; // one mask decoded at a time (16 bytes a pixel, 256 MiB at most)
+    static constexpr std::chrono::seconds kLoadWait{30};
     static constexpr std::size_t kCapacity = 8;
+    static constexpr std::size_t kBudgetBytes = std::size_t{128} << 20; // masks and levels kept
 };
 
 } // namespace textond::store

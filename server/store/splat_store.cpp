@@ -126,17 +126,18 @@ std::optional<Error> SplatStore::layers_stored(const api::SplatMeta& meta) {
     return std::nullopt;
 }
 
+std::optional<SplatStore::Entry> SplatStore::kept(const std::string& id) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
+        if (it->id == id) {
+            m_lru.splice(m_lru.begin(), m_lru, it);
+            return *it;
+        }
+    return std::nullopt;
+}
+
 Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
-    std::optional<Entry> kept;
-    {
-        std::lock_guard<std::mutex> lock(m_mutex);
-        for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-            if (it->id == id) {
-                m_lru.splice(m_lru.begin(), m_lru, it);
-                kept = *it;
-                break;
-            }
-    }
+    std::optional<Entry> kept = this->kept(id);
     if ((kept || m_shared.held(id)) &&
         m_shared.deleted_elsewhere(id)) { // deleted on another replica
         m_shared.erase_local(id);
@@ -150,6 +151,15 @@ Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
         forget(id);
         return *gone;
     }
+    // Not in memory: one load an id (the requests that come meanwhile wait for its outcome), and
+    // a few ids at once (load_limit.h).
+    return m_loads.run(id, [&]() -> Result<Entry> {
+        if (auto again = this->kept(id)) return *again; // a load that just ended
+        return m_limit.run<Entry>("splats", kLoadWait, [&] { return load_files(id); });
+    });
+}
+
+Result<SplatStore::Entry> SplatStore::load_files(const std::string& id) {
     bool fetched = false;
     if (!m_shared.held(id)) {
         auto got = m_shared.fetch(id);
@@ -176,6 +186,12 @@ Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
     const core::Image& w = record.value().weights.image.weights;
     Entry e{id, record.value().meta, prepared.value(), w.data.size() * sizeof(float)};
     std::lock_guard<std::mutex> lock(m_mutex);
+    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
+        if (it->id == id) { // kept meanwhile (a creation's load): once is enough
+            m_bytes -= it->bytes;
+            m_lru.erase(it);
+            break;
+        }
     m_lru.push_front(e);
     m_bytes += e.bytes;
     while (m_lru.size() > 1 && (m_lru.size() > kCapacity || m_bytes > kBudgetBytes)) {

@@ -9,7 +9,9 @@
 #include "core/result.h"
 #include "render/prepared_splat.h"
 #include "server/io/splat_file.h"
+#include "server/store/load_limit.h"
 #include "server/store/shared_objects.h"
+#include "server/store/single_flight.h"
 #include "server/store/texton_store.h"
 
 #include <chrono>
@@ -54,6 +56,8 @@ private:
     std::optional<Error> layers_stored(const api::SplatMeta& meta);
     SplatStore(std::string dir, TextonStore& textons, std::chrono::milliseconds recheck);
     Result<Entry> load(const std::string& id);
+    std::optional<Entry> kept(const std::string& id); // from the LRU, made most recent
+    Result<Entry> load_files(const std::string& id);  // fetched, read, prepared and kept
     void forget(const std::string& id);
     void quarantine(const std::string& id, const std::string& why);
     std::string m_dir;
@@ -64,6 +68,9 @@ private:
     std::vector<std::string> m_quarantined;
     std::list<Entry> m_lru; // front = most recent
     std::size_t m_bytes = 0;
+    SingleFlight<Result<Entry>> m_loads;
+    LoadLimit m_limit{1}; // one splat's weight images decoded at a time (192 MiB at most)
+    static constexpr std::chrono::seconds kLoadWait{30};
     static constexpr std::size_t kCapacity = 16;
     static constexpr std::size_t kBudgetBytes = std::size_t{256} << 20; // weight images kept
 };

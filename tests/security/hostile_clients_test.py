@@ -1078,6 +1078,70 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
+    # Round 3 review: a stored splat or mix that no request holds is loaded (its weights or mask
+    # decoded, then prepared) once however many requests ask for it, and a few at once: a fresh
+    # process on the data directory, as a replica that fetches them from the shared store. A
+    # masked mix's creation reserves its mask's decoded size (12 masks of 4096 x 4096, 22 KB each).
+    def test_stored_splats_and_mixes_load_within_the_bound(self):
+        data = tempfile.mkdtemp(prefix="textond-load-mem-")
+        s = Server(data, defaults=True)
+        try:
+            ids = []
+            for name in ("etr_sand01.png", "etr_pebbles04.png"):
+                with open(os.path.join(EXEMPLARS, name), "rb") as f:
+                    st, _, body = s.request("POST", "/v1/textons?size=16&iterations=5", f.read(),
+                                            {"Content-Type": "image/png"})
+                ids.append(json.loads(body)["id"])
+            zeros = grey_png(2048, 2048, lambda y: bytes(4 * 2048), colour_type=6)
+            mask = grey_png(4096, 4096, lambda y: bytes([128]) * 4096)
+            self.assertLess(len(mask), 40 * 1024)
+            splats, mixes = [], []
+            for i in range(6):
+                body, headers = multipart([
+                    ("textons", ",".join([ids[0], ids[1]] * 4), None), ("x0", str(i), None),
+                    ("weights", zeros, "w.png"), ("weights2", zeros, "w2.png")])
+                st, _, got = s.request("POST", "/v1/splats", body, headers, timeout=300)
+                self.assertIn(st, (200, 201), got[:200])
+                splats.append(json.loads(got)["id"])
+            mix = f"/v1/mixes?u={ids[0]}&v={ids[1]}&levels=2&x0="
+            for i in range(3):
+                st, _, got = s.request("POST", mix + str(i), mask,
+                                       {"Content-Type": "image/png"}, timeout=300)
+                self.assertIn(st, (200, 201), got[:200])
+                mixes.append(json.loads(got)["id"])
+        finally:
+            s.stop()
+        s = Server(data, defaults=True)  # nothing loaded yet
+        try:
+            idle = rss_bytes(s.proc.pid)
+            with PeakRss(s.proc.pid) as m:
+                same = self.concurrent(12, lambda i: s.request(
+                    "GET", f"/v1/splats/{splats[0]}", timeout=300)[0])
+                each = self.concurrent(12, lambda i: s.request(
+                    "GET", f"/v1/splats/{splats[i % 6]}/tilejson.json?seed={i}",
+                    timeout=300)[0])
+                mixed = self.concurrent(12, lambda i: s.request(
+                    "GET", f"/v1/mixes/{mixes[i % 3]}?seed={i}", timeout=300)[0])
+            print(f"\n  loads: peak {(m.peak - idle) / MIB:.0f} MiB above idle; {same} {each} "
+                  f"{mixed}")
+            self.assertEqual(same, [200] * 12)
+            self.assertTrue(all(st in (200, 503) for st in each + mixed), (each, mixed))
+            self.assertLess(m.peak - idle, self.BOUND_ABOVE_IDLE,
+                            f"{(m.peak - idle) / MIB:.0f} MiB above idle")
+            idle = rss_bytes(s.proc.pid)
+            with PeakRss(s.proc.pid) as m:
+                made = self.concurrent(12, lambda i: s.request(
+                    "POST", mix + str(10 + i), mask, {"Content-Type": "image/png"},
+                    timeout=600)[0])
+            print(f"  masked mixes: peak {(m.peak - idle) / MIB:.0f} MiB above idle; {made}")
+            self.assertTrue(all(st in (200, 201, 429) for st in made), made)
+            self.assertIn(201, made)
+            self.assertLess(m.peak - idle, self.BOUND_ABOVE_IDLE,
+                            f"{(m.peak - idle) / MIB:.0f} MiB above idle; statuses {made}")
+        finally:
+            s.stop()
+            shutil.rmtree(data, ignore_errors=True)
+
     def test_eight_large_uploads_at_once_stay_within_the_bound(self):
         data = tempfile.mkdtemp(prefix="textond-upload-mem-")
         s = Server(data, defaults=True)
