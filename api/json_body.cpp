@@ -148,10 +148,18 @@ struct SurfaceSax final : BoundedSax {
     bool m_seen_points = false, m_seen_normals = false;
 };
 
+// nlohmann's reader takes a NUL byte for the end of the input, so `{...}\0anything` would pass;
+// JSON text holds none (a string escapes it as \u0000).
+std::optional<ApiError> no_nul(std::string_view body) {
+    if (body.find('\0') == std::string_view::npos) return std::nullopt;
+    return ApiError{"invalid_body", "not JSON: a NUL byte (write it as \\u0000 in a string)"};
+}
+
 } // namespace
 
 std::optional<ApiError> check_json_bounds(std::string_view body, int max_depth,
                                           std::size_t max_values) {
+    if (auto e = no_nul(body)) return e;
     BoundedSax sax(max_depth, max_values);
     if (json::sax_parse(body, &sax)) return std::nullopt;
     return sax.error ? sax.error : ApiError{"invalid_body", "not JSON"};
@@ -162,6 +170,7 @@ std::optional<ApiError> parse_surface_json(std::string_view body, std::size_t ma
                                            std::vector<float>& normals) {
     points.clear();
     normals.clear();
+    if (auto e = no_nul(body)) return e;
     SurfaceSax sax(max_points, points, normals);
     const bool ok = json::sax_parse(body, &sax);
     std::optional<ApiError> e;

@@ -32,7 +32,13 @@ std::string ids_key() {
 }
 
 // Write-once: a texton is stored only when absent, all fields at once, with its id indexed.
+// An index of another type is refused before anything is written (a texton stored but never
+// indexed would answer 200 to its next upload and never be listed).
 constexpr const char* kPutScript = R"lua(
+local index = redis.call('TYPE', KEYS[2])['ok']
+if index ~= 'zset' and index ~= 'none' then
+  return redis.error_reply('WRONGTYPE the id index ' .. KEYS[2] .. ' is a ' .. index)
+end
 if redis.call('EXISTS', KEYS[1]) == 1 then return 0 end
 redis.call('HSET', KEYS[1], 'file', ARGV[1], 'sha256', ARGV[2], 'meta', ARGV[3],
            'exemplar', ARGV[4], 'exemplar_sha256', ARGV[5])
@@ -342,6 +348,10 @@ Result<bool> RedisStore::write_script(const std::vector<std::string>& argv) {
         if (m_up.value_or(false)) refused(r.error().message); // up, yet refusing (OOM, READONLY)
         return r.error();
     }
+    // A key of another type where ours should be: this write's key, not the store (500).
+    if (r.value()->r->type == REDIS_REPLY_ERROR)
+        return make_error(ErrorCode::io, "the shared store refused the write: " +
+                                             std::string(r.value()->r->str, r.value()->r->len));
     // The script answers 0 or 1; anything else is no Redis we know (one answering +OK to all).
     if (r.value()->r->type != REDIS_REPLY_INTEGER) {
         refused("the store answered the write with something else than 0 or 1");
@@ -553,6 +563,9 @@ RedisStore::list_meta(const std::string& after, int limit, bool* more) {
                         std::to_string(limit)});
     if (!ids) return ids.error();
     const redisReply* a = ids.value()->r;
+    if (a->type == REDIS_REPLY_ERROR) // the index is of another type: no list, not an empty one
+        return make_error(ErrorCode::io, "the shared store's id index cannot be read: " +
+                                             std::string(a->str, a->len));
     std::vector<std::string> listed;
     std::vector<std::vector<std::string>> lengths;
     for (std::size_t i = 0; a->type == REDIS_REPLY_ARRAY && i < a->elements; ++i)

@@ -2,6 +2,7 @@
 // code it must give ("" = accepted). Bounds are tested on both sides (the last accepted value
 // and the first refused one), so moving any limit by one step fails a row. The HTTP table in
 // tests/server/bad_requests_test.cpp stays the end-to-end check.
+#include "api/json_body.h"
 #include "api/noise_fields.h"
 #include "api/query_text.h"
 #include "api/requests.h"
@@ -535,6 +536,24 @@ TEST(QueryText, AnItemWithTwoEqualsIsRefused) {
     for (const char* good :
          {"", "seed=1&mni=30", "light=30,45&map=lit", "seed=1%3D5", "flag", "a=&b="})
         EXPECT_FALSE(check_query_text(good)) << good;
+}
+
+// nlohmann's reader stops at a NUL byte: a body with one is refused whole, not read up to it.
+TEST(JsonBody, ANulByteIsRefusedNotTakenForTheEnd) {
+    using namespace std::string_literals;
+    EXPECT_FALSE(check_json_bounds(R"({"strength": 1})", 4, 512));
+    for (const std::string& bad :
+         {"{\"strength\": 1}\0"s, "{\"strength\": 1}\0{\"x\": 2}"s, "{\"a\": \"b\0c\"}"s}) {
+        const auto e = check_json_bounds(bad, 4, 512);
+        ASSERT_TRUE(e) << bad.size();
+        EXPECT_EQ(e->code, "invalid_body");
+    }
+    std::vector<float> points, normals;
+    const std::string surface = R"({"points": [[0, 0, 0]], "normals": [[0, 0, 1]]})";
+    EXPECT_FALSE(parse_surface_json(surface, 10, points, normals));
+    const auto e = parse_surface_json(surface + "\0"s + "junk", 10, points, normals);
+    ASSERT_TRUE(e);
+    EXPECT_EQ(e->code, "invalid_body");
 }
 
 } // namespace

@@ -158,6 +158,25 @@ def damaged_values(rport, edge, replicas, tmp, exemplars, b_pid):
     page = json.loads(got)
     assert st == 200 and page["next"], (st, got[:300])
     print("150 metadata of 60 KiB: the page ends at 8 MiB and names the next")
+    # The id index of another type: the list says so (500, not an empty 200), an upload is
+    # refused before anything is written (500, the store still up), and once the index is
+    # right again the same upload is stored and listed at once.
+    redis(rport, "DEL", "textond:v1:ids")
+    redis(rport, "SET", "textond:v1:ids", "junk")
+    st, got = http(f"{b}/v1/textons")
+    assert st == 500, (st, got[:200])
+    with open(os.path.join(exemplars, "etr_floor01.png"), "rb") as f:
+        floor = f.read()
+    upload = f"{a}/v1/textons?size=16&iterations=5&seed=53"
+    st, got = http(upload, "POST", floor, {"Content-Type": "image/png"})
+    assert st == 500, (st, got[:200])
+    assert not get_json(a + "/readyz")["degraded"]
+    redis(rport, "DEL", "textond:v1:ids")
+    st, got = http(upload, "POST", floor, {"Content-Type": "image/png"})
+    assert st == 201, (st, got[:200])
+    st, got = http(f"{b}/v1/textons")
+    assert st == 200 and json.loads(got)["total"] == 1, (st, got[:300])
+    print("an id index of another type: list 500, upload 500 with nothing written; fixed: 201")
 
 
 def get_json(url):
