@@ -64,10 +64,12 @@ public:
     // pipelined one count), giving up early when `stop` turns true, or when the threads run
     // short (`crowd`, ElasticThreadPool::crowd) while nothing has come: an idle connection gives
     // its thread up first. A new connection has kNewConnectionGrace from its accept (time spent
-    // waiting for a thread included) for its first bytes. Then the head phase starts.
+    // waiting for a thread included) for its first bytes, a kept-alive one kNextRequestGrace
+    // after its last answer. Then the head phase starts.
     bool next_request(std::chrono::milliseconds timeout, const std::function<bool()>& stop,
                       const std::function<int()>& crowd = {});
     static constexpr std::chrono::milliseconds kNewConnectionGrace{100};
+    static constexpr std::chrono::milliseconds kNextRequestGrace{20}; // after an answer
     // The head has been parsed (pre-routing): from here on bytes count against the body.
     void begin_body();
     // What the head said of the body: `length` bytes, or chunked. The connection closes after
