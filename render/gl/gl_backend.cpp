@@ -165,6 +165,11 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
     GLint block = 0;
     m_gl->GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &block);
     if (block > 0) m_max_block_bytes = static_cast<std::size_t>(block);
+    GLint shared = 0;
+    m_gl->GetIntegerv(GL_MAX_COMPUTE_SHARED_MEMORY_SIZE, &shared);
+    // 16 bytes a point, beside the cells' starts (1 KiB); GL guarantees 32 KiB.
+    m_shared_points = std::clamp((std::max(shared, 32768) - 2048) / 16, 512, 4096);
+    m_kernel = m_software ? PointKernel::host_listed : PointKernel::shared;
     if (m_software && !allow_software)
         return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
                                                       m_renderer + "), not a GPU");
@@ -190,7 +195,7 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
 
 std::string GlBackend::renderer() const {
     return m_name + " (" + m_renderer + ", OpenGL " + m_version + ", " + m_context->platform() +
-           ")";
+           (m_kernel == PointKernel::shared ? ", points drawn in shared memory" : "") + ")";
 }
 
 unsigned GlBackend::cached_table(TableCache& cache, const std::shared_ptr<const LevelTable>& t) {
@@ -238,15 +243,31 @@ Result<GlBackend::NoiseProgram*> GlBackend::noise_program(Precision p) {
     const char* out = p == Precision::u8    ? "#define TEXTOND_OUT_U8\n"
                       : p == Precision::u16 ? "#define TEXTOND_OUT_U16\n"
                                             : "";
+    const std::string shared = m_kernel == PointKernel::shared
+                                   ? "#define TEXTOND_SHARED_POINTS " +
+                                         std::to_string(m_shared_points) + "\n" +
+                                         (m_mark_overflow ? "#define TEXTOND_MARK_OVERFLOW\n" : "")
+                                   : std::string();
     auto prog = link(*m_gl, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") +
                                                      "#define TEXTOND_TABLE_BUFFER\n"
                                                      "#define TEXTOND_BATCH\n" +
-                                                     out + m_noise_source}});
+                                                     out + shared + m_noise_source}});
     if (!prog) return prog.error();
     np.id = prog.value();
     np.tile_first = m_gl->GetUniformLocation(np.id, "u_tile_first");
     np.mask = m_gl->GetUniformLocation(np.id, "u_mask");
     return &np;
+}
+
+void GlBackend::set_point_kernel(PointKernel k, bool mark_overflow) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    if (k == m_kernel && mark_overflow == m_mark_overflow) return;
+    CurrentScope scope(*m_context);
+    for (NoiseProgram& np : m_noise)
+        if (np.id) m_gl->DeleteProgram(np.id);
+    for (NoiseProgram& np : m_noise) np = NoiseProgram{};
+    m_kernel = k;
+    m_mark_overflow = mark_overflow;
 }
 
 Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const PreparedMix* mix,
@@ -270,7 +291,8 @@ Result<GlBackend::Work> GlBackend::prepare(const PreparedTexton& tex, const Prep
         w.marginals = tex.marginals(q.level);
         wq.precision = Precision::f32;
     }
-    w.window = std::make_unique<gl::NoiseWindow>(gl::make_noise_window(tex, mix, wq));
+    w.window = std::make_unique<gl::NoiseWindow>(
+        gl::make_noise_window(tex, mix, wq, m_kernel == PointKernel::host_listed));
     w.stats.limit_model = w.window->limit_model;
     w.stats.points = 0; // not counted on the GPU
     w.stats.evaluations =

@@ -101,6 +101,14 @@ public:
                                      const core::TriangleMesh& mesh, const MeshView& view,
                                      int width, int height);
 
+    // Where exact levels' points come from: listed on the host (llvmpipe: no barriers), or drawn
+    // by each workgroup into shared memory (a GPU). The same bits either way; the setter is a
+    // test and bench hook. `mark_overflow` (tests): a group whose points overflow shared memory
+    // writes -1e30 instead of falling back to the per-pixel gather, so a test sees which ran.
+    enum class PointKernel { host_listed, shared };
+    PointKernel point_kernel() const { return m_kernel; }
+    void set_point_kernel(PointKernel k, bool mark_overflow = false);
+
     // Test hook: pretend storage buffers hold at most `bytes` (batches split below it).
     void limit_storage_block(std::size_t bytes) { m_max_block_bytes = bytes; }
     std::size_t pass_words() const; // output words a pass: fewer on a software renderer
@@ -120,6 +128,9 @@ private:
     std::string m_renderer;
     std::string m_version;
     bool m_software = false;
+    PointKernel m_kernel = PointKernel::host_listed;
+    bool m_mark_overflow = false;
+    int m_shared_points = 0; // the shared list's capacity in points (the device's shared memory)
     int m_subpixel_bits = 4;
     std::mutex m_mutex;         // the context: one batch (or surface, mesh, probe call) at a time
     std::string m_noise_source; // lib + eval + comp, compiled per output precision

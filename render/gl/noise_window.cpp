@@ -56,7 +56,7 @@ void interleave_table(const LevelTable& t, int components, float* out) {
 }
 
 NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
-                              const NoiseRequest& q) {
+                              const NoiseRequest& q, bool host_lists) {
     NoiseWindow win;
     win.width = q.width;
     win.height = q.height;
@@ -139,8 +139,9 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     const std::int64_t ncx = last_cell(ox, q.width) + 1, ncy = last_cell(oy, q.height) + 1;
     // Listing the window's points pays while there are far fewer of them than pixels (levels
     // <= 1); above, each pixel regenerates its own.
-    const bool listed = static_cast<double>(ncx) * static_cast<double>(ncy) * grid.mu <=
-                        std::max(65536.0, static_cast<double>(q.width) * q.height / 8);
+    const bool listed =
+        host_lists && static_cast<double>(ncx) * static_cast<double>(ncy) * grid.mu <=
+                          std::max(65536.0, static_cast<double>(q.width) * q.height / 8);
     rec.i(8, table->side(), 0, listed ? 1 : 0, 0);
     rec.i(9, listed ? ncx : 0, listed ? ncy : 0, 0, mix ? 1 : 0);
     if (listed) {

@@ -44,9 +44,10 @@ struct NoiseWindow {
 };
 
 // `mix` null: texton noise of `texton`; else the mix's exact level (its level 0 is `texton`).
-// The request is assumed checked (PreparedTexton::check, PreparedMix::check).
+// The request is assumed checked (PreparedTexton::check, PreparedMix::check). `host_lists`
+// false: the points are never listed here (a GPU's kernel draws them in shared memory).
 NoiseWindow make_noise_window(const PreparedTexton& texton, const PreparedMix* mix,
-                              const NoiseRequest& q);
+                              const NoiseRequest& q, bool host_lists = true);
 
 // A level table as `components` floats a texel, row by row (G[y][x], zeros past its channels):
 // the layout of the RGB32F textures and of the vec4 storage buffers.

@@ -10,13 +10,15 @@
 // the encoder rounds (clamp to [0, 1], times 255 or 65535, plus 0.5, truncated): an 8-bit tile
 // reads back a quarter of the bytes of RGBA floats and encodes to the same bytes.
 //
-// Exact levels read the window's points from a buffer (list = 1) where the host generated them
-// once, cells by y then x and points in draw order, with each cell's start in u_offsets: a pixel
-// walks the rows of its cells (one contiguous run each) and sums the points in reach in that
-// order, the per-pixel gather's sums term for term, with no hashing per pixel. Where the window
-// holds far more points than pixels (levels above 1), each pixel regenerates its own cells'
-// points instead (list = 0). No barriers: llvmpipe runs a shader that has any as coroutines,
-// which made every path of it 1.5x slower.
+// Two kernels, the same bits. On llvmpipe, exact levels read the window's points from a buffer
+// (list = 1) where the host generated them once, cells by y then x and points in draw order, with
+// each cell's start in u_offsets: a pixel walks the rows of its cells (one contiguous run each)
+// and sums the points in reach in that order, the per-pixel gather's sums term for term, with no
+// hashing per pixel. Where the window holds far more points than pixels (levels above 1), each
+// pixel regenerates its own cells' points instead (list = 0). That kernel has no barriers:
+// llvmpipe runs a shader that has any as coroutines, which made every path of it 1.5x slower.
+// On a GPU (TEXTOND_SHARED_POINTS), the host lists nothing: each workgroup draws its cells'
+// points once into shared memory (exact_shared).
 
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) writeonly buffer Out { uint u_out[]; };
@@ -122,6 +124,93 @@ vec3 exact_listed(ivec2 pix) {
     return exact_value(x, acc);
 }
 
+#ifdef TEXTOND_SHARED_POINTS
+// A GPU's path (TEXTOND_SHARED_POINTS = the list's capacity, from the device's shared memory):
+// the workgroup draws the points of every cell its 16 x 16 pixels reach once into shared memory,
+// one invocation a cell, cells by y then x; each pixel then walks the runs of its own cells,
+// exactly as exact_listed walks the host's list, so the sums are term for term the per-pixel
+// gather's. A group whose cells or points overflow the list evaluates exact_pixel instead. Not
+// compiled for llvmpipe, which runs any shader with a barrier as coroutines (1.5x slower).
+const int kSharedCells = 256;
+shared uint s_start[kSharedCells + 1];
+shared uvec4 s_points[TEXTOND_SHARED_POINTS];
+
+// The group's cells [lo, lo + n) from the first pixel's reach to its last inside pixel's; false
+// when they or their points do not fit the list. Called by every invocation (barriers).
+bool draw_group_points(out ivec2 lo, out ivec2 n) {
+    ivec2 g0 = ivec2(gl_WorkGroupID.xy * 16u) + u_offset;
+    ivec2 g1 = min(g0 + 15, u_offset + t_size - 1);
+    ivec2 unused, hi;
+    reach_cells(pixel_position(g0), lo, unused);
+    reach_cells(pixel_position(g1), unused, hi);
+    n = hi - lo + 1;
+    int cells = n.x * n.y;
+    if (cells > kSharedCells) return false;
+    int me = int(gl_LocalInvocationIndex);
+    for (int c = me; c < cells; c += 256) {
+        uint state = key_of_cell(lo.x + c % n.x, lo.y + c / n.x);
+        s_start[c + 1] = uint(poisson_count(next_draw(state)));
+    }
+    memoryBarrierShared();
+    barrier();
+    if (me == 0) {
+        s_start[0] = 0u;
+        for (int c = 0; c < cells; ++c) s_start[c + 1] += s_start[c];
+    }
+    memoryBarrierShared();
+    barrier();
+    if (s_start[cells] > uint(TEXTOND_SHARED_POINTS)) return false;
+    for (int c = me; c < cells; c += 256) {
+        int cx = lo.x + c % n.x, cy = lo.y + c / n.x;
+        uint state = key_of_cell(cx, cy);
+        int count = poisson_count(next_draw(state));
+        uint k = s_start[c];
+        for (int i = 0; i < count; ++i) {
+            int qx, qy;
+            uint fx, fy;
+            point_offset(next_draw(state), uint(u_a), qx, fx);
+            point_offset(next_draw(state), uint(u_a), qy, fy);
+            uint negative = next_draw(state) >> 31u;
+            ivec2 b = ivec2(cx * u_a + qx, cy * u_a + qy);
+            uint layer = uint(point_layer(b, uvec2(fx, fy)));
+            s_points[k + uint(i)] = uvec4(uvec2(b), fx | (negative << 31u), fy | (layer << 24u));
+        }
+    }
+    memoryBarrierShared();
+    barrier();
+    return true;
+}
+
+vec3 exact_shared(ivec2 pix, bool inside) {
+    ivec2 lo, n;
+#ifdef TEXTOND_MARK_OVERFLOW
+    if (!draw_group_points(lo, n)) return vec3(-1e30); // tests: which path ran
+#else
+    if (!draw_group_points(lo, n)) return inside ? exact_pixel(pix) : vec3(0.0);
+#endif
+    if (!inside) return vec3(0.0);
+    ivec2 x = pixel_position(pix);
+    ivec2 clo, chi;
+    reach_cells(x, clo, chi);
+    clo -= lo;
+    chi -= lo;
+    precise vec3 acc = vec3(0.0);
+    for (int cy = clo.y; cy <= chi.y; ++cy) {
+        int row = cy * n.x;
+        uint end = s_start[row + chi.x + 1];
+        for (uint i = s_start[row + clo.x]; i < end; ++i) {
+            uvec4 p = s_points[i];
+            float eps = (p.z >> 31u) == 0u ? 1.0 : -1.0;
+            vec3 term;
+            if (point_term(x, ivec2(p.xy), uvec2(p.z & 0xffffffu, p.w & 0xffffffu), eps,
+                           int(p.w >> 24u), term))
+                acc = acc + term;
+        }
+    }
+    return exact_value(x, acc);
+}
+#endif
+
 // The encoder's rounding (server/io/image_io.cpp, interleave), operation for operation.
 uint quantise(float v, float scale) {
     precise float s = clamp(v, 0.0, 1.0) * scale;
@@ -132,9 +221,20 @@ uint quantise(float v, float scale) {
 void main() {
     load_tile(u_tile_first + int(gl_WorkGroupID.z));
     ivec2 local = ivec2(gl_WorkGroupID.xy * 16u + gl_LocalInvocationID.xy);
-    if (any(greaterThanEqual(local, t_size))) return;
+    bool inside = all(lessThan(local, t_size));
     ivec2 pix = local + u_offset;
+#ifdef TEXTOND_SHARED_POINTS
+    // The record is the group's, so these returns leave whole groups (uniform control flow).
+    if (any(greaterThanEqual(ivec2(gl_WorkGroupID.xy * 16u), t_size))) return;
+    vec3 v = vec3(0.0);
+    if (u_mode == 0 && t_list == 0) v = exact_shared(pix, inside);
+    if (!inside) return;
+    if (u_mode == 1) v = limit_pixel(pix);
+    if (u_mode == 0 && t_list == 1) v = exact_listed(pix);
+#else
+    if (!inside) return;
     vec3 v = u_mode == 1 ? limit_pixel(pix) : (t_list == 1 ? exact_listed(pix) : exact_pixel(pix));
+#endif
     uint k = t_out_base + uint(local.y * t_size.x + local.x);
 #if defined(TEXTOND_OUT_U8)
     u_out[k] = quantise(v.r, 255.0) | (quantise(v.g, 255.0) << 8) |

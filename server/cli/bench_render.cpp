@@ -3,6 +3,7 @@
 #include "core/texture_mix.h"
 #include "render/backend_factory.h"
 #include "render/cpu_backend.h"
+#include "render/gl/gl_backend.h"
 #include "render/prepared_mix.h"
 #include "render/prepared_splat.h"
 #include "render/renderer.h"
@@ -40,6 +41,8 @@ against a plain tile. Textons are analysed from mypaint_HR_Cork.png (512x512 col
   --backends LIST   comma-separated: cpu, osmesa, egl (skipped when absent)   [cpu,egl]
   --threads N       CPU backend and FFTW threads, 0 = all cores   [0]
   --max-side N      skip frame sizes wider than N (OSMesa is slow) [3840]
+  --gl-points K     OpenGL's point kernel: shared (drawn by each workgroup), listed (on the
+                    host), or auto (shared on a GPU, listed on llvmpipe); the same bits  [auto]
 )";
 
 template <class F> double median_ms(int repeat, F&& f) {
@@ -77,8 +80,10 @@ Result<Prepared> prepare(const core::Image& exemplar, int size, int order = 1) {
     return Prepared(prepared.value());
 }
 
-// Backends that cannot start here are named and skipped.
-Result<bool> open_backends(const std::string& names, Bench& b) {
+// Backends that cannot start here are named and skipped; `points` sets the GL point kernel.
+Result<bool> open_backends(const std::string& names, const std::string& points, Bench& b) {
+    if (points != "auto" && points != "shared" && points != "listed")
+        return make_error(ErrorCode::invalid_argument, "--gl-points is auto, shared or listed");
     std::stringstream list(names);
     for (std::string name; std::getline(list, name, ',');) {
         auto kind = render::parse_backend_kind(name);
@@ -90,6 +95,10 @@ Result<bool> open_backends(const std::string& names, Bench& b) {
             std::printf("(%s skipped: %s)\n", name.c_str(), made.error().message.c_str());
             continue;
         }
+        if (auto gl = std::dynamic_pointer_cast<render::GlBackend>(made.value().backend);
+            gl && points != "auto")
+            gl->set_point_kernel(points == "shared" ? render::GlBackend::PointKernel::shared
+                                                    : render::GlBackend::PointKernel::host_listed);
         std::printf("%s: %s\n", name.c_str(), made.value().backend->renderer().c_str());
         b.backends.push_back(made.value().backend);
     }
@@ -383,7 +392,8 @@ Result<bool> run_tables(Bench& b) {
 
 int bench_render_command(const Argv& argv) {
     auto args = parse_args(
-        argv, {"--exemplars", "--repeat", "--backends", "--threads", "--max-side"}, {"--help"});
+        argv, {"--exemplars", "--repeat", "--backends", "--threads", "--max-side", "--gl-points"},
+        {"--help"});
     if (!args) return fail(2, args.error().message);
     const Args& a = args.value();
     if (a.flags.count("--help")) {
@@ -402,7 +412,9 @@ int bench_render_command(const Argv& argv) {
     b.repeat = static_cast<int>(repeat.value());
     b.max_side = static_cast<int>(max_side.value());
     b.threads = core::resolve_threads(static_cast<int>(threads.value()));
-    if (auto opened = open_backends(a.get("--backends", "cpu,egl"), b); !opened)
+    if (auto opened =
+            open_backends(a.get("--backends", "cpu,egl"), a.get("--gl-points", "auto"), b);
+        !opened)
         return fail(2, opened.error().message);
     if (auto ran = run_tables(b); !ran) return fail(1, ran.error().message);
     return 0;

@@ -384,6 +384,114 @@ TEST(OsmesaBackend, BatchOverAStorageBufferIsSplit) {
     EXPECT_EQ(refused[0].error().code, ErrorCode::too_large);
 }
 
+// A GPU's kernel (points drawn by each workgroup into shared memory) against llvmpipe's (points
+// listed on the host, or regenerated per pixel): the same bits, float and 8-bit, at every exact
+// level, order, MNI, far positions, tileable windows and mixes. With mark_overflow, a group whose
+// points do not fit writes -1e30, so the windows that fit are shown to come from shared memory,
+// and the one that does not is shown to take the per-pixel gather, with the same bits.
+void check_shared_kernel(GlBackend& listed, GlBackend& shared) {
+    using Kernel = GlBackend::PointKernel;
+    listed.set_point_kernel(Kernel::host_listed);
+    shared.set_point_kernel(Kernel::shared, true);
+    auto same = [](const core::Image& a, const core::Image& b) {
+        return a.data.size() == b.data.size() &&
+               std::memcmp(a.data.data(), b.data.data(), a.data.size() * sizeof(float)) == 0;
+    };
+    auto marked = [](const core::Image& a) {
+        return std::count(a.data.begin(), a.data.end(), -1e30f) > 0;
+    };
+    const std::int64_t far = std::int64_t{1} << 40;
+    for (int order : {0, 1, 3}) {
+        const auto tex = analysed_texton("etr_sand01.png", order == 3 ? 32 : 64, order);
+        struct Case {
+            int level;
+            std::int64_t x0, y0;
+            double mni;
+            int w, h;
+            render::Precision precision;
+        };
+        for (const Case& c : {Case{0, 0, 0, 30, 61, 47, render::Precision::f32},
+                              Case{0, far, -far, 30, 200, 130, render::Precision::u8},
+                              Case{1, -50, 17, 5, 64, 64, render::Precision::f32},
+                              Case{2, -50, 17, 30, 61, 47, render::Precision::f32},
+                              Case{3, 100, -100, 30, 33, 20, render::Precision::u16},
+                              Case{-1, 9, -4, 5, 61, 47, render::Precision::f32},
+                              Case{-3, far, far, 30, 40, 40, render::Precision::u8},
+                              Case{0, 3, 3, 1, 17, 17, render::Precision::f32}}) {
+            render::NoiseRequest q;
+            q.seed = (std::uint64_t{1} << 32) + 77;
+            q.level = c.level;
+            q.x0 = c.x0;
+            q.y0 = c.y0;
+            q.mni = c.mni;
+            q.width = c.w;
+            q.height = c.h;
+            q.precision = c.precision;
+            auto a = listed.render(*tex, q);
+            auto b = shared.render(*tex, q);
+            ASSERT_TRUE(a.ok() && b.ok()) << (b.ok() ? "" : b.error().message);
+            EXPECT_FALSE(marked(b.value())) << "order " << order << " level " << c.level;
+            EXPECT_TRUE(same(a.value(), b.value())) << "order " << order << " level " << c.level;
+        }
+        render::NoiseRequest tileable;
+        tileable.period = {3, 2};
+        tileable.width = 3 * tex->cell_size();
+        tileable.height = 2 * tex->cell_size();
+        auto a = listed.render(*tex, tileable);
+        auto b = shared.render(*tex, tileable);
+        ASSERT_TRUE(a.ok() && b.ok());
+        EXPECT_TRUE(same(a.value(), b.value())) << "tileable, order " << order;
+    }
+    // Too many points for shared memory: marked, then with the fallback the same bits.
+    const auto sand = analysed_texton("etr_sand01.png", 64);
+    render::NoiseRequest heavy;
+    heavy.level = 4;
+    heavy.mni = 200;
+    heavy.width = heavy.height = 20;
+    auto a = listed.render(*sand, heavy);
+    auto b = shared.render(*sand, heavy);
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_TRUE(marked(b.value())) << "level 4 at MNI 200 fit shared memory: pick a heavier case";
+    shared.set_point_kernel(Kernel::shared);
+    b = shared.render(*sand, heavy);
+    ASSERT_TRUE(b.ok());
+    EXPECT_TRUE(same(a.value(), b.value())) << "the per-pixel fallback";
+    // Mixes: each point's level drawn in the group, as the host lists it.
+    core::MixField ramp;
+    ramp.x0 = -30;
+    ramp.dx = 1;
+    ramp.dy = 0.5;
+    ramp.width = 90;
+    const auto mix = analysed_mix("etr_sand01.png", "etr_pebbles04.png", 32, 7, ramp);
+    for (int level : {-1, 0, 2}) {
+        render::NoiseRequest q;
+        q.seed = 3;
+        q.level = level;
+        q.x0 = -64;
+        q.width = 90;
+        q.height = 50;
+        auto ma = listed.render_mix(*mix, q);
+        auto mb = shared.render_mix(*mix, q);
+        ASSERT_TRUE(ma.ok() && mb.ok());
+        EXPECT_TRUE(same(ma.value(), mb.value())) << "mix level " << level;
+    }
+}
+
+TEST(OsmesaBackend, SharedPointKernelGivesTheListedKernelsBits) {
+    auto listed = render::make_osmesa_backend();
+    auto shared = render::make_osmesa_backend();
+    if (!listed || !shared) GTEST_SKIP() << "no OSMesa";
+    check_shared_kernel(*listed.value(), *shared.value());
+}
+
+TEST(EglBackend, GpuSharedPointKernelGivesTheListedKernelsBits) {
+    auto shared = egl_gpu();
+    auto listed = render::make_egl_backend(false);
+    if (!shared || !listed) GTEST_SKIP() << "no GPU";
+    check_shared_kernel(*listed.value(), *shared);
+    shared->set_point_kernel(GlBackend::PointKernel::shared); // as made, for the tests after
+}
+
 TEST(EglBackend, GpuBatchGivesEachWindowAsAlone) {
     auto gl = egl_gpu();
     if (!gl) GTEST_SKIP() << "no GPU";
