@@ -2,7 +2,7 @@
 -- request a distinct tile (a per-thread walk over a huge grid), mode "warm": the same WARM_SET
 -- tiles over and over.
 -- Environment: TEXTON (id, or ids separated by commas), MODE (cold|warm), WARM_SET (default 64),
--- SEED, HEADER ("Name: value" added to every request).
+-- SEED, HEADER ("Name: value" added to every request), LEVEL (the tiles' level z, default 0).
 local threads = {}
 local counter = 0
 
@@ -22,6 +22,7 @@ function init(args)
   mode = os.getenv("MODE") or "cold"
   warm_set = tonumber(os.getenv("WARM_SET") or "64")
   seed = os.getenv("SEED") or "0"
+  level = os.getenv("LEVEL") or "0"
 end
 
 request = function()
@@ -35,7 +36,7 @@ request = function()
     x, y = counter, tid * 1000003 + 17
   end
   local texton = textons[counter % #textons + 1]
-  return wrk.format("GET", "/v1/textons/" .. texton .. "/tiles/0/" .. x .. "/" .. y .. ".png?seed=" .. seed)
+  return wrk.format("GET", "/v1/textons/" .. texton .. "/tiles/" .. level .. "/" .. x .. "/" .. y .. ".png?seed=" .. seed)
 end
 
 -- No response() callback: with one, wrk hands every body (197 kB) to Lua, and that copy, not
