@@ -5,6 +5,8 @@
 // hold work past a deadline or in a queue on a machine of any speed (issue 43 item 0). Points:
 //   render     an admitted image render (image routes), before the backend runs
 //   analysis   an analysis that left the queue, before it runs
+//   load       a splat or mix read from its files and prepared (estimate 1 s: the factor is
+//              seconds), after its files are read, before it is prepared and kept
 // The wait polls `stop` every 10 ms and ends as soon as it says so. Unset: no cost but a lookup.
 #include <functional>
 #include <string_view>

@@ -1,5 +1,6 @@
 #include "server/store/mix_store.h"
 
+#include "server/io/slow_point.h"
 #include "server/store/quarantine.h"
 
 #include <spdlog/spdlog.h>
@@ -113,6 +114,7 @@ Result<MixStore::Entry> MixStore::load_files(const std::string& id) {
                                                     "failed validation, and were quarantined)");
     }
     if (!record) return record.error();
+    io::slow_point("load", 1.0); // tests: a load that lasts, its files read (slow_point.h)
     auto prepared = render::PreparedMix::make(record.value().levels, record.value().field);
     if (!prepared && fetched) {
         m_shared.reject(id);
@@ -129,6 +131,8 @@ Result<MixStore::Entry> MixStore::load_files(const std::string& id) {
     Entry e{id, record.value().meta, prepared.value(),
             f.mask.data.size() * sizeof(float) + level_bytes(record.value().levels)};
     std::lock_guard<std::mutex> lock(m_mutex);
+    // Deleted while it loaded (remove() erases the files, then forgets): not kept, not served.
+    if (!m_shared.held(id)) return make_error(ErrorCode::not_found, "no mix " + id + " (deleted)");
     for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
         if (it->id == id) { // kept meanwhile (a creation's load): once is enough
             m_bytes -= it->bytes;

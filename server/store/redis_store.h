@@ -1,7 +1,7 @@
 #pragma once
 // The shared texton store on Redis (`serve --store redis://...`): every replica writes the
 // textons it analyses here and reads the ones it lacks from here, keeping a local copy (the
-// data directory becomes a read-through cache, server/http/texton_store).
+// data directory becomes a read-through cache, server/store/texton_store.h).
 //
 // Layout, under the prefix "textond:v1:":
 //   texton:<id>   hash {file: the texton file bytes (api/TEXTON_FORMAT.md), sha256: of file,

@@ -1,6 +1,7 @@
 #include "server/store/splat_store.h"
 
 #include "core/material_set.h"
+#include "server/io/slow_point.h"
 #include "server/store/quarantine.h"
 
 #include <spdlog/spdlog.h>
@@ -181,11 +182,15 @@ Result<SplatStore::Entry> SplatStore::load_files(const std::string& id) {
                                                     "validation, and were quarantined)");
     }
     if (!record) return record.error();
+    io::slow_point("load", 1.0); // tests: a load that lasts, its files read (slow_point.h)
     auto prepared = prepare(record.value());
     if (!prepared) return prepared.error(); // a missing layer: kept, for when it comes back
     const core::Image& w = record.value().weights.image.weights;
     Entry e{id, record.value().meta, prepared.value(), w.data.size() * sizeof(float)};
     std::lock_guard<std::mutex> lock(m_mutex);
+    // Deleted while it loaded (remove() erases the files, then forgets): not kept, not served.
+    if (!m_shared.held(id))
+        return make_error(ErrorCode::not_found, "no splat " + id + " (deleted)");
     for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
         if (it->id == id) { // kept meanwhile (a creation's load): once is enough
             m_bytes -= it->bytes;

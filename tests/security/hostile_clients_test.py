@@ -1142,6 +1142,46 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
+    # Round 3 review: a splat or mix deleted while a request loads it is gone once the DELETE has
+    # answered (the load finished after it and kept it, served for as long as it stayed in the
+    # LRU). Loads are held 2 s (slow point), so the DELETE lands inside one on any machine.
+    def test_a_delete_during_a_load_holds(self):
+        data = tempfile.mkdtemp(prefix="textond-load-delete-")
+        s = Server(data)
+        try:
+            for name in ("etr_sand01.png", "etr_pebbles04.png"):
+                with open(os.path.join(EXEMPLARS, name), "rb") as f:
+                    st, _, body = s.request("POST", "/v1/textons?size=32&iterations=10", f.read(),
+                                            {"Content-Type": "image/png"})
+                self.assertIn(st, (200, 201), body[:200])
+            u, v = [json.loads(s.request("GET", "/v1/textons")[2])["items"][i]["id"]
+                    for i in (0, 1)]
+            body, headers = multipart([("textons", f"{u},{v}", None),
+                                       ("weights", rgba_png(8, 8, 3), "w.png")])
+            st, _, got = s.request("POST", "/v1/splats", body, headers)
+            self.assertIn(st, (200, 201), got[:200])
+            paths = [f"/v1/splats/{json.loads(got)['id']}"]
+            st, _, got = s.request("POST", f"/v1/mixes?u={u}&v={v}&levels=2")
+            self.assertIn(st, (200, 201), got[:200])
+            paths.append(f"/v1/mixes/{json.loads(got)['id']}")
+        finally:
+            s.stop()
+        s = Server(data, slow={"load": 2})  # nothing loaded; each load lasts 2 s
+        try:
+            for path in paths:
+                loading = threading.Thread(target=lambda p=path: s.request("GET", p, timeout=60))
+                loading.start()
+                time.sleep(0.5)
+                st, _, got = s.request("DELETE", path)
+                self.assertEqual(st, 204, got[:200])
+                loading.join()
+                for what in ("", "/tiles/0/0/0.png"):
+                    st, _, got = s.request("GET", path + what)
+                    self.assertEqual(st, 404, (path + what, got[:200]))
+        finally:
+            s.stop()
+            shutil.rmtree(data, ignore_errors=True)
+
     def test_eight_large_uploads_at_once_stay_within_the_bound(self):
         data = tempfile.mkdtemp(prefix="textond-upload-mem-")
         s = Server(data, defaults=True)

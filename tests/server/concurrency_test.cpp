@@ -1,6 +1,7 @@
 // Concurrency over real HTTP: identical uploads share one analysis (single flight), and many
 // clients fetching tiles at once all get the right bytes.
 #include "render/osmesa_backend.h"
+#include "server/store/load_limit.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -8,13 +9,57 @@
 #include <nlohmann/json.hpp>
 
 #include <atomic>
+#include <chrono>
 #include <map>
+#include <mutex>
 #include <thread>
 
 namespace textond::test {
 namespace {
 
 using nlohmann::json;
+
+// Loads of stored splats and mixes run one at a time and in the order they asked: one that
+// waits behind a busy place gets its turn before any that asked later, and one whose turn does
+// not come within its wait is refused (unavailable) and leaves the line.
+TEST(Concurrency, LoadsRunOneAtATimeInTheOrderTheyAsked) {
+    using namespace std::chrono_literals;
+    store::LoadLimit limit(1);
+    std::mutex m;
+    std::vector<int> order;
+    std::atomic<bool> release{false};
+    std::atomic<int> running{0}, most{0};
+    auto load = [&](int who) {
+        return [&, who]() -> Result<int> {
+            const int now = ++running;
+            most = std::max(most.load(), now);
+            {
+                std::lock_guard lock(m);
+                order.push_back(who);
+            }
+            while (who == 0 && !release) std::this_thread::sleep_for(1ms);
+            std::this_thread::sleep_for(5ms);
+            --running;
+            return who;
+        };
+    };
+    std::vector<std::thread> ts;
+    ts.emplace_back([&] { EXPECT_TRUE(limit.run<int>("x", 10s, load(0)).ok()); });
+    while (order.empty()) std::this_thread::sleep_for(1ms);
+    Result<int> late = make_error(ErrorCode::internal, "not run");
+    ts.emplace_back([&] { late = limit.run<int>("splats", 50ms, load(9)); });
+    for (int who = 1; who <= 5; ++who) { // each asks after the one before
+        ts.emplace_back([&, who] { EXPECT_TRUE(limit.run<int>("x", 10s, load(who)).ok()); });
+        std::this_thread::sleep_for(20ms);
+    }
+    std::this_thread::sleep_for(100ms); // the one with a 50 ms wait gives up meanwhile
+    release = true;
+    for (auto& t : ts) t.join();
+    EXPECT_EQ(order, (std::vector<int>{0, 1, 2, 3, 4, 5}));
+    EXPECT_EQ(most.load(), 1);
+    ASSERT_FALSE(late.ok());
+    EXPECT_EQ(late.error().code, ErrorCode::unavailable);
+}
 
 TEST(Concurrency, SixteenIdenticalUploadsRunOneAnalysis) {
     http::ServeConfig config = TestServer::default_config();
