@@ -31,7 +31,9 @@ struct ServeConfig {
     // the pool must cover the connections expected at once; renders are bounded separately.
     int http_threads = 128;      // connection threads kept
     int max_connections = 1024;  // connection threads at most (more are started on demand)
-    int render_slots = 0;        // renders at once; 0 = one per core (+ a GPU batch, on GL)
+    // Renders at once; 0 = one per core, plus --gpu-batch-tiles more when tiles and frames both
+    // go to a GL backend (a slot then mostly waits for its batch).
+    int render_slots = 0;
     int gpu_batch_tiles = 64;    // GL: windows gathered into one batch at most
     int gpu_batch_wait_us = 200; // GL: how long a batch waits for more once one is queued
     int gpu_batch_ms = 25;       // GL: measured work a batch holds at most (one window at least)
@@ -72,7 +74,8 @@ struct ServeConfig {
     std::vector<std::string> formats = {"png", "jpeg", "tiff", "bmp"};
     api::Limits limits;
     // zlib level of PNG images. Noise hardly compresses: level 1 saves 14% of the bytes of an
-    // 8-bit tile for 8x the encoding time (tests/load/README.md), so the default stores.
+    // 8-bit tile for 8x the encoding time (`textond bench tile`; api/README.md, "--png-compression"),
+    // so the default stores.
     int png_compression = 0;
 
     std::string api_key; // empty: POST and DELETE are open

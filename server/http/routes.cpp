@@ -1,6 +1,7 @@
 // The route table of api/openapi.yaml. cpp-httplib tries the routes of one method in the order
-// they were added, first match wins: the hot path (tiles) first, every specific route before the
-// /v1/textons/*, /v1/mixes/* and /v1/splats/* fallbacks, and a catch-all POST last.
+// they were added, first match wins: every specific route (their patterns do not overlap, so
+// their order is free) before the /v1/textons/*, /v1/mixes/* and /v1/splats/* fallbacks, and a
+// catch-all POST last.
 #include "server/http/http_support.h"
 #include "server/http/service.h"
 

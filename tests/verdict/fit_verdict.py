@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Chooses the micro/macro verdict's score and thresholds on the fit half of the corpus and
-reports them on the held-out half (issue 32). Reads the table of verdict_features.
+reports them on the held-out half. Reads the table of verdict_features.
 
   build/release/tests/verdict_features > features.tsv
   tests/verdict/fit_verdict.py features.tsv
@@ -8,9 +8,8 @@ reports them on the held-out half (issue 32). Reads the table of verdict_feature
 Candidate scores: the current phase coherence (its index and each scale), each band's
 log-kurtosis ratio against random phase in absolute value, and the largest of those over bands.
 For each, the threshold that best separates the fit half's micro from its macro (balanced
-accuracy; borderline textures are not scored). The best score's borderline band runs from the
-largest fit micro score to the smallest fit macro score around that threshold, clipped to the
-threshold +- 25% of it.
+accuracy; borderline textures are not scored). The best score's borderline band is that
+threshold +- 25%: micro at or below 0.75 t, macro above 1.25 t (core/README.md, "Micro or macro").
 """
 import csv
 import sys
