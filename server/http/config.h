@@ -29,8 +29,8 @@ struct ServeConfig {
 
     // cpp-httplib serves one connection per worker thread for as long as it is kept alive, so
     // the pool must cover the connections expected at once; renders are bounded separately.
-    int http_threads = 128;      // connection threads kept
-    int max_connections = 1024;  // connection threads at most (more are started on demand)
+    int http_threads = 128;     // connection threads kept
+    int max_connections = 1024; // connection threads at most (more are started on demand)
     // Renders at once; 0 = one per core, plus --gpu-batch-tiles more when tiles and frames both
     // go to a GL backend (a slot then mostly waits for its batch).
     int render_slots = 0;
@@ -74,8 +74,8 @@ struct ServeConfig {
     std::vector<std::string> formats = {"png", "jpeg", "tiff", "bmp"};
     api::Limits limits;
     // zlib level of PNG images. Noise hardly compresses: level 1 saves 14% of the bytes of an
-    // 8-bit tile for 8x the encoding time (`textond bench tile`; api/README.md, "--png-compression"),
-    // so the default stores.
+    // 8-bit tile for 8x the encoding time (`textond bench tile`; api/README.md,
+    // "--png-compression"), so the default stores.
     int png_compression = 0;
 
     std::string api_key; // empty: POST and DELETE are open
