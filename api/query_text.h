@@ -12,7 +12,7 @@ namespace textond::api {
 // than it spells. A '=' inside a value is written %3D.
 std::optional<ApiError> check_query_text(std::string_view query);
 
-// One URL for one answer (issue 43 item 5): caches key on the URL as sent, so every spelling of a
+// One URL for one answer: caches key on the URL as sent, so every spelling of a
 // request that names the same answer would be its own entry. Refused, with the canonical
 // form in the message: any percent-encoding in the path (none is needed there), a fragment, a
 // percent-encoded unreserved character (ALPHA, DIGIT, "-", ".", "_", "~") or lowercase hex

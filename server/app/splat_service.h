@@ -29,7 +29,7 @@ public:
                            const std::vector<std::string_view>& images,
                            const io::DecodeLimits& limits);
     // The memory a creation holds at its peak, from its weight images' headers: admission
-    // reserves it before a pixel is decoded (issue 43 item 2).
+    // reserves it before a pixel is decoded.
     static std::size_t creation_bytes(const std::vector<io::ImageHeader>& headers, int layers);
 
 private:

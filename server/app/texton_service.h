@@ -85,7 +85,7 @@ private:
     using Analyse = std::function<Result<Analysed>(const core::ProgressFn&)>;
     // Runs `analyse` on the pool and stores what it made. A queued job holds its upload's encoded
     // bytes, never its decoded pixels: `analyse` decodes them again when a worker takes it, so
-    // the decoded images in memory are those of the analyses running (issue 43 item 3).
+    // the decoded images in memory are those of the analyses running.
     // `work_s`: the analysis's estimate (for the "analysis" slow point).
     AnalysisPool::Submitted submit(const std::string& id, double work_s, const Analyse& analyse);
     // A set's maps decoded and stacked in canonical order (no decoder slot taken: the caller

@@ -66,7 +66,7 @@ void OpsRoutes::readyz(Req, Res res) {
         shared = {{"url", r->describe()}, {"up", ping.ok()}};
         if (!ping) shared["error"] = ping.error().message;
         // A full (or evicting) Redis is seen before a write fails, by its own figures: a replica
-        // that never wrote said "degraded": false until an upload found out (issue 43 item 8).
+        // that never wrote said "degraded": false until an upload found out.
         if (ping)
             if (auto full = r->memory_warning()) {
                 degraded = true;

@@ -196,7 +196,7 @@ void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader
 
 // The decoded pixels (4 bytes a channel-pixel, from the headers) are reserved from the decode
 // budget before the decode, and held until the texton's id is known: eight 49 KB PNGs of 4096 x
-// 4096 sent at once are decoded within it, not all at once (issue 43 item 3). What the decode
+// 4096 sent at once are decoded within it, not all at once. What the decode
 // then refuses is said by it. Null when the refusal (429) was sent.
 std::optional<std::shared_ptr<BudgetLease>>
 TextonRoutes::lease_decodes(Res res, const std::vector<std::string_view>& images) {

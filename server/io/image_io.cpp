@@ -80,7 +80,7 @@ Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits, int*
         if (c != alpha) src.push_back(c);
     // Scanline files in strips of rows, each turned into the planes at once: a decode holds the
     // planes and one strip, not the interleaved floats of the whole image beside them (a 4096^2
-    // RGB upload held 400 MB where 200 MB is the image; issue 43 item 3). Tiled files whole.
+    // RGB upload held 400 MB where 200 MB is the image). Tiled files whole.
     const int strip = spec.tile_width > 0 ? spec.height : 64;
     const auto width = static_cast<std::size_t>(spec.width);
     std::vector<float> buf(width * static_cast<std::size_t>(strip) *

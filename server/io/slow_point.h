@@ -2,7 +2,7 @@
 // Fault injection for the timing tests, as crash_point.h is for the crash tests: with
 // TEXTOND_SLOW_POINT="<point>=<factor>[,<point>=<factor>...]" in its environment the process
 // makes the work at that point take <factor> times its admission estimate longer, so a test can
-// hold work past a deadline or in a queue on a machine of any speed (issue 43 item 0). Points:
+// hold work past a deadline or in a queue on a machine of any speed. Points:
 //   render     an admitted image render (image routes), before the backend runs
 //   analysis   an analysis that left the queue, before it runs
 //   load       a splat or mix read from its files and prepared (estimate 1 s: the factor is

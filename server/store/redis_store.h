@@ -99,7 +99,7 @@ public:
     Result<std::uint64_t> count();
     Result<bool> ping();
 
-    // Splats and mixes (issue 43 item 1): an object of `kind` ("splat", "mix") is the files of
+    // Splats and mixes: an object of `kind` ("splat", "mix") is the files of
     // its directory by suffix, under "<kind>:<id>" as {<suffix>: bytes, <suffix>.sha256: hex},
     // written once (true when this call stored it) and tombstoned by "deleted-<kind>:<id>" when
     // removed, as textons are.

@@ -1,5 +1,5 @@
 #pragma once
-// Splats and mixes in the shared store (issue 43 item 1), as textons are: the replica that creates
+// Splats and mixes in the shared store, as textons are: the replica that creates
 // one writes its files there once (write-once: a second creator finds it stored), a replica that
 // lacks one fetches its files into its own directory, where the usual reader checks them, and a
 // removal leaves a tombstone that every other replica sees within --store-recheck-s. The files

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `textond analyze` over many files in one process against its own analysis time, and against one
-# process a file, in one run (issue 34's target: wall time a file at most 1.3x the analyses'
+# process a file, in one run (the target: wall time a file at most 1.3x the analyses'
 # own `timings_ms.total`). Files: the shared photos, then corpus crops to reach COUNT.
 #
 #   tests/bench/analyze_batch.sh [COUNT]      # default 24 files; BIN, JOBS (1) from the environment

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Cold splat tiles over HTTP against cold tiles of one texton (issue 35: a K = 4 splat tile at
+"""Cold splat tiles over HTTP against cold tiles of one texton (a K = 4 splat tile at
 most 4.5x a one-texton tile): one server on the CPU backend, one client asking distinct level-0
 256x256 PNG tiles in turn; splats of K = 2 and 4 layers of that texton with even weights (a 2 x 2
 RGBA weight image), so every layer shows in every tile. The three are asked in turn, tile by

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Start-up and memory of `textond serve` against the size of its store (issue 33's target:
+"""Start-up and memory of `textond serve` against the size of its store (the target:
 readiness within 1 s at any store size, memory bounded by the metadata cache), in one run: an
 empty store first (the baseline), then COUNT textons.
 

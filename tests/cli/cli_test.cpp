@@ -142,7 +142,7 @@ TEST(Cli, AnalyzeManyWritesEachTextonAndKeepsGoingPastABadFile) {
     fs::remove_all(dir);
 }
 
-// Issue 43 item 14: with --jobs, a file's line is printed when that file is done, not after every
+// With --jobs, a file's line is printed when that file is done, not after every
 // file given before it: a batch stopped by Ctrl-C has a line for each texton it wrote. A large
 // exemplar first, then small ones: their lines come first.
 TEST(Cli, AnalyzeManyPrintsEachLineWhenItsFileIsDone) {

@@ -174,7 +174,7 @@ TEST(Export, RefusesBadOptionsInWordsAndAPartialOfOtherOptions) {
         {"--zooms 24 --bbox 0,0,256,256,", "--bbox"},
         {"--zooms 24", "needs --bbox"},
         {"--bbox 0,0,256,256", "needs --zooms"},
-        // each option once, as a URL names each field once (issue 43 item 12)
+        // each option once, as a URL names each field once
         {"--zooms 24 --bbox 0,0,256,256 --seed 1 --seed 2", "given twice"},
         {"--zooms 24 --bbox 0,0,256,256 --encoding terrarium --encoding mapbox", "given twice"},
     };

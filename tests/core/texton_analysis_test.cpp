@@ -174,7 +174,7 @@ Image tiled(const Image& u, int w, int h) {
 }
 } // namespace
 
-// Issue 32: past kWorkingSide a side, the analysis is that of the centred window, bit for bit
+// Past kWorkingSide a side, the analysis is that of the centred window, bit for bit
 // and on any thread count; below it, the whole exemplar's.
 TEST(Analysis, LargeExemplarsAreAnalysedOnTheirCentredWorkingWindow) {
     const Image u = tiled(test::load_exemplar("etr_sand01.png"), 1536, 1100);

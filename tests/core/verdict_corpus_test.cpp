@@ -89,7 +89,7 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
 
 // The held-out half: the verdict is right (its label, out of three verdicts) far more often than
 // a coin would be: one-sided binomial test against p = 1/2 at the 0.001 level (measured: 21 of
-// 25 micro and 14 of 20 macro right, p = 5e-5; core/README.md "Micro or macro"). Issue 32's 90% is
+// 25 micro and 14 of 20 macro right, p = 5e-5; core/README.md "Micro or macro"). The 90% target is
 // not reached, and one held-out macro (a dark, low-contrast stone wall) is called micro.
 TEST(VerdictCorpus, HeldOutHalfIsRightFarMoreOftenThanChance) {
     const Tally t = tally("held-out");

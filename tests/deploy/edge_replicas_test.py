@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The deployment's shape on this machine, without containers: Redis, two textond replicas on it
 (--store) and the nginx edge of deploy/base (deploy/local/edge-files.sh), then
-shared_objects_check.py through the edge and against each replica (issue 43 items 1, 5, 7), and
+shared_objects_check.py through the edge and against each replica, and
 the readiness probe of a replica that never wrote against a full Redis (item 8).
 
   edge_replicas_test.py TEXTOND EXEMPLARS_DIR
@@ -59,7 +59,7 @@ def http(url, method="GET", body=None, headers=None):
 
 
 def damaged_values(rport, edge, replicas, tmp, exemplars, b_pid):
-    """The review's attacks on the shared store (issue 43, round 3 review): each is refused once,
+    """The review's attacks on the shared store: each is refused once,
     for what it is, without reading what cannot be held, and a fixed or recreated value serves."""
     import hashlib
     from form_bytes import multipart

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""What a client creates is read, deleted and bounded on every replica behind the edge (issue 43
-items 1, 5 and 7), for any deployment of two or more replicas on one Redis: the local edge test
+"""What a client creates is read, deleted and bounded on every replica behind the edge, for any
+deployment of two or more replicas on one Redis: the local edge test
 (edge_replicas_test.py), the replicas load test, the compose and kube play tests.
 
   shared_objects_check.py EDGE_URL REPLICA_URL... [--exemplars DIR] [--rounds N]

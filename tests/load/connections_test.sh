@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# 2,000 concurrent keep-alive clients (issue 19), through the deployment the README documents:
+# 2,000 concurrent keep-alive clients, through the deployment the README documents:
 # textond behind the nginx edge of deploy/base/nginx (deploy/local/run-edge.sh's layout). wrk
 # holds CONNECTIONS connections for DURATION on the tiles of one texton (MODE=warm: the 64 tiles
 # a map view keeps asking for; MODE=cold: every request a new tile); the script reports wrk's

@@ -113,7 +113,7 @@ TEST(MarginalRestoration, MixesAndTextonsWithoutMarginalsRefuseIt) {
     EXPECT_TRUE(mix->check(q).has_value());
 }
 
-// Issue 17's acceptance on two photos (all nine: tests/bench/marginals_bench, README): W1 to the
+// The acceptance bound on two photos (all nine: tests/bench/marginals_bench, README): W1 to the
 // exemplar's marginal falls at least 3x, the noise's power-spectrum RME grows by at most 0.05.
 TEST(MarginalRestoration, RestoresTheMarginalAndKeepsTheSpectrum) {
     for (const char* name : {"etr_sand01.png", "skimage_brick.png"}) {

@@ -317,7 +317,7 @@ class HostileClients(unittest.TestCase):
         many = b"GET /healthz HTTP/1.1\r\nHost: x\r\n" + b"X-A: b\r\n" * 150 + b"\r\n"
         self.assertEqual(status_of(self.s.raw(many)), 431)
 
-    # Round 3, item 9: answers the connection writes before a request is parsed (obs-fold 400,
+    # Answers the connection writes before a request is parsed (obs-fold 400,
     # 431, 408, a request line over the library's limit, a path it cannot route) carry the
     # security headers every other answer carries.
     def test_answers_before_parsing_carry_the_security_headers(self):
@@ -357,7 +357,7 @@ class HostileClients(unittest.TestCase):
         answer = self.s.raw(one * 9 + b"GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
         self.assertEqual(answer.count(b"HTTP/1.1 200 OK"), 10)
 
-    # Round 2, item 1: a body the route does not read is never parsed as the next request.
+    # A body the route does not read is never parsed as the next request.
     HIDDEN = b"GET /v1/openapi.yaml HTTP/1.1\r\nHost: x\r\n\r\n"
 
     def answers(self, raw):
@@ -499,7 +499,7 @@ class HostileClients(unittest.TestCase):
             self.assertEqual(self.answers(answer), 1, (path, answer[:400]))
             self.assertNotIn(b"openapi:", answer)
 
-    # Round 2, item 9: answers of the connection loop carry a request id and are logged with
+    # Answers of the connection loop carry a request id and are logged with
     # their own status; a client that left is logged as having left.
     def log_lines_with(self, needle, timeout=5):
         end = time.monotonic() + timeout
@@ -533,7 +533,7 @@ class HostileClients(unittest.TestCase):
         lines = self.log_lines_with(rid, timeout=40)
         self.assertTrue(lines and "client left after" in lines[0], lines)
 
-    # Round 2, item 7: ranges cannot multiply an answer (500 x a whole tile was 99 MB).
+    # Ranges cannot multiply an answer (500 x a whole tile was 99 MB).
     def test_ranges_are_capped_and_never_overlap(self):
         u, _ = self.ids
         tile = f"/v1/textons/{u}/tiles/0/0/0.png?seed=21"
@@ -574,7 +574,7 @@ class HostileClients(unittest.TestCase):
                                headers={"Range": "bytes=0-9,20-29"})
         self.assertEqual((st, error_code(body)), (404, "not_found"))
 
-    # Round 2, item 5: an analysis's cost is estimated before it is queued, and a queued one
+    # An analysis's cost is estimated before it is queued, and a queued one
     # whose client left is dropped.
     def test_analyses_over_the_cpu_budget_are_refused_before_they_run(self):
         big = ramp_png(4096, 4096)  # small on the wire, 16.7 MP once decoded
@@ -625,7 +625,7 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
-    # Round 2, item 13: on llvmpipe (--backend osmesa) admission estimates llvmpipe's cost, and
+    # On llvmpipe (--backend osmesa) admission estimates llvmpipe's cost, and
     # the deadline and a departed client stop a render between passes.
     def test_osmesa_admits_at_its_own_cost_and_stops_heavy_work(self):
         data = tempfile.mkdtemp(prefix="textond-osmesa-")
@@ -667,7 +667,7 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
-    # Round 2, item 3: deeply nested or huge JSON bodies are refused before a tree is built.
+    # Deeply nested or huge JSON bodies are refused before a tree is built.
     def test_nested_json_bodies_are_refused_without_memory(self):
         u, _ = self.ids
         deep = b"[" * (3 * MIB) + b"]" * (3 * MIB)
@@ -687,7 +687,7 @@ class HostileClients(unittest.TestCase):
             # The body itself is held (up to a few copies in the library); no tree of it.
             self.assertLess(m.peak - m.base, 4 * len(body) + 16 * MIB, (path, len(body)))
 
-    # Round 3, item 6: idle connections (open and silent, reopened as soon as they close) more
+    # Idle connections (open and silent, reopened as soon as they close) more
     # than there are threads: other clients are still answered at once, and threads stay bounded
     # and go back to the kept ones. The server of its own: 64 threads at most.
     def test_idle_connections_do_not_starve_others_or_grow_threads(self):
@@ -822,7 +822,7 @@ class HostileClients(unittest.TestCase):
         print(f"  regions: peak +{(m.peak - m.base) / MIB:.0f} MiB, bound "
               f"{self.bound(largest) / MIB:.0f} MiB", file=sys.stderr)
 
-    # Round 2, item 6: tileable textures are held to a region's pixels, and the largest ones in
+    # Tileable textures are held to a region's pixels, and the largest ones in
     # lossy formats (the encoders' own buffers) stay within the bound.
     def test_concurrent_largest_tileable_textures_stay_within_the_bound(self):
         u = self.ids[0]
@@ -853,7 +853,7 @@ class HostileClients(unittest.TestCase):
         self.assertLess(m.peak - m.base, self.bound(largest))
         print(f"  surface: peak +{(m.peak - m.base) / MIB:.0f} MiB", file=sys.stderr)
 
-    # Round 2: every route class the README's bound names, each measured against it with more
+    # Every route class the README's bound names, each measured against it with more
     # concurrent requests than slots. `largest` is the README's single-request term for the class.
     def route_classes(self):
         u, v = self.ids
@@ -974,7 +974,7 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
-    # Round 3, items 10, 11 and 15: a splat's or mix's form numbers have the tile parameters'
+    # A splat's or mix's form numbers have the tile parameters'
     # one spelling (each spelling would be another id for one placement), a splat must lie where
     # its own links can show it, and a rules JSON names each key once.
     def splat_form(self, extra, weights=None):
@@ -1015,7 +1015,7 @@ class HostileClients(unittest.TestCase):
             st, _, got = self.get(links[name])
             self.assertEqual(st, 200, (name, links[name], got[:200]))
 
-    # Round 3, item 7: splat weights are stored at their own depth (as uploaded), not as float
+    # Splat weights are stored at their own depth (as uploaded), not as float
     # EXR three times their size; the splat reads back the same (its tiles do not change).
     def test_splat_weights_are_stored_at_their_own_depth(self):
         rows = [os.urandom(4 * 768) for _ in range(768)]
@@ -1042,7 +1042,7 @@ class HostileClients(unittest.TestCase):
             self.assertEqual((st, error_code(data)), (400, "invalid_parameter"), (rules, data))
             self.assertIn(b"twice", data)
 
-    # Round 3, items 2 and 3: memory is bounded with the embedded defaults on this machine, at
+    # Memory is bounded with the embedded defaults on this machine, at
     # more requests at once than there are decoders and analysis workers. Small bodies that
     # expand: 33 KB of splat weights are 128 MB of float planes, 49 KB of PNG a 4096x4096 image.
     BOUND_ABOVE_IDLE = 700 * MIB
@@ -1078,7 +1078,7 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
-    # Round 3 review: a stored splat or mix that no request holds is loaded (its weights or mask
+    # A stored splat or mix that no request holds is loaded (its weights or mask
     # decoded, then prepared) once however many requests ask for it, and a few at once: a fresh
     # process on the data directory, as a replica that fetches them from the shared store. A
     # masked mix's creation reserves its mask's decoded size (12 masks of 4096 x 4096, 22 KB each).
@@ -1142,7 +1142,7 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
-    # Round 3 review: a splat or mix deleted while a request loads it is gone once the DELETE has
+    # A splat or mix deleted while a request loads it is gone once the DELETE has
     # answered (the load finished after it and kept it, served for as long as it stayed in the
     # LRU). Loads are held 2 s (slow point), so the DELETE lands inside one on any machine.
     def test_a_delete_during_a_load_holds(self):

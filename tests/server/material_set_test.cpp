@@ -142,7 +142,7 @@ TEST(MaterialSet, UploadListsTheMapsAndServesEachAlignedAndNormalsSeamless) {
     EXPECT_EQ(status(base + "/tiles/0/0/0.png?strength=3"), "invalid_parameter 400");
     EXPECT_EQ(status(base + "/tiles/0/0/0.png?map=height&marginals=exemplar"),
               "invalid_parameter 400");
-    // The true reason (issue 43 item 13): a set has no exemplar marginals at all, however fresh;
+    // The true reason: a set has no exemplar marginals at all, however fresh;
     // "analysed before they were kept" was said of every set, tiles, elevation and TileJSON alike.
     for (const char* q : {"/tiles/0/0/0.png?map=height&marginals=exemplar",
                           "/map/24/0/0.png?map=height&encoding=terrarium&marginals=exemplar",

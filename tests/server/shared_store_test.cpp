@@ -354,7 +354,7 @@ TEST(SharedStore, AHugeValueInRedisIsRefusedUnreadAndTheStoreStaysUp) {
     EXPECT_EQ(metric(b, "textond_shared_store_up"), 1.0);
 }
 
-// Issue 43 item 4: every value's size is checked before it is read, against what it holds. A 100
+// Every value's size is checked before it is read, against what it holds. A 100
 // MB `meta` under three ids is skipped unread by the list; a 100 MB `exemplar` (under the 112 MiB
 // cap of any exemplar, but over what this exemplar's PNG can hold) is refused unread by
 // eight concurrent tile requests; and memory does not stay up afterwards.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Every C++ file of the tree formatted by the repository's .clang-format (issue 15: CI checks
+# Every C++ file of the tree formatted by the repository's .clang-format (CI checks
 # style). Lists the tracked files in a git checkout, else every .cpp/.h outside build/.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)

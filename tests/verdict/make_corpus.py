@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Rebuilds the micro/macro corpus of tests/verdict/ from Debian 12 packages (issue 32).
+"""Rebuilds the micro/macro corpus of tests/verdict/ from Debian 12 packages.
 
   tests/verdict/make_corpus.py crops   [TEXTOND]   # download, extract, crop into corpus/
   tests/verdict/make_corpus.py sheets  [TEXTOND]   # contact sheets: exemplar | ADSN, label
