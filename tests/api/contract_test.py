@@ -9,8 +9,9 @@ the exemplar alone and material sets of every non-empty subset of the maps in th
 Each answer must be documented for its operation (status listed), never 5xx, of a documented
 content type, and a JSON answer must validate against the schema its status documents. A
 documented query parameter is never refused as unknown_parameter, and every query parameter the
-document names for other operations but not for this one is (the parsers and the document agree
-route by route).
+document names for other operations but not for this one is; and each operation's parser, asked
+a field nobody documents, lists in its refusal exactly the fields the document names for it (the
+parsers and the document agree route by route, both ways).
 
 usage: contract_test.py TEXTOND_BINARY EXEMPLAR_DIR OPENAPI_YAML
 Prints a line per operation and "N passed, M failed" (N, M: operations); exits non-zero on any
@@ -37,6 +38,8 @@ from form_bytes import multipart  # noqa: E402
 
 MAPS = ["albedo", "height", "roughness", "ao", "metallic"]
 CLIENTS = 4
+# A query field no operation documents: its refusal lists what the route's parser takes.
+PROBE = "zz_undocumented"
 # Numbers whose maximum is a cost, not a value to try (16384 x 16384 regions).
 COSTLY = {"w", "h", "width", "height", "limit"}
 
@@ -365,6 +368,12 @@ def run(c, spec, exemplar_dir):
                 variants.append((c, path, method, tid, dict(first), dict(required),
                                  ({"in": "query", "name": name, "undocumented": True},
                                   universe[name]), content))
+            # And from the code's side: a name no operation documents is refused with the list
+            # of what the parser takes, which must be what the document names here. A field the
+            # code gains and the document does not (a new noise parameter, say) fails here.
+            variants.append((c, path, method, tid, dict(first), dict(required),
+                             ({"in": "query", "name": PROBE, "undocumented": True,
+                               "documented": documented}, "1"), content))
     with ThreadPoolExecutor(CLIENTS) as pool:
         list(pool.map(lambda a: send_variant(*a), variants))
     # Bodies: every documented content type of every operation with a body.
@@ -433,6 +442,16 @@ def send_variant(c, path, method, tid, path_args, query, extra, content):
     except (ValueError, KeyError, TypeError):
         code = None
     op = f"{method.upper()} {path}"
+    if "documented" in extra[0] and code == "unknown_parameter":
+        takes = json.loads(answer)["error"]["message"].split("this endpoint takes ", 1)[-1]
+        takes = {n.strip() for n in takes.rstrip(")").split(",") if n.strip() not in ("", "none")}
+        # With a body, what a parser takes may depend on it (a mix's mask takes scale, its
+        # ramp dx, dy and width): there the code may take less than the document names.
+        missing = extra[0]["documented"] - takes if content[0] is None else set()
+        if takes - extra[0]["documented"] or missing:
+            c.fail(op, f"the parser takes {sorted(takes - extra[0]['documented'])} that the "
+                       f"document does not name here, and the document names {sorted(missing)} "
+                       f"that the parser does not take")
     if extra[0].get("undocumented") and code != "unknown_parameter":
         c.fail(op, f"{target}: {extra[0]['name']} is not documented here, yet the answer was "
                    f"{status} {answer[:160]!r}, not unknown_parameter")
