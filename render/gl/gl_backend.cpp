@@ -3,6 +3,7 @@
 #include "core/grid_poisson.h"
 #include "core/surface_noise.h"
 #include "render/cancel.h"
+#include "render/gl/batch_plan.h"
 #include "render/gl/gl_api.h"
 #include "render/gl/glsl_sources.h"
 #include "render/gl/noise_window.h"
@@ -338,332 +339,211 @@ std::vector<Result<core::Image>> GlBackend::render_many(const PreparedTexton& te
     return out;
 }
 
-namespace {
-
-int words_per_pixel(Precision p) {
-    return p == Precision::u8 ? 1 : p == Precision::u16 ? 2 : 3;
-}
-
-// A piece of one window that fits a pass: where it is in its window and in the pass's output.
-struct Piece {
-    GlBackend::Work* work;
-    int x0, y0, w, h;
-    std::size_t out_base = 0; // pixels from the start of the pass's output
-    const void* key;          // the level table its dispatch binds (a mix: its own)
-};
-
-struct Pass {
-    Precision precision;
-    std::size_t pixels = 0;
-    std::vector<Piece> pieces; // runs of one key are one dispatch
-};
-
-// The pass's pixels into each piece's window, as floats that encode to the same bytes (q / 255
-// scaled back by the encoder is q again: the error is far below its + 0.5).
-void copy_out(const Piece& p, Precision precision, const std::uint32_t* words, int y_begin,
-              int y_end) {
-    static const auto u8 = [] {
-        std::vector<float> t(256);
-        for (int i = 0; i < 256; ++i)
-            t[static_cast<std::size_t>(i)] = static_cast<float>(i) / 255.0f;
-        return t;
-    }();
-    static const auto u16 = [] {
-        std::vector<float> t(65536);
-        for (int i = 0; i < 65536; ++i)
-            t[static_cast<std::size_t>(i)] = static_cast<float>(i) / 65535.0f;
-        return t;
-    }();
-    core::Image& img = p.work->image.value();
-    const int nc = img.channels;
-    const int stride = words_per_pixel(precision);
-    for (int y = y_begin; y < y_end; ++y) {
-        const std::uint32_t* src =
-            words + (p.out_base + static_cast<std::size_t>(y) * p.w) * stride;
-        float* dst[3] = {};
-        for (int c = 0; c < nc; ++c) dst[c] = &img.at(c, p.x0, p.y0 + y);
-        for (int x = 0; x < p.w; ++x) {
-            const std::uint32_t* s = src + static_cast<std::size_t>(x) * stride;
-            if (precision == Precision::u8) {
-                for (int c = 0; c < nc; ++c) dst[c][x] = u8[(s[0] >> (8 * c)) & 0xffu];
-            } else if (precision == Precision::u16) {
-                const std::uint32_t v[3] = {s[0] & 0xffffu, s[0] >> 16, s[1] & 0xffffu};
-                for (int c = 0; c < nc; ++c) dst[c][x] = u16[v[c]];
-            } else {
-                for (int c = 0; c < nc; ++c) std::memcpy(&dst[c][x], &s[c], 4);
-            }
-        }
-    }
-}
-
-// Every piece of a pass into its window, on all cores: on an H200 a 4K frame's conversion on
-// one thread took 8x the GPU's time for it. Runs of rows are the unit, so a batch of small tiles
-// and one large frame both spread.
-void copy_out_all(const std::vector<Piece>& pieces, Precision precision,
-                  const std::uint32_t* words) {
-    constexpr int kRows = 32;
-    std::vector<std::array<int, 3>> runs; // piece, first row, end row
-    for (std::size_t i = 0; i < pieces.size(); ++i)
-        if (pieces[i].work->image)
-            for (int y = 0; y < pieces[i].h; y += kRows)
-                runs.push_back({static_cast<int>(i), y, std::min(pieces[i].h, y + kRows)});
-    const auto n = static_cast<std::ptrdiff_t>(runs.size());
-#pragma omp parallel for schedule(dynamic, 4) if (n > 8)
-    for (std::ptrdiff_t k = 0; k < n; ++k) {
-        const auto& r = runs[static_cast<std::size_t>(k)];
-        copy_out(pieces[static_cast<std::size_t>(r[0])], precision, words, r[1], r[2]);
-    }
-}
-
-} // namespace
-
 std::size_t GlBackend::pass_words() const {
     return m_software ? kSoftwarePassWords : kPassWords;
 }
 
-double GlBackend::render_batch(const std::vector<Work*>& batch) {
-    // Cut the windows into pieces; sort them by precision (one program a pass) and table (one
-    // dispatch a run), keeping each window's pieces in order.
-    std::vector<Piece> pieces;
-    for (Work* work : batch) {
-        const gl::NoiseWindow& win = *work->window;
-        if (stopped(win.cancel)) {
-            work->image = abandoned(win.cancel, "the render");
-            continue;
-        }
-        work->image = take_image(win.width, win.height, win.channels); // every pixel is written
-        const int pw = std::min(win.width, kPieceSide);
-        const int ph = std::max(
-            1, std::min(win.height, static_cast<int>(pass_words() / words_per_pixel(win.precision) /
-                                                     static_cast<std::size_t>(pw))));
-        const void* key = win.mix_tables.empty() ? static_cast<const void*>(win.table.get())
-                                                 : static_cast<const void*>(work);
-        for (int y0 = 0; y0 < win.height; y0 += ph)
-            for (int x0 = 0; x0 < win.width; x0 += pw)
-                pieces.push_back({work, x0, y0, std::min(pw, win.width - x0),
-                                  std::min(ph, win.height - y0), 0, key});
-    }
-    if (pieces.empty()) return 0;
-    std::stable_sort(pieces.begin(), pieces.end(), [](const Piece& a, const Piece& b) {
-        const auto pa = a.work->window->precision, pb = b.work->window->precision;
-        if (pa != pb) return pa < pb;
-        return std::less<const void*>()(a.key, b.key);
-    });
-    std::vector<Pass> passes;
-    for (const Piece& p : pieces) {
-        const Precision prec = p.work->window->precision;
-        const std::size_t n = static_cast<std::size_t>(p.w) * p.h;
-        const std::size_t cap = pass_words() / static_cast<std::size_t>(words_per_pixel(prec));
-        if (passes.empty() || passes.back().precision != prec || passes.back().pixels + n > cap)
-            passes.push_back({prec, 0, {}});
-        Pass& pass = passes.back();
-        pass.pieces.push_back(p);
-        pass.pieces.back().out_base = pass.pixels;
-        pass.pixels += n;
-    }
+namespace {
+// Every window of the batch still to be answered gets `e`.
+void fail_batch(const std::vector<GlBackend::Work*>& batch, const Error& e) {
+    for (GlBackend::Work* w : batch)
+        if (w->image) w->image = e;
+}
+} // namespace
 
-    // Every window's thresholds and listed points in one buffer each; every piece's record.
-    std::vector<std::uint32_t> thresholds, starts, points, records;
-    std::map<const Work*, std::array<std::uint32_t, 3>> bases; // thresholds, starts, points
-    for (Work* work : batch) {
-        const gl::NoiseWindow& win = *work->window;
-        bases[work] = {static_cast<std::uint32_t>(thresholds.size()),
-                       static_cast<std::uint32_t>(starts.size()),
-                       static_cast<std::uint32_t>(points.size() / 4)};
-        thresholds.insert(thresholds.end(), win.thresholds.begin(), win.thresholds.end());
-        starts.insert(starts.end(), win.starts.begin(), win.starts.end());
-        points.insert(points.end(), win.points.begin(), win.points.end());
-    }
-    for (auto* v : {&thresholds, &starts, &points})
-        if (v->size() < 4) v->resize(4, 0); // a bound buffer may not be empty
+double GlBackend::render_batch(const std::vector<Work*>& batch) {
+    gl::BatchPlan plan = gl::plan_batch(batch, pass_words(), kPieceSide);
+    if (plan.passes.empty()) return 0;
     // A storage buffer past GL_MAX_SHADER_STORAGE_BLOCK_SIZE reads zeros, silently: such a batch
     // goes as two halves (a window of the largest size lists at most 128 MiB of points).
-    if (points.size() * 4 > m_max_block_bytes && batch.size() > 1) {
+    if (plan.points.size() * 4 > m_max_block_bytes) {
+        if (batch.size() == 1) {
+            fail_batch(batch, Error{ErrorCode::too_large,
+                                    m_name + ": the window lists more points than a GL storage "
+                                             "buffer holds"});
+            return 0;
+        }
         for (Work* w : batch)
             if (w->image) recycle_image(std::move(w->image.value()));
         const auto half = static_cast<std::ptrdiff_t>(batch.size() / 2);
         return render_batch({batch.begin(), batch.begin() + half}) +
                render_batch({batch.begin() + half, batch.end()});
     }
-    if (points.size() * 4 > m_max_block_bytes) {
-        for (Work* w : batch)
-            if (w->image)
-                w->image = Error{ErrorCode::too_large,
-                                 m_name + ": the window lists more points than a GL storage "
-                                          "buffer holds"};
-        return 0;
-    }
-    for (const Pass& pass : passes)
-        for (const Piece& p : pass.pieces) {
-            auto rec = p.work->window->record;
-            const auto& b = bases[p.work];
-            rec[gl::field::thr_base] = b[0];
-            rec[gl::field::cell_base] = b[1];
-            rec[gl::field::point_base] = b[2];
-            rec[gl::field::offset_x] = static_cast<std::uint32_t>(p.x0);
-            rec[gl::field::offset_y] = static_cast<std::uint32_t>(p.y0);
-            rec[gl::field::size_x] = static_cast<std::uint32_t>(p.w);
-            rec[gl::field::size_y] = static_cast<std::uint32_t>(p.h);
-            rec[gl::field::out_base] = static_cast<std::uint32_t>(p.out_base);
-            records.insert(records.end(), rec.begin(), rec.end());
-        }
-
     std::lock_guard<std::mutex> lock(m_mutex);
     CurrentScope scope(*m_context);
-    double gpu_ms = 0;
-    auto fail_all = [&](const Error& e) {
-        for (Work* w : batch)
-            if (w->image) w->image = e;
-        return gpu_ms;
-    };
-    if (!scope.ok)
-        return fail_all(Error{ErrorCode::internal, m_name + ": cannot make context current"});
-    const gl::GlApi& g = *m_gl;
-    for (Slot& slot : m_slots)
-        if (!slot.mapped) {
-            const auto bytes = static_cast<GLsizeiptr>(kPassWords * 4);
-            release_slot(slot); // a failed attempt's
-            g.GenBuffers(1, &slot.out);
-            g.BindBuffer(GL_SHADER_STORAGE_BUFFER, slot.out);
-            g.BufferData(GL_SHADER_STORAGE_BUFFER, bytes, nullptr, GL_DYNAMIC_COPY);
-            g.GenBuffers(1, &slot.readback);
-            g.BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
-            const GLbitfield map = GL_MAP_READ_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
-            g.BufferStorage(GL_COPY_WRITE_BUFFER, bytes, nullptr, map | GL_CLIENT_STORAGE_BIT);
-            slot.mapped = static_cast<const std::uint32_t*>(
-                g.MapBufferRange(GL_COPY_WRITE_BUFFER, 0, bytes, map));
-            g.GenQueries(1, &slot.query);
-            if (!slot.mapped) {
-                const GLenum err = g.GetError();
-                release_slot(slot);
-                return fail_all(Error{ErrorCode::internal,
-                                      m_name + ": cannot map a readback buffer (GL error " +
-                                          std::to_string(static_cast<int>(err)) + ")"});
-            }
-        }
-    upload(0, starts.data(), starts.size() * 4);
-    upload(1, points.data(), points.size() * 4);
-    upload(3, records.data(), records.size() * 4);
-    upload(4, thresholds.data(), thresholds.size() * 4);
-
-    std::vector<GLuint> masks;
-    const Pass* in_flight[2] = {nullptr, nullptr};
-    bool failed = false;
-    // Waits for the pass in `slot`, then copies it into its windows.
-    auto finish = [&](int s) {
-        const Pass* pass = in_flight[s];
-        if (!pass) return;
-        in_flight[s] = nullptr;
-        Slot& slot = m_slots[s];
-        auto fence = static_cast<GLsync>(slot.fence);
-        GLenum wait;
-        do wait = g.ClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, 1000000000ull);
-        while (wait == GL_TIMEOUT_EXPIRED);
-        g.DeleteSync(fence);
-        slot.fence = nullptr;
-        if (wait == GL_WAIT_FAILED) {
-            fail_all(Error{ErrorCode::internal, m_name + ": waiting for a pass failed"});
-            failed = true;
-            return;
-        }
-        GLuint64 ns = 0;
-        g.GetQueryObjectui64v(slot.query, GL_QUERY_RESULT, &ns);
-        const double pass_ms = slot.host_ms >= 0 ? slot.host_ms : static_cast<double>(ns) * 1e-6;
-        gpu_ms += pass_ms;
-        std::map<Work*, bool> seen;
-        for (const Piece& p : pass->pieces) {
-            if (!seen[p.work]) p.work->stats.gpu_ms = std::max(0.0, p.work->stats.gpu_ms) + pass_ms;
-            seen[p.work] = true;
-        }
-        copy_out_all(pass->pieces, pass->precision, slot.mapped);
-    };
-    std::size_t first = 0; // the first record of the pass
-    for (std::size_t k = 0; k < passes.size() && !failed; ++k) {
-        const Pass& pass = passes[k];
-        const int s = static_cast<int>(k % 2);
-        finish(s);
-        if (failed) break;
-        bool wanted = false;
-        for (const Piece& p : pass.pieces) wanted = wanted || !stopped(p.work->window->cancel);
-        if (!wanted) {
-            first += pass.pieces.size();
-            continue;
-        }
-        auto prog = noise_program(pass.precision);
-        if (!prog) {
-            fail_all(prog.error());
-            failed = true;
-            break;
-        }
-        g.UseProgram(prog.value()->id);
-        g.Uniform1i(prog.value()->mask, 3); // a unit of its own (two sampler types on one fail)
-        Slot& slot = m_slots[s];
-        g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, slot.out);
-        const auto host_start = std::chrono::steady_clock::now();
-        g.BeginQuery(GL_TIME_ELAPSED, slot.query);
-        for (std::size_t i = 0; i < pass.pieces.size();) {
-            std::size_t j = i;
-            int gx = 0, gy = 0;
-            for (; j < pass.pieces.size() && pass.pieces[j].key == pass.pieces[i].key; ++j) {
-                gx = std::max(gx, (pass.pieces[j].w + 15) / 16);
-                gy = std::max(gy, (pass.pieces[j].h + 15) / 16);
-            }
-            const gl::NoiseWindow& win = *pass.pieces[i].work->window;
-            if (!win.mix_tables.empty()) {
-                upload(2, win.mix_tables.data(), win.mix_tables.size() * 4);
-                if (win.mask) {
-                    GLuint tex = 0;
-                    g.ActiveTexture(GL_TEXTURE3);
-                    g.GenTextures(1, &tex);
-                    g.BindTexture(GL_TEXTURE_2D, tex);
-                    g.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, win.mask->mask.width,
-                                 win.mask->mask.height, 0, GL_RED, GL_FLOAT,
-                                 win.mask->mask.data.data());
-                    texel_fetch_only(g, GL_TEXTURE_2D);
-                    masks.push_back(tex);
-                }
-            } else if (win.table) {
-                g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3,
-                                 cached_table(m_table_buffers, win.table));
-            } else {
-                upload(2, thresholds.data(), 16); // the limit model reads no table
-            }
-            g.Uniform1i(prog.value()->tile_first, static_cast<GLint>(first + i));
-            g.DispatchCompute(static_cast<GLuint>(gx), static_cast<GLuint>(gy),
-                              static_cast<GLuint>(j - i));
-            i = j;
-        }
-        g.EndQuery(GL_TIME_ELAPSED);
-        g.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-        // llvmpipe's timer queries time only rasterised scenes, not compute: there the "GPU" is
-        // this CPU, and the dispatches run inside the calls, so the host clock times them.
-        slot.host_ms = m_software ? std::chrono::duration<double, std::milli>(
-                                        std::chrono::steady_clock::now() - host_start)
-                                        .count()
-                                  : -1;
-        g.BindBuffer(GL_COPY_READ_BUFFER, slot.out);
-        g.BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
-        g.CopyBufferSubData(
-            GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0,
-            static_cast<GLsizeiptr>(pass.pixels * 4 *
-                                    static_cast<std::size_t>(words_per_pixel(pass.precision))));
-        slot.fence = g.FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
-        in_flight[s] = &pass;
-        first += pass.pieces.size();
+    if (!scope.ok) {
+        fail_batch(batch, Error{ErrorCode::internal, m_name + ": cannot make context current"});
+        return 0;
     }
-    finish(static_cast<int>(passes.size() % 2)); // the older of the two in flight first
-    finish(static_cast<int>((passes.size() + 1) % 2));
-    if (!masks.empty()) g.DeleteTextures(static_cast<GLsizei>(masks.size()), masks.data());
-    const GLenum err = g.GetError();
-    if (failed || err != GL_NO_ERROR)
-        fail_all(Error{ErrorCode::internal,
-                       m_name + ": GL error " + std::to_string(static_cast<int>(err))});
+    if (auto e = map_slots()) {
+        fail_batch(batch, *e);
+        return 0;
+    }
+    upload(0, plan.starts.data(), plan.starts.size() * 4);
+    upload(1, plan.points.data(), plan.points.size() * 4);
+    upload(3, plan.records.data(), plan.records.size() * 4);
+    upload(4, plan.thresholds.data(), plan.thresholds.size() * 4);
+    const double gpu_ms = run_passes(plan, batch);
     for (Work* w : batch) {
         if (w->image && stopped(w->window->cancel))
             w->image = abandoned(w->window->cancel, "the render");
         if (w->image && w->marginals) restore_marginals(*w->marginals, w->image.value());
     }
     return gpu_ms;
+}
+
+// The two output buffers a pass writes and their persistently mapped readback copies, made once.
+std::optional<Error> GlBackend::map_slots() {
+    const gl::GlApi& g = *m_gl;
+    for (Slot& slot : m_slots) {
+        if (slot.mapped) continue;
+        const auto bytes = static_cast<GLsizeiptr>(kPassWords * 4);
+        release_slot(slot); // a failed attempt's
+        g.GenBuffers(1, &slot.out);
+        g.BindBuffer(GL_SHADER_STORAGE_BUFFER, slot.out);
+        g.BufferData(GL_SHADER_STORAGE_BUFFER, bytes, nullptr, GL_DYNAMIC_COPY);
+        g.GenBuffers(1, &slot.readback);
+        g.BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
+        const GLbitfield map = GL_MAP_READ_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+        g.BufferStorage(GL_COPY_WRITE_BUFFER, bytes, nullptr, map | GL_CLIENT_STORAGE_BIT);
+        slot.mapped = static_cast<const std::uint32_t*>(
+            g.MapBufferRange(GL_COPY_WRITE_BUFFER, 0, bytes, map));
+        g.GenQueries(1, &slot.query);
+        if (!slot.mapped) {
+            const GLenum err = g.GetError();
+            release_slot(slot);
+            return Error{ErrorCode::internal, m_name + ": cannot map a readback buffer (GL error " +
+                                                  std::to_string(static_cast<int>(err)) + ")"};
+        }
+    }
+    return std::nullopt;
+}
+
+// Two passes in flight: pass k computes into slot k % 2 while pass k - 1 is copied back, each
+// fenced. A pass none of whose windows is still wanted is skipped.
+double GlBackend::run_passes(const gl::BatchPlan& plan, const std::vector<Work*>& batch) {
+    const gl::GlApi& g = *m_gl;
+    std::vector<GLuint> masks;
+    const gl::Pass* in_flight[2] = {nullptr, nullptr};
+    double gpu_ms = 0;
+    std::optional<Error> failed;
+    auto finish = [&](int s) {
+        if (in_flight[s] && !failed) failed = finish_pass(s, *in_flight[s], gpu_ms);
+        in_flight[s] = nullptr;
+    };
+    const auto& passes = plan.passes;
+    for (std::size_t k = 0; k < passes.size() && !failed; ++k) {
+        const int s = static_cast<int>(k % 2);
+        finish(s);
+        if (failed) break;
+        bool wanted = false;
+        for (const gl::Piece& p : passes[k].pieces)
+            wanted = wanted || !stopped(p.work->window->cancel);
+        if (!wanted) continue;
+        if (auto e = dispatch_pass(passes[k], s, plan, masks)) {
+            failed = e;
+            break;
+        }
+        in_flight[s] = &passes[k];
+    }
+    finish(static_cast<int>(passes.size() % 2)); // the older of the two in flight first
+    finish(static_cast<int>((passes.size() + 1) % 2));
+    if (!masks.empty()) g.DeleteTextures(static_cast<GLsizei>(masks.size()), masks.data());
+    const GLenum err = g.GetError();
+    if (failed)
+        fail_batch(batch, *failed);
+    else if (err != GL_NO_ERROR)
+        fail_batch(batch, Error{ErrorCode::internal,
+                                m_name + ": GL error " + std::to_string(static_cast<int>(err))});
+    return gpu_ms;
+}
+
+// One pass into slot `s`: a dispatch per run of pieces of one table (a mix uploads its tables
+// and mask first), timed, then copied into the slot's readback buffer behind a fence.
+std::optional<Error> GlBackend::dispatch_pass(const gl::Pass& pass, int s,
+                                              const gl::BatchPlan& plan,
+                                              std::vector<unsigned>& masks) {
+    const gl::GlApi& g = *m_gl;
+    auto prog = noise_program(pass.precision);
+    if (!prog) return prog.error();
+    g.UseProgram(prog.value()->id);
+    g.Uniform1i(prog.value()->mask, 3); // a unit of its own (two sampler types on one fail)
+    Slot& slot = m_slots[s];
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, slot.out);
+    const auto host_start = std::chrono::steady_clock::now();
+    g.BeginQuery(GL_TIME_ELAPSED, slot.query);
+    for (std::size_t i = 0; i < pass.pieces.size();) {
+        std::size_t j = i;
+        int gx = 0, gy = 0;
+        for (; j < pass.pieces.size() && pass.pieces[j].key == pass.pieces[i].key; ++j) {
+            gx = std::max(gx, (pass.pieces[j].w + 15) / 16);
+            gy = std::max(gy, (pass.pieces[j].h + 15) / 16);
+        }
+        const gl::NoiseWindow& win = *pass.pieces[i].work->window;
+        if (!win.mix_tables.empty()) {
+            upload(2, win.mix_tables.data(), win.mix_tables.size() * 4);
+            if (win.mask) {
+                GLuint tex = 0;
+                g.ActiveTexture(GL_TEXTURE3);
+                g.GenTextures(1, &tex);
+                g.BindTexture(GL_TEXTURE_2D, tex);
+                g.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, win.mask->mask.width, win.mask->mask.height,
+                             0, GL_RED, GL_FLOAT, win.mask->mask.data.data());
+                texel_fetch_only(g, GL_TEXTURE_2D);
+                masks.push_back(tex);
+            }
+        } else if (win.table) {
+            g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, cached_table(m_table_buffers, win.table));
+        } else {
+            upload(2, plan.thresholds.data(), 16); // the limit model reads no table
+        }
+        g.Uniform1i(prog.value()->tile_first, static_cast<GLint>(pass.first_record + i));
+        g.DispatchCompute(static_cast<GLuint>(gx), static_cast<GLuint>(gy),
+                          static_cast<GLuint>(j - i));
+        i = j;
+    }
+    g.EndQuery(GL_TIME_ELAPSED);
+    g.MemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    // llvmpipe's timer queries time only rasterised scenes, not compute: there the "GPU" is
+    // this CPU, and the dispatches run inside the calls, so the host clock times them.
+    slot.host_ms = m_software ? std::chrono::duration<double, std::milli>(
+                                    std::chrono::steady_clock::now() - host_start)
+                                    .count()
+                              : -1;
+    g.BindBuffer(GL_COPY_READ_BUFFER, slot.out);
+    g.BindBuffer(GL_COPY_WRITE_BUFFER, slot.readback);
+    g.CopyBufferSubData(
+        GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0,
+        static_cast<GLsizeiptr>(pass.pixels * 4 *
+                                static_cast<std::size_t>(gl::words_per_pixel(pass.precision))));
+    slot.fence = g.FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    return std::nullopt;
+}
+
+// Waits for the pass in slot `s`, adds its GPU time to its windows' and the batch's, and copies
+// it into its windows.
+std::optional<Error> GlBackend::finish_pass(int s, const gl::Pass& pass, double& gpu_ms) {
+    const gl::GlApi& g = *m_gl;
+    Slot& slot = m_slots[s];
+    auto fence = static_cast<GLsync>(slot.fence);
+    GLenum wait;
+    do wait = g.ClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, 1000000000ull);
+    while (wait == GL_TIMEOUT_EXPIRED);
+    g.DeleteSync(fence);
+    slot.fence = nullptr;
+    if (wait == GL_WAIT_FAILED)
+        return Error{ErrorCode::internal, m_name + ": waiting for a pass failed"};
+    GLuint64 ns = 0;
+    g.GetQueryObjectui64v(slot.query, GL_QUERY_RESULT, &ns);
+    const double pass_ms = slot.host_ms >= 0 ? slot.host_ms : static_cast<double>(ns) * 1e-6;
+    gpu_ms += pass_ms;
+    std::map<Work*, bool> seen;
+    for (const gl::Piece& p : pass.pieces) {
+        if (!seen[p.work]) p.work->stats.gpu_ms = std::max(0.0, p.work->stats.gpu_ms) + pass_ms;
+        seen[p.work] = true;
+    }
+    gl::copy_out_pass(pass, slot.mapped);
+    return std::nullopt;
 }
 
 void GlBackend::upload(int k, const void* data, std::size_t bytes) {

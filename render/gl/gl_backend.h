@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,7 +23,9 @@ struct GlApi;
 
 namespace gl {
 struct NoiseWindow;
-}
+struct BatchPlan;
+struct Pass;
+} // namespace gl
 
 // A platform's GL context (OSMesa, EGL).
 class GlContext {
@@ -159,6 +162,14 @@ private:
     unsigned m_buffers[5] = {0, 0, 0, 0, 0};
     std::size_t m_capacity[5] = {0, 0, 0, 0, 0};
     void upload(int k, const void* data, std::size_t bytes);
+
+    // render_batch's phases after gl::plan_batch (batch_plan.h, no GL), the context current:
+    // the slots mapped, then the passes run, two in flight.
+    std::optional<Error> map_slots();
+    double run_passes(const gl::BatchPlan& plan, const std::vector<Work*>& batch);
+    std::optional<Error> dispatch_pass(const gl::Pass& pass, int slot, const gl::BatchPlan& plan,
+                                       std::vector<unsigned>& masks);
+    std::optional<Error> finish_pass(int slot, const gl::Pass& pass, double& gpu_ms);
 
     // Uniforms shared by surface_lib.glsl's users (the compute and the mesh programs).
     void set_surface_uniforms(unsigned program, const PreparedTexton& texton, std::uint64_t seed,

@@ -70,31 +70,31 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     const auto& mean = tex.texton().mean;
     // The mean (grey repeats its channel) and the noise's scale 1 / sqrt(lambda).
     auto mean_and_scale = [&](double scale) {
-        rec.f(10, mean[0], nc == 3 ? mean[1] : mean[0], nc == 3 ? mean[2] : mean[0], scale);
+        rec.f(slot::mean, mean[0], nc == 3 ? mean[1] : mean[0], nc == 3 ? mean[2] : mean[0], scale);
     };
     const auto seed_lo = static_cast<std::uint32_t>(q.seed);
     const auto seed_hi = static_cast<std::uint32_t>(q.seed >> 32);
-    rec.i(7, 0, 0, 0, nc);
+    rec.i(slot::size, 0, 0, 0, nc);
     if (limit) {
         const auto& lm = tex.limit(q.level);
-        rec.i(0, 1, q.level, 0, 0);
+        rec.i(slot::mode, 1, q.level, 0, 0);
         for (int s = 0; s < 7; ++s) {
             double k[4] = {0, 0, 0, 0};
             for (int j = 0; j < 4 && 4 * s + j < 25; ++j)
                 k[j] = lm.kappa[static_cast<std::size_t>(4 * s + j)];
-            rec.f(11 + s, k[0], k[1], k[2], k[3]);
+            rec.f(slot::kappa + s, k[0], k[1], k[2], k[3]);
         }
         for (int c = 0; c < 3; ++c) {
             double row[3] = {0, 0, 0};
             if (c < nc)
                 for (int d = 0; d < nc; ++d) row[d] = lm.a(c, d);
-            rec.f(18 + c, row[0], row[1], row[2], 0.0);
+            rec.f(slot::colour + c, row[0], row[1], row[2], 0.0);
         }
         const std::int64_t q0x = q.x0 - 2, q0y = q.y0 - 2;
-        rec.u(2, seed_lo, seed_hi, 0, 0);
+        rec.u(slot::seed, seed_lo, seed_hi, 0, 0);
         mean_and_scale(0.0); // the limit model has no scale
-        rec.u(3, 0, 0, lo(q0x), hi(q0x));
-        rec.u(4, lo(q0y), hi(q0y), 0, 0);
+        rec.u(slot::base_y, 0, 0, lo(q0x), hi(q0x));
+        rec.u(slot::thresholds, lo(q0y), hi(q0y), 0, 0);
         return win;
     }
 
@@ -119,14 +119,14 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     base(q.x0, bcx, ox);
     base(q.y0, bcy, oy);
     const bool tileable = q.period[0] > 0;
-    rec.i(0, 0, q.level, st, sub_log2);
-    rec.i(1, table->length, r, tex.order(), a);
-    rec.u(2, seed_lo, seed_hi, lo(bcx), hi(bcx));
-    rec.u(3, lo(bcy), hi(bcy), 0, 0);
-    rec.i(4, 0, 0, static_cast<std::int64_t>(grid.thresholds.size()), 0);
-    rec.i(5, tileable ? q.period[0] : 0, tileable ? q.period[1] : 0,
+    rec.i(slot::mode, 0, q.level, st, sub_log2);
+    rec.i(slot::geometry, table->length, r, tex.order(), a);
+    rec.u(slot::seed, seed_lo, seed_hi, lo(bcx), hi(bcx));
+    rec.u(slot::base_y, lo(bcy), hi(bcy), 0, 0);
+    rec.i(slot::thresholds, 0, 0, static_cast<std::int64_t>(grid.thresholds.size()), 0);
+    rec.i(slot::period, tileable ? q.period[0] : 0, tileable ? q.period[1] : 0,
           tileable ? floor_mod(bcx, q.period[0]) : 0, tileable ? floor_mod(bcy, q.period[1]) : 0);
-    rec.i(6, ox, oy, 0, 0);
+    rec.i(slot::origin, ox, oy, 0, 0);
     mean_and_scale(1.0 / std::sqrt(grid.lambda));
     win.thresholds = grid.thresholds;
 
@@ -142,8 +142,8 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     const bool listed =
         host_lists && static_cast<double>(ncx) * static_cast<double>(ncy) * grid.mu <=
                           std::max(65536.0, static_cast<double>(q.width) * q.height / 8);
-    rec.i(8, table->side(), 0, listed ? 1 : 0, 0);
-    rec.i(9, listed ? ncx : 0, listed ? ncy : 0, 0, mix ? 1 : 0);
+    rec.i(slot::table, table->side(), 0, listed ? 1 : 0, 0);
+    rec.i(slot::cells, listed ? ncx : 0, listed ? ncy : 0, 0, mix ? 1 : 0);
     if (listed) {
         // Rows of cells (in parallel only for a frame's many rows: a tile's few are cheaper on
         // the caller's thread than waking a team), then one run: cells by y then x, points in
@@ -191,21 +191,21 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     const double bx = static_cast<double>(bcx) * a, by = static_cast<double>(bcy) * a;
     if (f.kind == core::MixField::Kind::ramp) {
         const double n = std::hypot(f.dx, f.dy) * f.width;
-        rec.f(21, 0, f.dx / n, f.dy / n, ((bx - f.x0) * f.dx + (by - f.y0) * f.dy) / n);
-        win.record[21 * 4] = 0;
-        rec.f(22, 0, 0, 0, 0);
+        rec.f(slot::field, 0, f.dx / n, f.dy / n, ((bx - f.x0) * f.dx + (by - f.y0) * f.dy) / n);
+        win.record[slot::field * 4] = 0; // the kind, an integer
+        rec.f(slot::mask, 0, 0, 0, 0);
     } else {
         win.mask = &f;
-        rec.f(21, 0, 0, 0, 0);
-        win.record[21 * 4] = 1;
-        rec.f(22, 1.0 / f.scale, (bx - f.x0) / f.scale, (by - f.y0) / f.scale, 0);
+        rec.f(slot::field, 0, 0, 0, 0);
+        win.record[slot::field * 4] = 1;
+        rec.f(slot::mask, 1.0 / f.scale, (bx - f.x0) / f.scale, (by - f.y0) / f.scale, 0);
     }
-    win.record[22 * 4 + 3] = static_cast<std::uint32_t>(nl);
+    win.record[slot::mask * 4 + 3] = static_cast<std::uint32_t>(nl);
     const auto& mu = mix->level(0).texton().mean;
     const auto& mv = mix->level(nl - 1).texton().mean;
     const bool grey = nc == 1;
-    rec.f(23, mu[0], grey ? mu[0] : mu[1], grey ? mu[0] : mu[2], 0);
-    rec.f(24, mv[0], grey ? mv[0] : mv[1], grey ? mv[0] : mv[2], 0);
+    rec.f(slot::mean_u, mu[0], grey ? mu[0] : mu[1], grey ? mu[0] : mu[2], 0);
+    rec.f(slot::mean_v, mv[0], grey ? mv[0] : mv[1], grey ? mv[0] : mv[2], 0);
     return win;
 }
 

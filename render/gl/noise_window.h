@@ -18,13 +18,35 @@ namespace textond::render::gl {
 inline constexpr int kRecordVec4s = 25; // texton_noise.comp, kRecord
 inline constexpr int kRecordWords = 4 * kRecordVec4s;
 
+// The record's vec4 slots, as texton_noise.comp's load_tile reads them (x, y, z, w).
+namespace slot {
+inline constexpr int mode = 0;       // mode (1: limit model), level, texels a pixel, -level
+inline constexpr int geometry = 1;   // table length L, r, order, cell side a
+inline constexpr int seed = 2;       // seed (lo, hi), base cell x (lo, hi)
+inline constexpr int base_y = 3;     // base cell y (lo, hi), limit model: x0 - 2 (lo, hi)
+inline constexpr int thresholds = 4; // limit model: y0 - 2 (lo, hi); thresholds count, first
+inline constexpr int period = 5;     // period (cells), base cell mod period
+inline constexpr int origin = 6;     // window origin from the base cell, piece offset
+inline constexpr int size = 7;       // piece size, output base, channels
+inline constexpr int table = 8;      // table side, first texel, listed points, first cell start
+inline constexpr int cells = 9;      // listed cells (x, y), first point, mix
+inline constexpr int mean = 10;      // mean colour, 1 / sqrt(lambda)
+inline constexpr int kappa = 11;     // limit model: 25 weights over 7 slots (11..17)
+inline constexpr int colour = 18;    // limit model: the colour matrix's rows (18..20)
+inline constexpr int field = 21;     // mix: field kind, ramp gradient and offset
+inline constexpr int mask = 22;      // mix: mask 1 / scale, its origin, level count
+inline constexpr int mean_u = 23;    // mix: the first level's mean
+inline constexpr int mean_v = 24;    // mix: the last level's mean
+} // namespace slot
+
 // Word indices of the fields the batch fills in (the rest is fixed by the window).
 namespace field {
-inline constexpr int thr_base = 4 * 4 + 3;
-inline constexpr int offset_x = 6 * 4 + 2, offset_y = 6 * 4 + 3;
-inline constexpr int size_x = 7 * 4 + 0, size_y = 7 * 4 + 1, out_base = 7 * 4 + 2;
-inline constexpr int table_base = 8 * 4 + 1, cell_base = 8 * 4 + 3;
-inline constexpr int point_base = 9 * 4 + 2;
+inline constexpr int thr_base = slot::thresholds * 4 + 3;
+inline constexpr int offset_x = slot::origin * 4 + 2, offset_y = slot::origin * 4 + 3;
+inline constexpr int size_x = slot::size * 4, size_y = slot::size * 4 + 1;
+inline constexpr int out_base = slot::size * 4 + 2;
+inline constexpr int table_base = slot::table * 4 + 1, cell_base = slot::table * 4 + 3;
+inline constexpr int point_base = slot::cells * 4 + 2;
 } // namespace field
 
 struct NoiseWindow {
