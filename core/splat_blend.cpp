@@ -49,7 +49,8 @@ std::optional<Error> SplatWeights::validate(int layers) const {
             return bad("the weights must lie within |x|, |y| <= 2^61 texels (x0 and y0 place "
                        "their corner; width and height times scale their extent)");
         if (std::int64_t{s.weights.width} * s.weights.height > kMaxSplatWeightPixels)
-            return bad("a weight image has at most 4194304 pixels (2048 x 2048, or any shape of as many)");
+            return bad(
+                "a weight image has at most 4194304 pixels (2048 x 2048, or any shape of as many)");
         if (s.weights.width < 1 || s.weights.height < 1 || s.weights.channels != layers)
             return bad("the weights have " + std::to_string(s.weights.channels) + " channels for " +
                        std::to_string(layers) + " layers (one a layer)");

@@ -18,8 +18,8 @@ namespace textond::core {
 inline constexpr const char* kSplatVersion = "textond-splat/1";
 inline constexpr int kMinSplatLayers = 2;
 inline constexpr int kMaxSplatLayers = 8;
-// A weight image's pixels at most (2048 x 2048, or any shape of as many): 128 MB of floats at 8 layers, kept while the
-// splat is in use.
+// A weight image's pixels at most (2048 x 2048, or any shape of as many): 128 MB of floats at 8
+// layers, kept while the splat is in use.
 inline constexpr std::int64_t kMaxSplatWeightPixels = std::int64_t{1} << 22;
 
 // The seed of layer `layer`: layer 0 keeps the splat's seed (where it alone shows, the splat is
