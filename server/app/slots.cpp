@@ -55,6 +55,11 @@ void WorkSlots::add(int n) {
     for (int i = 0; i < n; ++i) release();
 }
 
+int WorkSlots::free() const {
+    std::lock_guard lock(m_mutex);
+    return m_free;
+}
+
 std::size_t WorkSlots::waiting() const {
     std::lock_guard lock(m_mutex);
     return m_waiters.size();

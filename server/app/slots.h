@@ -25,6 +25,7 @@ public:
     void release();
     void add(int n); // n more slots (at start)
     std::size_t waiting() const;
+    int free() const; // slots not held now
 
 private:
     struct Waiter {

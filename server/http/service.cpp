@@ -150,6 +150,8 @@ void Service::add_gauges() {
     const WorkSlots* slots = &m_gate.render_slots();
     m.gauge("textond_render_waiting", "Renders waiting for a render slot.",
             count([slots] { return slots->waiting(); }));
+    m.gauge("textond_render_slots_free", "Render slots no render holds now.",
+            count([slots] { return slots->free(); }));
     const AnalysisPool* pool = m_pool.get();
     m.gauge("textond_analysis_queue_depth", "Analyses waiting for a worker.",
             count([pool] { return pool->queued(); }));

@@ -945,31 +945,35 @@ class HostileClients(unittest.TestCase):
         self.assertTrue(all(r in (200, 201, 429) for r in results), results)
 
     def test_a_client_that_left_while_queued_is_dropped(self):
-        # A server of its own whose renders are held at 20x their estimate (slow point): the two
-        # busy renders fill both slots for seconds on a machine of any speed, and each step waits
-        # on the server's gauges, not on a sleep.
+        # A server of its own whose renders are held at 400x their estimate (slow point): the two
+        # busy renders fill both slots for seconds on a machine of any speed, however loaded, and
+        # each step waits on the server's gauges, not on a sleep. Their clients hang up at the
+        # end, which stops them at once.
         data = tempfile.mkdtemp(prefix="textond-queued-render-")
-        s = Server(data, slow={"render": 20})
+        s = Server(data, ["--render-deadline-s", "600"], slow={"render": 400})
         try:
             with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
                 st, _, body = s.request("POST", "/v1/textons?size=32&iterations=5", f.read(),
                                         {"Content-Type": "image/png"})
             u = json.loads(body)["id"]
             region = f"/v1/textons/{u}/region.png?w=1024&h=1024"
-            busy = [threading.Thread(target=lambda i=i: s.request(
-                "GET", f"{region}&seed={100 + i}", timeout=300)) for i in range(SLOTS)]
-            [t.start() for t in busy]
+
+            def send(seed):
+                c = socket.create_connection(("127.0.0.1", s.port))
+                c.sendall(f"GET {region}&seed={seed} HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+                return c
             before = metric(s, 'textond_not_admitted_total{reason="gone"}')
-            sock = socket.create_connection(("127.0.0.1", s.port))
-            sock.sendall(f"GET {region}&seed=999 HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+            busy = [send(100 + i) for i in range(SLOTS)]
+            wait_until("both slots are taken",
+                       lambda: metric(s, "textond_render_slots_free") == 0)
+            sock = send(999)
             wait_until("the third render waits for a slot",
                        lambda: metric(s, "textond_render_waiting") == 1)
             sock.close()  # hangs up while queued
             wait_until("the waiting render is dropped",
                        lambda: metric(s, "textond_render_waiting") == 0)
-            self.assertTrue(any(t.is_alive() for t in busy), "the busy renders ended first")
             self.assertEqual(metric(s, 'textond_not_admitted_total{reason="gone"}'), before + 1)
-            [t.join() for t in busy]
+            [c.close() for c in busy]
         finally:
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
