@@ -1,21 +1,31 @@
 #!/usr/bin/env python3
-"""Rebuilds the micro/macro corpus of tests/verdict/ from Debian 12 packages.
+"""Rebuilds a micro/macro corpus of tests/verdict/ from Debian 12 packages.
 
-  tests/verdict/make_corpus.py crops   [TEXTOND]   # download, extract, crop into corpus/
-  tests/verdict/make_corpus.py sheets  [TEXTOND]   # contact sheets: exemplar | ADSN, label
+  tests/verdict/make_corpus.py crops   [--corpus DIR] [TEXTOND]  # download, extract, crop
+  tests/verdict/make_corpus.py sheets  [--corpus DIR] [TEXTOND]  # exemplar | ADSN, label
+  tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
 
-corpus.tsv names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and
-licence, and its label (LABELLING.md says how labels were given) and half of the split. A crop is
-the source scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved
-as JPEG quality 92; the verdict is computed on these crops. Needs apt-get, dpkg-deb, unzip and
-oiiotool (openimageio-tools); downloads about 1 GB into build/verdict/.
+DIR is tests/verdict (the first corpus) or tests/verdict/shapes (the second); its corpus.tsv
+names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and licence, and its
+label (DIR/LABELLING.md says how labels were given) and half of the split. A crop is the source
+scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved as JPEG
+quality 92; the verdict is computed on these crops. `draw` prints the candidates a corpus was
+picked from (DIR/draws.json: packages, seeds, keyword filter), one TSV row each, with the
+licence its package's debian/copyright gives the file. Needs apt-get, dpkg-deb, unzip and
+oiiotool (openimageio-tools); downloads 1-2 GB into build/verdict/.
 """
+import argparse
 import concurrent.futures as cf
 import csv
+import fnmatch
 import glob
+import hashlib
+import json
 import os
+import random
+import re
+import struct
 import subprocess
-import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -23,20 +33,26 @@ WORK = os.path.join(ROOT, "build", "verdict")
 FONT = "/usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf"
 
 
-def rows():
-    with open(os.path.join(HERE, "corpus.tsv")) as f:
+def rows(corpus):
+    with open(os.path.join(corpus, "corpus.tsv")) as f:
         return list(csv.DictReader(f, delimiter="\t"))
+
+
+def package_dir(package, version=None):
+    """The package's files under build/verdict/PACKAGE, downloading it on first use."""
+    pkg_dir = os.path.join(WORK, package)
+    if not os.path.isdir(pkg_dir):
+        os.makedirs(WORK, exist_ok=True)
+        spec = f"{package}={version}" if version else package
+        subprocess.run(["apt-get", "download", spec], cwd=WORK, check=True)
+        deb = glob.glob(os.path.join(WORK, f"{package}_*.deb"))[0]
+        subprocess.run(["dpkg-deb", "-x", deb, pkg_dir], check=True)
+    return pkg_dir
 
 
 def source_file(row):
     """The source image on disk, extracting its package (and pk3) on first use."""
-    pkg_dir = os.path.join(WORK, row["package"])
-    if not os.path.isdir(pkg_dir):
-        os.makedirs(WORK, exist_ok=True)
-        subprocess.run(["apt-get", "download", f"{row['package']}={row['version']}"], cwd=WORK,
-                       check=True)
-        deb = glob.glob(os.path.join(WORK, f"{row['package']}_*.deb"))[0]
-        subprocess.run(["dpkg-deb", "-x", deb, pkg_dir], check=True)
+    pkg_dir = package_dir(row["package"], row["version"])
     archive, _, member = row["path"].partition(":")
     if not member:
         return os.path.join(pkg_dir, archive.lstrip("/"))
@@ -47,7 +63,7 @@ def source_file(row):
     return os.path.join(out, member)
 
 
-def crop(row):
+def crop(row, corpus):
     src = source_file(row)
     w, h = (int(v) for v in row["source_size"].split("x"))
     info = subprocess.run(["oiiotool", "--info", src], capture_output=True, text=True).stdout
@@ -58,22 +74,23 @@ def crop(row):
     if short != 256:
         args += ["--resize:filter=box", f"{nw}x{nh}"]
     args += ["--cut", f"256x256+{(nw - 256) // 2}+{(nh - 256) // 2}", "--quality", "92", "-o",
-             os.path.join(HERE, "corpus", row["name"] + ".jpg")]
+             os.path.join(corpus, "corpus", row["name"] + ".jpg")]
     subprocess.run(args, check=True, capture_output=True)
 
 
-def pair(row, textond):
+def pair(row, corpus, textond):
     """exemplar | ADSN synthesis (160 px each) over a caption with the label and the name."""
-    ex = os.path.join(HERE, "corpus", row["name"] + ".jpg")
-    syn = os.path.join(WORK, "sheets", row["name"] + ".adsn.png")
-    out = os.path.join(WORK, "sheets", row["name"] + ".pair.png")
+    ex = os.path.join(corpus, "corpus", row["name"] + ".jpg")
+    sheets_dir = os.path.join(WORK, "sheets", os.path.basename(corpus))
+    syn = os.path.join(sheets_dir, row["name"] + ".adsn.png")
+    out = os.path.join(sheets_dir, row["name"] + ".pair.png")
     subprocess.run([textond, "synth", ex, "--method", "adsn", "--width", "256", "--height", "256",
                     "--seed", "1", "-o", syn], check=True, capture_output=True)
     rgb = []
     for p in (ex, syn):
         info = subprocess.run(["oiiotool", "--info", p], capture_output=True, text=True).stdout
         rgb.append("R,G,B" if ", 3 channel" in info else "0,0,0")
-    caption = f"{row['label']:10} {row['name']}"
+    caption = f"{row['label'] or '?':10} {row['name']}"
     subprocess.run(["oiiotool", ex, "--ch", rgb[0], "--resize", "160x160", syn, "--ch", rgb[1],
                     "--resize", "160x160", "--mosaic:pad=2", "2x1", "--crop", "322x182+0+0",
                     "--fullpixels", f"--text:x=4:y=177:size=14:color=1,1,1:font={FONT}", caption,
@@ -81,27 +98,137 @@ def pair(row, textond):
     return out
 
 
-def sheets(textond):
-    os.makedirs(os.path.join(WORK, "sheets"), exist_ok=True)
-    rs = rows()
+def sheets(corpus, textond):
+    os.makedirs(os.path.join(WORK, "sheets", os.path.basename(corpus)), exist_ok=True)
+    rs = rows(corpus)
     with cf.ThreadPoolExecutor(os.cpu_count()) as ex:
-        pairs = list(ex.map(lambda r: pair(r, textond), rs))
+        pairs = list(ex.map(lambda r: pair(r, corpus, textond), rs))
     for s in range(0, len(pairs), 24):
         part = pairs[s:s + 24]
-        out = os.path.join(HERE, f"contact_sheet_{s // 24 + 1}.jpg")
+        out = os.path.join(corpus, f"contact_sheet_{s // 24 + 1}.jpg")
         subprocess.run(["oiiotool", *part, "--mosaic:pad=8", f"4x{(len(part) + 3) // 4}",
                         "--quality", "85", "-o", out], check=True)
         print(out)
 
 
+def image_size(path):
+    """(width, height) of a PNG or JPEG from its header, or None."""
+    with open(path, "rb") as f:
+        head = f.read(32)
+        if head[:8] == b"\x89PNG\r\n\x1a\n":
+            return struct.unpack(">II", head[16:24])
+        if head[:2] != b"\xff\xd8":
+            return None
+        f.seek(2)
+        while True:
+            b = f.read(1)
+            while b and b != b"\xff":
+                b = f.read(1)
+            while b == b"\xff":
+                b = f.read(1)
+            if not b:
+                return None
+            marker = b[0]
+            if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:
+                continue
+            length = struct.unpack(">H", f.read(2))[0]
+            if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+                h, w = struct.unpack(">HH", f.read(5)[1:5])
+                return w, h
+            f.seek(length - 2, 1)
+
+
+def copyright_stanzas(pkg_dir, package):
+    """(file patterns, licence) of the package's machine-readable debian/copyright, in order."""
+    path = os.path.join(pkg_dir, "usr/share/doc", package, "copyright")
+    stanzas, files, field, first = [], None, None, None
+    for line in open(path, encoding="utf-8", errors="replace"):
+        if line.startswith("License:") and first is None:
+            first = line[8:].strip()
+        if line.startswith("Files:"):
+            files, field = line[6:].split(), "files"
+        elif line.startswith("License:") and files is not None:
+            stanzas.append((files, line[8:].strip()))
+            files, field = None, None
+        elif line[:1] in (" ", "\t") and field == "files" and files is not None:
+            files += line.split()
+        elif line.strip():
+            field = None
+    # A copyright file that is not machine-readable: its first licence covers every file.
+    return stanzas or ([(["*"], first)] if first else [])
+
+
+def licence_of(stanzas, install_path):
+    """DEP-5: the last stanza whose pattern matches wins; installed paths are matched by the
+    pattern's tail (data/textures/x.png matches /usr/share/games/supertuxkart/data/...)."""
+    found = None
+    for patterns, licence in stanzas:
+        for p in patterns:
+            if p == "*" or fnmatch.fnmatch(install_path, "*/" + p.lstrip("/")):
+                found = licence
+    return found or "see debian/copyright"
+
+
+def draw(corpus):
+    """The candidates of each seeded draw in DIR/draws.json, one TSV row each."""
+    spec = json.load(open(os.path.join(corpus, "draws.json")))
+    print("draw\tpackage\tversion\tpath\tlicence\tsource_size")
+    taken = set()
+    for d in spec["draws"]:
+        for package in d["packages"]:
+            version = spec["versions"][package]
+            pkg_dir = package_dir(package, version)
+            stanzas = copyright_stanzas(pkg_dir, package)
+            keyword = re.compile(d["keyword"]) if d.get("keyword") else None
+            skip = re.compile(d["skip"]) if d.get("skip") else None
+            under = d.get("under", {}).get(package, "")
+            files, seen = [], set()
+            for dirpath, dirs, names in os.walk(pkg_dir):
+                dirs.sort()
+                for n in sorted(names):
+                    low = n.lower()
+                    if not low.endswith((".png", ".jpg", ".jpeg")):
+                        continue
+                    if keyword and not keyword.search(low) or skip and skip.search(low):
+                        continue
+                    full = os.path.join(dirpath, n)
+                    rel = full[len(pkg_dir):]
+                    if under not in rel:
+                        continue
+                    size = image_size(full)
+                    if not size or min(size) < 256:
+                        continue
+                    # A file seen before, under any name, or drawn by an earlier draw is skipped.
+                    digest = hashlib.sha256(open(full, "rb").read()).hexdigest()
+                    if digest in seen or (package, rel) in taken:
+                        seen.add(digest)
+                        continue
+                    seen.add(digest)
+                    files.append((rel, size))
+            files.sort()
+            pick = sorted(random.Random(d["seed"]).sample(files, min(d["per_package"],
+                                                                     len(files))))
+            for rel, (w, h) in pick:
+                taken.add((package, rel))
+                print(f"{d['name']}\t{package}\t{version}\t{rel}\t{licence_of(stanzas, rel)}"
+                      f"\t{w}x{h}")
+
+
 def main():
-    what = sys.argv[1] if len(sys.argv) > 1 else "sheets"
-    textond = sys.argv[2] if len(sys.argv) > 2 else os.path.join(ROOT, "build/release/textond")
-    if what == "crops":
-        os.makedirs(os.path.join(HERE, "corpus"), exist_ok=True)
-        for r in rows():
-            crop(r)
-    sheets(textond)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("what", choices=["crops", "sheets", "draw"])
+    ap.add_argument("textond", nargs="?", default=os.path.join(ROOT, "build/release/textond"))
+    ap.add_argument("--corpus", default=HERE)
+    a = ap.parse_args()
+    corpus = os.path.abspath(a.corpus)
+    if a.what == "draw":
+        draw(corpus)
+        return
+    if a.what == "crops":
+        os.makedirs(os.path.join(corpus, "corpus"), exist_ok=True)
+        with cf.ThreadPoolExecutor(os.cpu_count()) as ex:
+            list(ex.map(lambda r: crop(r, corpus), rows(corpus)))
+    sheets(corpus, a.textond)
 
 
 if __name__ == "__main__":
