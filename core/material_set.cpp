@@ -79,8 +79,9 @@ Result<SetAnalysis> analyze_material_set(const Image& stacked, const std::vector
                                                    channel_planes(alpha, m.first, m.channels),
                                                    params.order, 0, 0, threads));
     const TextonMap& first = maps.front();
-    out.result.coherence =
-        phase_coherence(channel_planes(window, first.first, first.channels), threads);
+    const Image first_map = channel_planes(window, first.first, first.channels);
+    out.result.coherence = phase_coherence(first_map, threads);
+    out.result.shape = shape_verdict(first_map, threads);
     out.result.texton.maps = maps;
     out.result.timings.total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start)

@@ -92,10 +92,8 @@ SharpnessIndex sharpness_index(const Image& u, int threads, bool periodic) {
     return out;
 }
 
-namespace {
-
-// Box average over f x f blocks (the remainder rows and columns dropped).
 Image box_reduce(const Image& u, int f) {
+    if (f <= 1) return u;
     Image v(u.width / f, u.height / f, u.channels);
     const float inv = 1.0f / static_cast<float>(f * f);
     for (int c = 0; c < u.channels; ++c)
@@ -108,8 +106,6 @@ Image box_reduce(const Image& u, int f) {
             }
     return v;
 }
-
-} // namespace
 
 const char* to_string(TextureKind k) {
     return k == TextureKind::micro ? "micro" : k == TextureKind::macro ? "macro" : "borderline";

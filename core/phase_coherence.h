@@ -32,6 +32,9 @@ SharpnessIndex sharpness_index(const Image& u, int threads = 1, bool periodic = 
 // The grey level of u: one plane, the mean of its channels.
 Image grey_level(const Image& u);
 
+// Box average over f x f blocks (the remainder rows and columns dropped), every channel.
+Image box_reduce(const Image& u, int f);
+
 // The micro/macro verdict. SI alone does not separate the shared photos (README, "Micro or
 // macro"): it grows with the image's size and is dominated by the finest scale, where grain,
 // JPEG blocks and palettes count as sharpness. What a texton loses is coherence at the scale of

@@ -156,6 +156,9 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     r.coherence = phase_coherence(window, threads);
     r.timings.coherence_ms = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
+    r.shape = shape_verdict(window, threads);
+    r.timings.shape_ms = ms_since(t0);
+    t0 = std::chrono::steady_clock::now();
     r.texton.marginals = marginal_model(window);
     r.timings.marginals_ms = ms_since(t0);
     r.timings.total_ms = ms_since(t_start);

@@ -6,6 +6,7 @@
 #include "core/gaussian_model.h"
 #include "core/phase_coherence.h"
 #include "core/result.h"
+#include "core/shape_verdict.h"
 #include "core/texton.h"
 #include "core/working_window.h"
 
@@ -33,7 +34,8 @@ struct AnalysisParams {
 struct AnalysisTimings {
     double periodic_ms = 0, model_ms = 0, projections_ms = 0, correction_ms = 0, rme_ms = 0,
            total_ms = 0;
-    double coherence_ms = 0, marginals_ms = 0; // the micro/macro verdict, the kept marginals
+    // The phase coherence (for reference), the micro/macro verdict, the kept marginals.
+    double coherence_ms = 0, shape_ms = 0, marginals_ms = 0;
 };
 
 struct AnalysisResult {
@@ -42,9 +44,11 @@ struct AnalysisResult {
     double rme_uncorrected = 0; // before the colour correction (lower, wrong contrast)
     ColourMatrix correction;    // the matrix applied
     AnalysisTimings timings;
-    // Of the exemplar: will the texton keep its look (micro) or lose its shapes (macro)? None for
-    // a model given directly (texture mixing's barycentres).
+    // Of the exemplar: will the texton keep its look (micro) or lose its shapes (macro)? The
+    // verdict is `shape`'s; `coherence` is kept for reference. None for a model given directly
+    // (texture mixing's barycentres).
     std::optional<PhaseCoherence> coherence;
+    std::optional<ShapeVerdict> shape;
 };
 
 // (done, total) after each projection; may be called from the analysing thread only.

@@ -16,6 +16,7 @@ core::Image tiled(const core::Image& src, int w, int h);
 // memory over what was resident at the start.
 struct AnalysisRun {
     double ms = 0;
+    double verdict_ms = 0; // the micro/macro verdict's share (timings.shape_ms), median
     double rme = 0;
     long peak_mib = 0;
     core::Texton texton;

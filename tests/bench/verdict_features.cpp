@@ -1,31 +1,35 @@
-// The micro/macro verdict's candidate features on the labelled corpus (tests/verdict/), one row a
-// texture with its label and half: the phase coherence of the current verdict (its index and each
-// scale) and the band-pass kurtosis against random phase (core/band_kurtosis.h). Fitting reads
-// the fit half only (tests/verdict/fit_verdict.py).
-//   verdict_features [CORPUS_DIR]   (default: tests/verdict)
-#include "core/band_kurtosis.h"
-#include "core/periodic_component.h"
-#include "core/phase_coherence.h"
+// The micro/macro verdict's statistics on a labelled corpus (tests/verdict/ or
+// tests/verdict/shapes/), one row a texture: its label and half, the four shape statistics of
+// core/shape_verdict.h (the exemplar's, its ADSN null's mean and sd), the score and kind, the
+// phase coherence kept for reference, and the RME of its texton (default analysis). Fitting
+// reads the fit halves only (tests/verdict/fit_verdict.py).
+//   verdict_features CORPUS_DIR...   (default: tests/verdict tests/verdict/shapes)
+#include "core/shape_verdict.h"
+#include "core/texton_analysis.h"
 #include "server/io/image_io.h"
 
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 using namespace textond;
 
-int main(int argc, char** argv) {
-    const std::string dir = argc > 1 ? argv[1] : "tests/verdict";
+namespace {
+
+void print_statistics(const core::ShapeStatistics& s) {
+    std::printf("\t%.5f\t%.5f\t%.5f\t%.5f", s.tensor, s.tv, s.lines, s.specks);
+}
+
+bool rows_of(const std::string& dir) {
     std::ifstream tsv(dir + "/corpus.tsv");
     if (!tsv) {
         std::fprintf(stderr, "no %s/corpus.tsv\n", dir.c_str());
-        return 1;
+        return false;
     }
     std::string line;
     std::getline(tsv, line); // header
-    std::printf("name\tlabel\thalf\tcoherence\tc1\tc2\tc4\tc8\tlr1\tlr2\tlr4\tlr8\tkurt1\tkurt2\tku"
-                "rt4\tkurt8\n");
     while (std::getline(tsv, line)) {
         std::istringstream f(line);
         std::string name, label, half;
@@ -35,18 +39,37 @@ int main(int argc, char** argv) {
         auto u = io::decode_image_file(dir + "/corpus/" + name + ".jpg");
         if (!u) {
             std::fprintf(stderr, "%s: %s\n", name.c_str(), u.error().message.c_str());
-            return 1;
+            return false;
         }
-        const core::PhaseCoherence pc = core::phase_coherence(u.value(), 2);
-        const auto bands = core::band_kurtosis(core::periodic_component(u.value(), 2), 4, 0, 2);
-        std::printf("%s\t%s\t%s\t%.4f", name.c_str(), label.c_str(), half.c_str(), pc.index);
-        for (std::size_t s = 0; s < 4; ++s)
-            std::printf("\t%.4f", s < pc.scales.size() ? pc.scales[s].coherence : 0.0);
-        for (std::size_t s = 0; s < 4; ++s)
-            std::printf("\t%.4f", s < bands.size() ? bands[s].log_ratio : 0.0);
-        for (std::size_t s = 0; s < 4; ++s)
-            std::printf("\t%.3f", s < bands.size() ? bands[s].kurtosis : 0.0);
-        std::printf("\n");
+        core::AnalysisParams params;
+        params.threads = 2;
+        auto r = core::analyze_texton(u.value(), params);
+        if (!r || !r.value().shape || !r.value().coherence) {
+            std::fprintf(stderr, "%s: analysis failed\n", name.c_str());
+            return false;
+        }
+        const core::ShapeVerdict& v = *r.value().shape;
+        std::printf("%s\t%s\t%s\t%s", dir.c_str(), name.c_str(), label.c_str(), half.c_str());
+        print_statistics(v.exemplar);
+        print_statistics(v.null_mean);
+        print_statistics(v.null_sd);
+        std::printf("\t%.4f\t%s\t%.4f\t%.4f\n", v.score, core::to_string(v.kind()),
+                    r.value().coherence->index, r.value().rme);
+        std::fflush(stdout);
     }
+    return true;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    std::vector<std::string> dirs(argv + 1, argv + argc);
+    if (dirs.empty()) dirs = {"tests/verdict", "tests/verdict/shapes"};
+    std::printf("corpus\tname\tlabel\thalf");
+    for (const char* part : {"", "_null", "_sd"})
+        for (const char* s : {"tensor", "tv", "lines", "specks"}) std::printf("\t%s%s", s, part);
+    std::printf("\tscore\tkind\tcoherence\trme\n");
+    for (const auto& d : dirs)
+        if (!rows_of(d)) return 1;
     return 0;
 }

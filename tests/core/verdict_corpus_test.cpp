@@ -1,6 +1,7 @@
-// The micro/macro verdict on its labelled corpus (tests/verdict/): held out, fitted,
-// and on random-phase textures. Labels and the split were fixed before any score.
-#include "core/phase_coherence.h"
+// The micro/macro verdict (core/shape_verdict.h) on its two labelled corpora (tests/verdict/ and
+// tests/verdict/shapes/): the shapes corpus's held-out half, the fit set as fitted, the shared
+// photos, and random-phase textures. Labels and splits were fixed before any score.
+#include "core/shape_verdict.h"
 #include "core/spectral_synthesis.h"
 #include "server/io/image_io.h"
 
@@ -8,6 +9,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -18,26 +20,38 @@ namespace {
 
 struct Labelled {
     std::string name, label, half;
+    bool shapes = false; // of the shapes corpus
     core::Image image;
+    std::string kind; // the verdict
 };
+
+std::vector<Labelled> read_corpus(const std::string& dir, bool shapes) {
+    std::vector<Labelled> out;
+    std::ifstream tsv(dir + "/corpus.tsv");
+    std::string line;
+    std::getline(tsv, line);
+    while (std::getline(tsv, line)) {
+        std::istringstream f(line);
+        Labelled l;
+        std::getline(f, l.name, '\t');
+        std::getline(f, l.label, '\t');
+        std::getline(f, l.half, '\t');
+        l.shapes = shapes;
+        auto u = io::decode_image_file(dir + "/corpus/" + l.name + ".jpg");
+        if (u) {
+            l.image = std::move(u.value());
+            l.kind = core::to_string(core::shape_verdict(l.image, 2).kind());
+        }
+        out.push_back(std::move(l));
+    }
+    return out;
+}
 
 const std::vector<Labelled>& corpus() {
     static const std::vector<Labelled> all = [] {
-        std::vector<Labelled> out;
-        const std::string dir = TEXTOND_VERDICT_CORPUS;
-        std::ifstream tsv(dir + "/corpus.tsv");
-        std::string line;
-        std::getline(tsv, line);
-        while (std::getline(tsv, line)) {
-            std::istringstream f(line);
-            Labelled l;
-            std::getline(f, l.name, '\t');
-            std::getline(f, l.label, '\t');
-            std::getline(f, l.half, '\t');
-            auto u = io::decode_image_file(dir + "/corpus/" + l.name + ".jpg");
-            if (u) l.image = std::move(u.value());
+        auto out = read_corpus(TEXTOND_VERDICT_CORPUS, false);
+        for (auto& l : read_corpus(std::string(TEXTOND_VERDICT_CORPUS) + "/shapes", true))
             out.push_back(std::move(l));
-        }
         return out;
     }();
     return all;
@@ -47,12 +61,15 @@ struct Tally {
     int micro = 0, micro_right = 0, macro = 0, macro_right = 0, macro_called_micro = 0;
 };
 
-Tally tally(const std::string& half) {
+// The fit set: the whole first corpus and the shapes corpus's fit half; the held-out set: the
+// shapes corpus's held-out half (tests/verdict/fit_verdict.py).
+Tally tally(bool held_out) {
     Tally t;
     for (const Labelled& l : corpus()) {
-        if (l.half != half || l.label == "borderline") continue;
+        const bool in_held_out = l.shapes && l.half == "held-out";
+        if (in_held_out != held_out || l.label == "borderline") continue;
         EXPECT_FALSE(l.image.empty()) << l.name;
-        const std::string kind = core::to_string(core::phase_coherence(l.image, 2).kind());
+        const std::string& kind = l.kind;
         if (l.label == "micro") {
             ++t.micro;
             t.micro_right += kind == "micro";
@@ -77,53 +94,55 @@ double binomial_tail(int n, int k, double p) {
 } // namespace
 
 TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
-    int macro = 0, micro = 0, borderline = 0;
-    for (const Labelled& l : corpus()) {
-        macro += l.label == "macro";
-        micro += l.label == "micro";
-        borderline += l.label == "borderline";
-    }
-    EXPECT_GE(macro + micro + borderline, 60);
-    EXPECT_GE(3 * macro, macro + micro + borderline); // at least a third macro
+    std::map<std::string, int> shapes, first;
+    for (const Labelled& l : corpus()) ++(l.shapes ? shapes : first)[l.label + " " + l.half];
+    EXPECT_EQ(first["macro fit"] + first["macro held-out"], 40);
+    EXPECT_EQ(first["micro fit"] + first["micro held-out"], 51);
+    EXPECT_EQ(shapes["macro fit"], 51);
+    EXPECT_EQ(shapes["macro held-out"], 50);
+    EXPECT_EQ(shapes["micro fit"], 44);
+    EXPECT_EQ(shapes["micro held-out"], 44);
+    EXPECT_EQ(shapes["borderline fit"] + shapes["borderline held-out"], 32);
 }
 
-// The held-out half: the verdict is right (its label, out of three verdicts) far more often than
-// a coin would be: one-sided binomial test against p = 1/2 at the 0.001 level (measured: 21 of
-// 25 micro and 14 of 20 macro right, p = 5e-5; core/README.md "Micro or macro"). The 90% target is
-// not reached, and one held-out macro (a dark, low-contrast stone wall) is called micro.
-TEST(VerdictCorpus, HeldOutHalfIsRightFarMoreOftenThanChance) {
-    const Tally t = tally("held-out");
+// The shapes corpus's held-out half, scored once after the choice (core/README.md "Micro or
+// macro": 41 of 44 micro and 43 of 50 macro right, 4 macro called micro). Far better than a coin
+// (one-sided binomial test against p = 1/2 at the 0.001 level); the micro target (90%) is met,
+// the macro one (90%: 45 of 50) and "no macro called micro" are missed, and these floors keep
+// what was reached.
+TEST(VerdictCorpus, HeldOutHalfOfTheShapesCorpus) {
+    const Tally t = tally(true);
     const int n = t.micro + t.macro, right = t.micro_right + t.macro_right;
     const double p = binomial_tail(n, right, 0.5);
     std::printf("held-out: micro %d of %d right, macro %d of %d, %d macro called micro; "
                 "P(>= %d of %d | p = 1/2) = %.2g\n",
                 t.micro_right, t.micro, t.macro_right, t.macro, t.macro_called_micro, right, n, p);
     EXPECT_LT(p, 1e-3);
-    EXPECT_LE(t.macro_called_micro, 1);
+    EXPECT_GE(10 * t.micro_right, 9 * t.micro);
+    EXPECT_GE(t.macro_right, 43);
+    EXPECT_LE(t.macro_called_micro, 4);
 }
 
-// The fit half is sorted as the fit found it (fit_verdict.py: 20 of 26 micro, 19 of 20 macro,
-// none called micro): moving the thresholds (a factor 1.5 on either) breaks this.
-TEST(VerdictCorpus, FitHalfIsSortedAsFitted) {
-    const Tally t = tally("fit");
-    EXPECT_GE(t.micro_right, 20) << "of " << t.micro;
-    EXPECT_GE(t.macro_right, 19) << "of " << t.macro;
-    EXPECT_EQ(t.macro_called_micro, 0);
+// The fit set is sorted as the fit found it (fit_verdict.py: 90 of 95 micro and 82 of 91 macro
+// right): moving a weight or the band breaks this.
+TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
+    const Tally t = tally(false);
+    EXPECT_GE(t.micro_right, 90) << "of " << t.micro;
+    EXPECT_GE(t.macro_right, 82) << "of " << t.macro;
 }
 
-// A Gaussian texture has no phase coherence: the random-phase synthesis (ADSN) of every macro
-// texture of the corpus, two seeds each, is called micro.
+// A Gaussian texture has no shapes to lose: the random-phase syntheses of every macro texture of
+// both corpora (RPN, and ADSN with a seed the null does not use) are called micro.
 TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
     int n = 0;
     for (const Labelled& l : corpus()) {
         if (l.label != "macro" || l.image.empty()) continue;
-        for (std::uint64_t seed : {1, 2}) {
-            const auto p = core::phase_coherence(
-                core::synthesize_from_exemplar(l.image, core::SpectralMethod::adsn, 256, 256, seed),
-                2);
-            EXPECT_EQ(p.kind(), core::TextureKind::micro) << l.name << " " << p.index;
+        for (auto method : {core::SpectralMethod::rpn, core::SpectralMethod::adsn}) {
+            const auto v = core::shape_verdict(
+                core::synthesize_from_exemplar(l.image, method, 256, 256, 11), 2);
+            EXPECT_EQ(v.kind(), core::TextureKind::micro) << l.name << " " << v.score;
             ++n;
         }
     }
-    EXPECT_GE(n, 40);
+    EXPECT_GE(n, 2 * 140);
 }

@@ -1,0 +1,196 @@
+#include "core/shape_verdict.h"
+
+#include "core/fft2d.h"
+#include "core/periodic_component.h"
+#include "core/random.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace textond::core {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kLineOrientations = 4;
+
+// Angular frequency (radians a pixel) of row i or column j of a half spectrum.
+double omega(int k, int n) {
+    return 2.0 * kPi * (k <= n / 2 ? k : k - n) / static_cast<double>(n);
+}
+
+// Inverse of spec times the transfer function h(wx, wy) (spec is left intact).
+template <typename H>
+std::vector<float> filtered(const Spectrum& spec, const RealFft2d& fft, int threads, H h) {
+    const int w = spec.width(), hgt = spec.height();
+    Spectrum out(w, hgt);
+    for (int i = 0; i < hgt; ++i) {
+        const double wy = omega(i, hgt);
+        for (int j = 0; j < spec.cwidth(); ++j) out.row(i)[j] = spec.row(i)[j] * h(omega(j, w), wy);
+    }
+    std::vector<float> v(static_cast<std::size_t>(w) * hgt);
+    fft.inverse(out, v.data(), threads);
+    const float inv = 1.0f / static_cast<float>(v.size());
+    for (float& x : v) x *= inv;
+    return v;
+}
+
+double gaussian(double wx, double wy, double sigma) {
+    return std::exp(-0.5 * sigma * sigma * (wx * wx + wy * wy));
+}
+
+// A field smoothed by a Gaussian of sd sigma (periodic).
+std::vector<float> smoothed(const std::vector<float>& f, const RealFft2d& fft, double sigma,
+                            int threads) {
+    Spectrum s(fft.width(), fft.height());
+    fft.forward(f.data(), s, threads);
+    return filtered(s, fft, threads, [&](double wx, double wy) {
+        return cfloat(static_cast<float>(gaussian(wx, wy, sigma)), 0.0f);
+    });
+}
+
+double log_kurtosis_ratio(const std::vector<float>& b) {
+    double m1 = 0;
+    for (float v : b) m1 += v;
+    m1 /= static_cast<double>(b.size());
+    double m2 = 0, m4 = 0;
+    for (float v : b) {
+        const double d = v - m1, s = d * d;
+        m2 += s;
+        m4 += s * s;
+    }
+    m2 /= static_cast<double>(b.size());
+    m4 /= static_cast<double>(b.size());
+    return m2 > 0 ? std::log(m4 / (m2 * m2) / 3.0) : 0.0;
+}
+
+// Structure tensor anisotropy: gradient (central differences) at sigma 1, tensor at sigma 2.
+double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, int threads) {
+    auto grad = [&](bool along_x) {
+        return filtered(spec, fft, threads, [&](double wx, double wy) {
+            const double g = gaussian(wx, wy, 1.0);
+            return cfloat(0.0f, static_cast<float>(g * std::sin(along_x ? wx : wy)));
+        });
+    };
+    const std::vector<float> gx = grad(true), gy = grad(false);
+    std::vector<float> xx(gx.size()), yy(gx.size()), xy(gx.size());
+    for (std::size_t i = 0; i < gx.size(); ++i) {
+        xx[i] = gx[i] * gx[i];
+        yy[i] = gy[i] * gy[i];
+        xy[i] = gx[i] * gy[i];
+    }
+    const auto jxx = smoothed(xx, fft, 2.0, threads), jyy = smoothed(yy, fft, 2.0, threads),
+               jxy = smoothed(xy, fft, 2.0, threads);
+    double anisotropy = 0, trace = 0;
+    for (std::size_t i = 0; i < jxx.size(); ++i) {
+        const double d = jxx[i] - jyy[i];
+        anisotropy += std::sqrt(d * d + 4.0 * double(jxy[i]) * jxy[i]);
+        trace += double(jxx[i]) + jyy[i];
+    }
+    return trace > 0 ? anisotropy / trace : 0.0;
+}
+
+// The largest line-filter kurtosis over the orientations (derivative across, Gaussian along).
+double line_kurtosis(const Spectrum& spec, const RealFft2d& fft, int threads) {
+    double best = -1e300;
+    for (int k = 0; k < kLineOrientations; ++k) {
+        const double th = kPi * k / kLineOrientations, c = std::cos(th), s = std::sin(th);
+        const auto r = filtered(spec, fft, threads, [&](double wx, double wy) {
+            const double across = wx * c + wy * s, along = -wx * s + wy * c;
+            const double g = std::exp(-0.5 * (across * across + 16.0 * along * along));
+            return cfloat(0.0f, static_cast<float>(across * g));
+        });
+        best = std::max(best, log_kurtosis_ratio(r));
+    }
+    return best;
+}
+
+double speck_kurtosis(const Spectrum& spec, const RealFft2d& fft, int threads) {
+    return log_kurtosis_ratio(filtered(spec, fft, threads, [](double wx, double wy) {
+        return cfloat(static_cast<float>(gaussian(wx, wy, 1.0) - gaussian(wx, wy, 2.0)), 0.0f);
+    }));
+}
+
+double tv_coherence(const Image& grey) {
+    const int f = 4;
+    if (grey.width < 2 * f || grey.height < 2 * f) return 0.0;
+    const SharpnessIndex si = sharpness_index(box_reduce(grey, f), 1, /*periodic=*/true);
+    return si.mean > 0.0 ? 1.0 - si.tv / si.mean : 0.0;
+}
+
+ShapeStatistics statistics_of(const Image& grey, const Spectrum& spec, const RealFft2d& fft,
+                              int threads) {
+    ShapeStatistics s;
+    s.tensor = tensor_anisotropy(spec, fft, threads);
+    s.tv = tv_coherence(grey);
+    s.lines = line_kurtosis(spec, fft, threads);
+    s.specks = speck_kurtosis(spec, fft, threads);
+    return s;
+}
+
+double weighted(const ShapeStatistics& e) {
+    const ShapeWeights& w = kShapeWeights;
+    return w.bias + w.tensor * e.tensor + w.tv * e.tv + w.lines * e.lines + w.specks * e.specks;
+}
+
+} // namespace
+
+TextureKind shape_kind(double score) {
+    if (score > kShapeBand) return TextureKind::macro;
+    return score > -kShapeBand ? TextureKind::borderline : TextureKind::micro;
+}
+
+TextureKind ShapeVerdict::kind() const {
+    return shape_kind(score);
+}
+
+ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int samples) {
+    ShapeVerdict out;
+    samples = std::max(samples, 1);
+    out.factor = std::max(1, std::min(u.width, u.height) / 256);
+    const Image grey = periodic_component(grey_level(box_reduce(u, out.factor)), threads);
+    out.width = grey.width;
+    out.height = grey.height;
+    out.score = weighted(out.excess); // no excess: a Gaussian texture's score
+    if (grey.width < 16 || grey.height < 16) return out;
+
+    const auto fft = RealFft2d::get(grey.width, grey.height);
+    Spectrum spec(grey.width, grey.height);
+    fft->forward(grey.data.data(), spec, threads);
+    spec.row(0)[0] = 0; // the mean: no statistic sees it
+    out.exemplar = statistics_of(grey, spec, *fft, threads);
+
+    // ADSN (TIP 2011, Theorem 2): the exemplar's spectrum times white noise's, over sqrt(|Omega|).
+    const double n = static_cast<double>(grey.plane_size());
+    std::vector<ShapeStatistics> null;
+    Rng rng(seed, 0x5ba9e);
+    Image sample(grey.width, grey.height, 1);
+    for (int k = 0; k < samples; ++k) {
+        for (float& v : sample.data) v = static_cast<float>(rng.normal());
+        Spectrum z(grey.width, grey.height);
+        fft->forward(sample.data.data(), z, threads);
+        const float scale = static_cast<float>(1.0 / std::sqrt(n));
+        for (int i = 0; i < grey.height; ++i)
+            for (int j = 0; j < z.cwidth(); ++j) z.row(i)[j] *= spec.row(i)[j] * scale;
+        Spectrum copy = z;
+        fft->inverse(copy, sample.data.data(), threads);
+        for (float& v : sample.data) v /= static_cast<float>(n);
+        null.push_back(statistics_of(sample, z, *fft, threads));
+    }
+    auto field = [](ShapeStatistics& s, int i) -> double& {
+        return i == 0 ? s.tensor : i == 1 ? s.tv : i == 2 ? s.lines : s.specks;
+    };
+    for (int i = 0; i < 4; ++i) {
+        double mean = 0, m2 = 0;
+        for (auto& s : null) mean += field(s, i) / samples;
+        for (auto& s : null) m2 += (field(s, i) - mean) * (field(s, i) - mean);
+        field(out.null_mean, i) = mean;
+        field(out.null_sd, i) = samples > 1 ? std::sqrt(m2 / (samples - 1)) : 0.0;
+        field(out.excess, i) = field(out.exemplar, i) - mean;
+    }
+    out.score = weighted(out.excess);
+    return out;
+}
+
+} // namespace textond::core
