@@ -1,5 +1,6 @@
 #include "api/texton_meta.h"
 
+#include <cstdio>
 #include <ctime>
 
 namespace textond::api {
@@ -24,8 +25,30 @@ core::AnalysisParams TextonMeta::params() const {
 }
 
 std::string TextonMeta::kind() const {
+    if (shape_score) return core::to_string(core::shape_kind(*shape_score));
     if (!phase_coherence) return "";
     return core::to_string(core::texture_kind(*phase_coherence));
+}
+
+std::string TextonMeta::verdict() const {
+    const std::string k = kind();
+    if (k.empty()) return "not measured (analysed by an older server)";
+    const bool missed = rme > core::kMissedModelRme;
+    char rme_text[96];
+    std::snprintf(rme_text, sizeof rme_text, "the texton misses its model (RME %.3f, above %.2f)",
+                  rme, core::kMissedModelRme);
+    if (k == "macro")
+        return std::string("macro-texture: expect the noise to lose its shapes (outlines, edges, "
+                           "repeated motifs)") +
+               (missed ? std::string("; ") + rme_text : "");
+    if (k == "borderline")
+        return std::string("borderline: the noise keeps the overall look, but some shapes, edges "
+                           "or repeated motifs may soften or fade") +
+               (missed ? std::string("; ") + rme_text : "");
+    if (missed)
+        return std::string("micro-texture, but ") + rme_text +
+               ": expect the noise to look unlike the photo";
+    return "micro-texture: the noise keeps its look";
 }
 
 nlohmann::json canonical_params(const core::AnalysisParams& p) {
@@ -70,8 +93,9 @@ nlohmann::json file_meta_json(const TextonMeta& m) {
     if (m.phase_coherence && m.sharpness_index) {
         j["phase_coherence"] = *m.phase_coherence;
         j["sharpness_index"] = *m.sharpness_index;
-        j["kind"] = m.kind();
     }
+    if (m.shape_score) j["shape_score"] = *m.shape_score;
+    if (!m.kind().empty()) j["kind"] = m.kind();
     return j;
 }
 
@@ -85,6 +109,7 @@ nlohmann::json provenance_json(const TextonMeta& m) {
                            {"correction", t.correction_ms},
                            {"rme", t.rme_ms},
                            {"coherence", t.coherence_ms},
+                           {"shape", t.shape_ms},
                            {"marginals", t.marginals_ms},
                            {"total", t.total_ms}};
     }
@@ -103,6 +128,7 @@ void read_provenance(const nlohmann::json& j, TextonMeta& m) {
         it->at("total").get_to(t.total_ms);
         // Absent from provenance written before the verdict and the marginals were computed.
         t.coherence_ms = it->value("coherence", 0.0);
+        t.shape_ms = it->value("shape", 0.0);
         t.marginals_ms = it->value("marginals", 0.0);
         m.timings = t;
     }
@@ -138,6 +164,8 @@ void from_json(const nlohmann::json& j, TextonMeta& m) {
     j.at("coefficients_sha256").get_to(m.coefficients_sha256);
     m.phase_coherence.reset();
     m.sharpness_index.reset();
+    m.shape_score.reset();
+    if (const auto it = j.find("shape_score"); it != j.end()) m.shape_score = it->get<double>();
     m.exemplar_marginals = false;
     if (const auto it = j.find("marginals"); it != j.end())
         for (const auto& v : *it) m.exemplar_marginals = m.exemplar_marginals || v == "exemplar";

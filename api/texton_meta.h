@@ -47,6 +47,9 @@ struct TextonMeta {
     // The exemplar's phase coherence (core/phase_coherence.h) and Leclaire-Moisan sharpness index;
     // absent from texton files written before they were computed.
     std::optional<double> phase_coherence, sharpness_index;
+    // The micro/macro verdict's score (core/shape_verdict.h, log-odds of macro); absent from
+    // texton files written before it was computed, whose kind comes from phase_coherence.
+    std::optional<double> shape_score;
     // Whether the texton keeps the exemplar's marginals (marginals=exemplar renders); false for
     // mixes and files written before they were kept.
     bool exemplar_marginals = false;
@@ -58,8 +61,13 @@ struct TextonMeta {
     std::string created; // RFC 3339 UTC, set when the service stores it; may be empty
 
     core::AnalysisParams params() const;
-    // "micro", "borderline" or "macro" (core::texture_kind of phase_coherence); "" when unknown.
+    // "micro", "borderline" or "macro": core::shape_kind of shape_score, or for older files
+    // core::texture_kind of phase_coherence; "" when unknown.
     std::string kind() const;
+    // The kind in plain words with what the noise loses, and whether the RME says the texton
+    // misses its model (core::kMissedModelRme): "keeps its look" only for a micro-texture whose
+    // texton is close to its model.
+    std::string verdict() const;
 };
 
 // The parameters that change the texton, in a canonical JSON form (keys sorted): part of the id.

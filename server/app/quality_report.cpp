@@ -80,15 +80,6 @@ void plot(core::Image& dst, int x0, int y0, int w, int h,
 
 } // namespace
 
-std::string quality_verdict(const api::TextonMeta& meta) {
-    const std::string k = meta.kind();
-    if (k == "macro") return "macro-texture: expect the noise to lose its edges and shapes";
-    if (k == "micro") return "micro-texture: the noise keeps its look";
-    if (k == "borderline")
-        return "borderline: the noise keeps the overall look, but some shapes may soften or fade";
-    return "not measured (analysed by an older server)";
-}
-
 QualityReport quality_report(const api::TextonMeta& meta, const core::Image& exemplar,
                              const core::Image& gaussian, const core::Image& restored) {
     QualityReport r;
@@ -96,7 +87,7 @@ QualityReport quality_report(const api::TextonMeta& meta, const core::Image& exe
     const bool has_restored = !restored.empty();
     r.json = {{"id", meta.id},
               {"rme", meta.rme},
-              {"verdict", quality_verdict(meta)},
+              {"verdict", meta.verdict()},
               {"window", {{"width", exemplar.width}, {"height", exemplar.height}}},
               {"histograms",
                {{"bins", kBins}, {"range", {0.0, 1.0}}, {"exemplar", he}, {"gaussian", hg}}},
@@ -104,8 +95,9 @@ QualityReport quality_report(const api::TextonMeta& meta, const core::Image& exe
     if (meta.phase_coherence) {
         r.json["phase_coherence"] = *meta.phase_coherence;
         r.json["sharpness_index"] = meta.sharpness_index.value_or(0.0);
-        r.json["kind"] = meta.kind();
     }
+    if (meta.shape_score) r.json["shape_score"] = *meta.shape_score;
+    if (!meta.kind().empty()) r.json["kind"] = meta.kind();
     std::vector<std::vector<double>> hr;
     if (has_restored) {
         hr = histograms(restored);

@@ -17,9 +17,6 @@ struct QualityReport {
     core::Image png; // RGB, for people: images, spectra, histograms
 };
 
-// The verdict in plain words (the page shows the same).
-std::string quality_verdict(const api::TextonMeta& meta);
-
 // `exemplar`: the exemplar's centre crop; `gaussian` and `restored` (empty when the texton keeps no
 // marginals): level-0 windows of its noise of the same size.
 QualityReport quality_report(const api::TextonMeta& meta, const core::Image& exemplar,

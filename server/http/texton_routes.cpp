@@ -114,6 +114,7 @@ std::optional<api::ApiError> exemplar_part(const std::vector<httplib::MultipartF
 nlohmann::json texton_json(const api::TextonMeta& meta) {
     nlohmann::json j = meta;
     if (meta.timings) j["analysis_ms"] = meta.timings->total_ms;
+    j["verdict"] = meta.verdict();
     const std::string base = "/v1/textons/" + meta.id;
     nlohmann::json links;
     for (const auto& [name, suffix] : kLinkTemplates) links[name] = base + suffix;

@@ -129,6 +129,7 @@ TextonRecord make_record(const core::Image& exemplar, const core::AnalysisParams
         m.phase_coherence = result.coherence->index;
         m.sharpness_index = result.coherence->full.index;
     }
+    if (result.shape) m.shape_score = result.shape->score;
     return r;
 }
 

@@ -175,15 +175,13 @@ async function waitForAnalysis(accepted) {
   }
 }
 
-// The micro/macro verdict in plain words (core/README.md "Micro or macro").
+// The micro/macro verdict in plain words, as the server words it (api/texton_meta.cpp: "keeps
+// its look" only under micro, with an RME that does not say the texton misses its model).
 function verdict(meta) {
-  if (!meta.kind) return 'not measured (analysed by an older server)';
-  const pc = `phase coherence ${meta.phase_coherence.toFixed(3)}`;
-  if (meta.kind === 'macro') return `macro-texture (${pc}): expect the noise to lose its edges and shapes`;
-  if (meta.kind === 'borderline') {
-    return `borderline (${pc}): the noise keeps the overall look, but some shapes may soften or fade`;
-  }
-  return `micro-texture (${pc}): the noise keeps its look`;
+  if (!meta.verdict) return 'not measured (analysed by an older server)';
+  return meta.shape_score === undefined
+    ? meta.verdict
+    : `${meta.verdict} (shape score ${meta.shape_score.toFixed(2)})`;
 }
 
 async function show(meta) {

@@ -48,12 +48,20 @@ TEST(TextonFile, RoundTripsBitExactly) {
     EXPECT_EQ(back.value().meta.kind(), "micro"); // pebbles
 }
 
-// Files written before the verdict existed carry no phase coherence: read, answered without it.
-TEST(TextonFile, ReadsMetadataWithoutThePhaseCoherence) {
+// The shape score round-trips; files written before it carry the phase coherence alone, whose
+// kind they keep; files older still carry neither: read, answered without a kind.
+TEST(TextonFile, ReadsMetadataWithoutTheShapeScoreOrThePhaseCoherence) {
     const Analysed a = analyse(1);
     nlohmann::json j = api::file_meta_json(a.record.meta);
+    ASSERT_TRUE(a.record.meta.shape_score);
     EXPECT_EQ(j.at("kind"), "micro");
+    EXPECT_EQ(j.at("shape_score"), *a.record.meta.shape_score);
     EXPECT_EQ(j.at("phase_coherence"), *a.record.meta.phase_coherence);
+    EXPECT_EQ(j.get<api::TextonMeta>().shape_score, a.record.meta.shape_score);
+    j.erase("shape_score");
+    const auto older = j.get<api::TextonMeta>();
+    EXPECT_FALSE(older.shape_score.has_value());
+    EXPECT_EQ(older.kind(), core::to_string(core::texture_kind(*a.record.meta.phase_coherence)));
     for (const char* k : {"phase_coherence", "sharpness_index", "kind"}) j.erase(k);
     const auto old = j.get<api::TextonMeta>();
     EXPECT_FALSE(old.phase_coherence.has_value());
@@ -62,8 +70,8 @@ TEST(TextonFile, ReadsMetadataWithoutThePhaseCoherence) {
     EXPECT_EQ(old.id, a.record.meta.id);
 }
 
-// Three verdicts from the stored index, at the thresholds fitted on the corpus: a
-// texton stored before them gets the new verdict when read.
+// Three verdicts from a stored phase coherence index (files written before the shape score), at
+// its thresholds; a shape score, when stored, decides instead.
 TEST(TextonFile, KindIsMicroBorderlineOrMacroFromTheStoredIndex) {
     api::TextonMeta m;
     const std::pair<double, const char*> cases[] = {{0.0, "micro"},         {0.046, "micro"},
@@ -73,6 +81,8 @@ TEST(TextonFile, KindIsMicroBorderlineOrMacroFromTheStoredIndex) {
         m.phase_coherence = index;
         EXPECT_EQ(m.kind(), kind) << index;
     }
+    m.shape_score = -1.0;
+    EXPECT_EQ(m.kind(), "micro");
 }
 
 TEST(TextonFile, IdIsContentAddressedAndThreadIndependent) {

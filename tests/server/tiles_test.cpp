@@ -410,14 +410,30 @@ TEST(Ops, HealthReadinessMetricsAndSpec) {
 } // namespace
 } // namespace textond::test
 
-// The quality report and the page say each verdict in words.
-TEST(QualityVerdict, SaysEachKindInWords) {
+// The quality report and the page say each verdict in words, and "keeps its look" only under
+// micro with an RME that does not say the texton misses its model.
+TEST(QualityVerdict, SaysEachKindInWordsAndKeepsItsLookOnlyUnderMicroCloseToItsModel) {
     textond::api::TextonMeta m;
-    EXPECT_NE(textond::app::quality_verdict(m).find("not measured"), std::string::npos);
-    m.phase_coherence = 0.01;
-    EXPECT_NE(textond::app::quality_verdict(m).find("keeps its look"), std::string::npos);
-    m.phase_coherence = 0.06;
-    EXPECT_NE(textond::app::quality_verdict(m).find("borderline"), std::string::npos);
-    m.phase_coherence = 0.2;
-    EXPECT_NE(textond::app::quality_verdict(m).find("lose its edges"), std::string::npos);
+    EXPECT_NE(m.verdict().find("not measured"), std::string::npos);
+    m.rme = 0.5;
+    m.phase_coherence = 0.01; // an older file: the kind from phase coherence
+    EXPECT_EQ(m.kind(), "micro");
+    EXPECT_NE(m.verdict().find("keeps its look"), std::string::npos);
+    const double band = textond::core::kShapeBand;
+    m.shape_score = -band - 1.0; // the shape score decides when present
+    EXPECT_NE(m.verdict().find("keeps its look"), std::string::npos);
+    m.shape_score = 0.0;
+    EXPECT_NE(m.verdict().find("borderline"), std::string::npos);
+    EXPECT_NE(m.verdict().find("repeated motifs"), std::string::npos);
+    m.shape_score = band + 1.0;
+    EXPECT_EQ(m.kind(), "macro");
+    EXPECT_NE(m.verdict().find("lose its shapes"), std::string::npos);
+    for (double score : {-band - 1.0, 0.0, band + 1.0}) {
+        m.shape_score = score;
+        m.rme = textond::core::kMissedModelRme + 0.01;
+        EXPECT_EQ(m.verdict().find("keeps its look"), std::string::npos) << score;
+        EXPECT_NE(m.verdict().find("misses its model"), std::string::npos) << score;
+        m.rme = textond::core::kMissedModelRme - 0.01;
+        EXPECT_EQ(m.verdict().find("misses its model"), std::string::npos) << score;
+    }
 }
