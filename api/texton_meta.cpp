@@ -35,16 +35,18 @@ std::string TextonMeta::verdict() const {
     if (k.empty()) return "not measured (analysed by an older server)";
     const bool missed = rme > core::kMissedModelRme;
     char rme_text[96];
-    std::snprintf(rme_text, sizeof rme_text, "the texton misses its model (RME %.3f, above %.2f)",
+    std::snprintf(rme_text, sizeof rme_text, "the texton misses its model (RME %.4f, above %.4f)",
                   rme, core::kMissedModelRme);
     if (k == "macro")
         return std::string("macro-texture: expect the noise to lose its shapes (outlines, edges, "
                            "repeated motifs)") +
                (missed ? std::string("; ") + rme_text : "");
     if (k == "borderline")
-        return std::string("borderline: the noise keeps the overall look, but some shapes, edges "
-                           "or repeated motifs may soften or fade") +
-               (missed ? std::string("; ") + rme_text : "");
+        return missed ? std::string("borderline: some shapes, edges or repeated motifs may soften "
+                                    "or fade, and ") +
+                            rme_text
+                      : "borderline: the noise keeps the overall look, but some shapes, edges or "
+                        "repeated motifs may soften or fade";
     if (missed)
         return std::string("micro-texture, but ") + rme_text +
                ": expect the noise to look unlike the photo";

@@ -190,6 +190,9 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
         field(out.excess, i) = field(out.exemplar, i) - mean;
     }
     out.score = weighted(out.excess);
+    // Values past float's range (an EXR of 1e20s) overflow the tensor: no measurement, as for a
+    // tiny image, rather than a NaN that no JSON reader takes back.
+    if (!std::isfinite(out.score)) out.score = weighted(ShapeStatistics{});
     return out;
 }
 

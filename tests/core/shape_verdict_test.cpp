@@ -96,7 +96,7 @@ TEST(ShapeVerdict, DiagnosisARepeatedMotifFoldsAwayInThePhaseCoherenceScales) {
 
 // Drawn shapes the phase coherence index called micro or macro by accident of the scales: bricks
 // (index -0.016, micro) and a print of period 64 are macro; white noise is micro. A print of period
-// 32 at 1024 pixels is still called micro (core/README.md: its dots are 2 pixels wide at the
+// 32 at 1024 pixels is still called micro (core/README.md: its dots are 4 pixels wide at the
 // measured scale, where the statistics read them as specks).
 TEST(ShapeVerdict, DrawnShapesAreMacroAndNoiseIsMicro) {
     EXPECT_EQ(core::phase_coherence(drawn(1024, bricks), 2).kind(), core::TextureKind::micro);
