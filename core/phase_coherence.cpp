@@ -107,6 +107,10 @@ Image box_reduce(const Image& u, int f) {
     return v;
 }
 
+double coherence_of(const SharpnessIndex& si) {
+    return si.mean > 0.0 ? 1.0 - si.tv / si.mean : 0.0;
+}
+
 const char* to_string(TextureKind k) {
     return k == TextureKind::micro ? "micro" : k == TextureKind::macro ? "macro" : "borderline";
 }
@@ -135,7 +139,7 @@ PhaseCoherence phase_coherence(const Image& u, int threads) {
         s.width = v.width;
         s.height = v.height;
         s.si = f == 1 ? out.full : sharpness_index(v, threads);
-        s.coherence = s.si.mean > 0.0 ? 1.0 - s.si.tv / s.si.mean : 0.0;
+        s.coherence = coherence_of(s.si);
         out.index += s.coherence / static_cast<double>(factors.size());
         out.scales.push_back(s);
     }

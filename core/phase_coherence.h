@@ -42,6 +42,9 @@ Image box_reduce(const Image& u, int f);
 // at each scale the TV is compared with its random-phase mean: coherence = 1 - TV / E[TV], which
 // does not grow with the image's size (0 for a random-phase image, give or take sd / E[TV]).
 // The index is the mean over those scales.
+// 1 - TV / E[TV] of a sharpness index: 0 for a flat image (no random-phase mean).
+double coherence_of(const SharpnessIndex& si);
+
 struct CoherenceScale {
     int factor = 1; // box reduction factor
     int width = 0, height = 0;

@@ -115,8 +115,7 @@ double speck_kurtosis(const Spectrum& spec, const RealFft2d& fft, int threads) {
 double tv_coherence(const Image& grey) {
     const int f = 4;
     if (grey.width < 2 * f || grey.height < 2 * f) return 0.0;
-    const SharpnessIndex si = sharpness_index(box_reduce(grey, f), 1, /*periodic=*/true);
-    return si.mean > 0.0 ? 1.0 - si.tv / si.mean : 0.0;
+    return coherence_of(sharpness_index(box_reduce(grey, f), 1, /*periodic=*/true));
 }
 
 ShapeStatistics statistics_of(const Image& grey, const Spectrum& spec, const RealFft2d& fft,
@@ -178,16 +177,14 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
         for (float& v : sample.data) v /= static_cast<float>(n);
         null.push_back(statistics_of(sample, z, *fft, threads));
     }
-    auto field = [](ShapeStatistics& s, int i) -> double& {
-        return i == 0 ? s.tensor : i == 1 ? s.tv : i == 2 ? s.lines : s.specks;
-    };
-    for (int i = 0; i < 4; ++i) {
+    for (double ShapeStatistics::*field : {&ShapeStatistics::tensor, &ShapeStatistics::tv,
+                                           &ShapeStatistics::lines, &ShapeStatistics::specks}) {
         double mean = 0, m2 = 0;
-        for (auto& s : null) mean += field(s, i) / samples;
-        for (auto& s : null) m2 += (field(s, i) - mean) * (field(s, i) - mean);
-        field(out.null_mean, i) = mean;
-        field(out.null_sd, i) = samples > 1 ? std::sqrt(m2 / (samples - 1)) : 0.0;
-        field(out.excess, i) = field(out.exemplar, i) - mean;
+        for (const auto& s : null) mean += s.*field / samples;
+        for (const auto& s : null) m2 += (s.*field - mean) * (s.*field - mean);
+        out.null_mean.*field = mean;
+        out.null_sd.*field = samples > 1 ? std::sqrt(m2 / (samples - 1)) : 0.0;
+        out.excess.*field = out.exemplar.*field - mean;
     }
     out.score = weighted(out.excess);
     // Values past float's range (an EXR of 1e20s) overflow the tensor: no measurement, as for a
