@@ -2,6 +2,7 @@
 
 #include "render/cpu_backend.h"
 #include "render/egl_backend.h"
+#include "render/gl/gl_backend.h"
 #include "render/osmesa_backend.h"
 
 #include <algorithm>
@@ -59,7 +60,8 @@ std::string figures_text(const std::vector<Calibration>& figures) {
 
 } // namespace
 
-Result<Calibration> calibrate(Backend& tiles, int tile_slots, Backend& frames, bool quick) {
+Result<Calibration> calibrate(const std::vector<Backend*>& tile_workers, Backend& frames,
+                              bool quick) {
     const int side = quick ? 64 : 256;
     const auto tex = calibration_texton();
     Calibration out;
@@ -77,25 +79,39 @@ Result<Calibration> calibrate(Backend& tiles, int tile_slots, Backend& frames, b
     };
     // First uses build tables and upload textures (and compile shaders): not measured.
     if (auto warm = render(frames, frame)) return *warm;
-    if (&tiles != &frames)
-        if (auto warm = render(tiles, tile)) return *warm;
-    // The tiles as concurrent requests become: one batch on GL, one after another on the CPU.
-    tile.precision = Precision::u8; // as a PNG tile is read back
+    tile.precision = Precision::u8; // as a PNG tile is read back (its own GL program)
+    for (Backend* w : tile_workers)
+        if (auto warm = render(*w, tile)) return *warm;
+    // Sixteen tiles on every worker at once: one batch a lane on GL, one after another on each
+    // CPU slot, so a GPU's lanes overlap and the CPU's slots share the cores as when serving.
     auto sixteen = median_ms([&]() -> std::optional<Error> {
-        std::vector<NoiseRequest> qs(16, tile);
-        for (int t = 0; t < 16; ++t) {
-            qs[static_cast<std::size_t>(t)].x0 = side * (t % 4);
-            qs[static_cast<std::size_t>(t)].y0 = side * (t / 4);
-            qs[static_cast<std::size_t>(t)].seed = ++seed;
-        }
-        for (auto& r : tiles.render_many(*tex, qs))
-            if (!r) return r.error();
+        const std::size_t n = tile_workers.size();
+        std::vector<std::optional<Error>> errors(n);
+        std::vector<std::vector<NoiseRequest>> qs(n, std::vector<NoiseRequest>(16, tile));
+        for (std::size_t w = 0; w < n; ++w)
+            for (int t = 0; t < 16; ++t) {
+                NoiseRequest& q = qs[w][static_cast<std::size_t>(t)];
+                q.x0 = side * (t % 4) + 4 * side * static_cast<std::int64_t>(w);
+                q.y0 = side * (t / 4);
+                q.seed = ++seed;
+            }
+        auto one = [&](std::size_t w) {
+            for (auto& r : tile_workers[w]->render_many(*tex, qs[w]))
+                if (!r && !errors[w]) errors[w] = r.error();
+        };
+        std::vector<std::thread> threads;
+        for (std::size_t w = 1; w < n; ++w) threads.emplace_back(one, w);
+        if (n > 0) one(0);
+        for (auto& t : threads) t.join();
+        for (auto& e : errors)
+            if (e) return e;
         return std::nullopt;
     });
     if (!sixteen) return sixteen.error();
     auto whole = median_ms([&] { return render(frames, frame); });
     if (!whole) return whole.error();
-    out.tile_ms = sixteen.value() / std::max(1, tile_slots);
+    out.tile_ms =
+        sixteen.value() / static_cast<double>(std::max<std::size_t>(1, tile_workers.size()));
     out.frame_ms = whole.value();
     return out;
 }
@@ -107,6 +123,20 @@ std::pair<std::size_t, std::size_t> pick_fastest(const std::vector<Calibration>&
         if (figures[i].frame_ms < figures[frames].frame_ms) frames = i;
     }
     return {tiles, frames};
+}
+
+int gl_lanes(const BackendOptions& options, const GlBackend& gl) {
+    if (options.gl_lanes > 0) return options.gl_lanes;
+    return gl.software() ? 1 : 3;
+}
+
+Result<std::shared_ptr<GlBackend>> make_gl_lane(const GlBackend& gl,
+                                                const BackendOptions& options) {
+    auto lane =
+        gl.name() == "egl" ? make_egl_backend(options.allow_software_egl) : make_osmesa_backend();
+    if (!lane) return lane.error();
+    lane.value()->set_point_kernel(gl.point_kernel());
+    return lane;
 }
 
 Result<BackendKind> parse_backend_kind(std::string_view name) {
@@ -135,7 +165,7 @@ const char* to_string(BackendKind kind) {
 Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& options) {
     auto cpu = [&](const std::string& reason) {
         auto b = std::make_shared<CpuBackend>(options.threads);
-        return BackendChoice{b, nullptr, reason + b->renderer(), {}};
+        return BackendChoice{b, nullptr, reason + b->renderer(), {}, {}};
     };
     switch (kind) {
     case BackendKind::cpu:
@@ -143,12 +173,13 @@ Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& optio
     case BackendKind::osmesa: {
         auto b = make_osmesa_backend();
         if (!b) return b.error();
-        return BackendChoice{b.value(), nullptr, "asked for osmesa: " + b.value()->renderer(), {}};
+        return BackendChoice{
+            b.value(), nullptr, "asked for osmesa: " + b.value()->renderer(), {}, {}};
     }
     case BackendKind::egl: {
         auto b = make_egl_backend(options.allow_software_egl);
         if (!b) return b.error();
-        return BackendChoice{b.value(), nullptr, "asked for egl: " + b.value()->renderer(), {}};
+        return BackendChoice{b.value(), nullptr, "asked for egl: " + b.value()->renderer(), {}, {}};
     }
     case BackendKind::automatic: {
         auto b = make_egl_backend(options.allow_software_egl);
@@ -161,8 +192,18 @@ Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& optio
         auto all = std::make_shared<CpuBackend>(options.threads);
         auto one = std::make_shared<CpuBackend>(1);
         const bool quick = options.quick_calibration;
-        auto on_cpu = calibrate(*one, slots, *all, quick);
-        auto gpu = calibrate(*b.value(), 1, *b.value(), quick);
+        std::vector<std::shared_ptr<GlBackend>> lanes{b.value()};
+        while (static_cast<int>(lanes.size()) < gl_lanes(options, *b.value())) {
+            auto lane = make_gl_lane(*b.value(), options);
+            if (!lane) break; // the batcher says how many it has
+            lanes.push_back(std::move(lane.value()));
+        }
+        auto on_cpu = calibrate(std::vector<Backend*>(static_cast<std::size_t>(slots), one.get()),
+                                *all, quick);
+        std::vector<Backend*> gpu_workers;
+        gpu_workers.reserve(lanes.size());
+        for (const auto& lane : lanes) gpu_workers.push_back(lane.get());
+        auto gpu = calibrate(gpu_workers, *b.value(), quick);
         if (!on_cpu) return make_error(ErrorCode::internal, "auto: the CPU calibration failed");
         if (!gpu)
             return cpu("auto: the GPU (" + b.value()->renderer() +
@@ -173,6 +214,7 @@ Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& optio
         c.backend = f == 0 ? std::static_pointer_cast<Backend>(all) : b.value();
         c.tiles = t == 0 ? std::static_pointer_cast<Backend>(one) : b.value();
         c.calibration = figures;
+        if (t == 1 || f == 1) c.lanes = std::move(lanes);
         c.reason = std::string("auto, measured (") + figures_text(figures) + "): tiles on " +
                    c.tiles->name() + ", frames on " + c.backend->name() + "; " +
                    b.value()->renderer();

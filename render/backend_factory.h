@@ -14,6 +14,8 @@
 
 namespace textond::render {
 
+class GlBackend;
+
 enum class BackendKind { automatic, cpu, osmesa, egl };
 
 Result<BackendKind> parse_backend_kind(std::string_view name); // auto | cpu | osmesa | egl
@@ -32,9 +34,17 @@ struct BackendOptions {
     int batch_tiles = 64;
     int batch_wait_us = 200;
     int batch_ms = 25; // and at most about this much measured work (at least one window)
+    // GL: batch workers, each with a context of its own (render/tile_batcher.h); 0 = 3 on a
+    // GPU, 1 on a software renderer (whose one dispatch already takes every core).
+    int gl_lanes = 0;
     // Tests: calibrate on 64x64 tiles and a 480x270 frame (the same code, 1/16 of the work).
     bool quick_calibration = false;
 };
+
+// The lanes `options` asks of `gl`, and one more lane like `gl` (its kind and point kernel, a
+// context of its own).
+int gl_lanes(const BackendOptions& options, const GlBackend& gl);
+Result<std::shared_ptr<GlBackend>> make_gl_lane(const GlBackend& gl, const BackendOptions& options);
 
 // What the calibration of `auto` measured for one backend (milliseconds, median of 3).
 struct Calibration {
@@ -49,11 +59,16 @@ struct BackendChoice {
     std::shared_ptr<Backend> tiles;   // tiles; null = `backend` (the CPU path's tiles: one thread)
     std::string reason;               // what was tried and why this one was taken
     std::vector<Calibration> calibration; // auto with a GPU: every candidate's figures
+    // auto with a GPU: the GL lanes it calibrated (the first is `backend` or `tiles`), for the
+    // batcher to keep.
+    std::vector<std::shared_ptr<GlBackend>> lanes;
 };
 
-// The calibration set: the tiles rendered on `tiles` (which renders `tile_slots` of them at once)
-// and the frame on `frames` (the same backend, or the CPU's tile and frame configurations).
-Result<Calibration> calibrate(Backend& tiles, int tile_slots, Backend& frames, bool quick = false);
+// The calibration set: sixteen tiles on each of `tile_workers` at once, one thread each, as the
+// server renders them (the CPU: one worker a render slot; GL: one a lane), and the frame on
+// `frames`. tile_ms is the wall time over the workers: sixteen tiles' share of the throughput.
+Result<Calibration> calibrate(const std::vector<Backend*>& tile_workers, Backend& frames,
+                              bool quick = false);
 
 // Which calibrated backend serves tiles and which frames: the fastest of each, the CPU's (entry 0)
 // unless another beats it. Returns indices into `figures`.

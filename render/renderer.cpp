@@ -26,11 +26,27 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
     r->m_tiles_name = tiles->name();
     r->m_gl = std::dynamic_pointer_cast<GlBackend>(frames);
     r->m_batched = r->m_gl ? r->m_gl : std::dynamic_pointer_cast<GlBackend>(tiles);
-    if (r->m_batched)
+    std::string lanes_note;
+    if (r->m_batched) {
+        // auto calibrated its lanes already (the first is the batched backend).
+        std::vector<std::shared_ptr<GlBackend>> lanes = choice.value().lanes;
+        if (lanes.empty() || lanes.front() != r->m_batched) lanes = {r->m_batched};
+        const int want = render::gl_lanes(options, *r->m_batched);
+        while (static_cast<int>(lanes.size()) < want) {
+            auto lane = make_gl_lane(*r->m_batched, options);
+            if (!lane) { // a device that takes one context only: fewer lanes, same bits
+                lanes_note = " (another context failed: " + lane.error().message + ")";
+                break;
+            }
+            lanes.push_back(std::move(lane.value()));
+        }
+        lanes_note = "; GL batches in " + std::to_string(lanes.size()) + " lane" +
+                     (lanes.size() == 1 ? "" : "s") + lanes_note;
         r->m_batcher = std::make_unique<TileBatcher>(
-            r->m_batched, options.batch_tiles, std::chrono::microseconds(options.batch_wait_us),
+            std::move(lanes), options.batch_tiles, std::chrono::microseconds(options.batch_wait_us),
             options.batch_ms);
-    r->m_reason = choice.value().reason;
+    }
+    r->m_reason = choice.value().reason + lanes_note;
     r->m_calibration = choice.value().calibration;
     auto identity = [](const Backend& b) {
         return b.name() == "cpu" ? std::string("cpu") : b.name() + ":" + b.renderer();
@@ -53,6 +69,9 @@ double Renderer::work_factor() const {
 
 bool Renderer::all_batched() const {
     return m_batcher && m_tiles == m_batched && m_frames == m_batched;
+}
+int Renderer::gl_lanes() const {
+    return m_batcher ? m_batcher->lanes() : 0;
 }
 std::uint64_t Renderer::batches() const {
     return m_batcher ? m_batcher->batches() : 0;

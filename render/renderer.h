@@ -61,6 +61,7 @@ public:
     // Whether all noise (tiles and frames) goes through a GL batcher, and what it did: batches
     // and windows in them.
     bool all_batched() const; // tiles and frames
+    int gl_lanes() const;     // the batcher's workers, each with a context (0: no batcher)
     std::uint64_t batches() const;
     std::uint64_t batched_windows() const;
     const std::string& frames_backend() const { return m_frames_name; }

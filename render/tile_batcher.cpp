@@ -9,11 +9,12 @@
 
 namespace textond::render {
 
-TileBatcher::TileBatcher(std::shared_ptr<GlBackend> gl, int max_tiles,
+TileBatcher::TileBatcher(std::vector<std::shared_ptr<GlBackend>> lanes, int max_tiles,
                          std::chrono::microseconds max_wait, double max_ms)
-    : m_gl(std::move(gl)), m_max_tiles(std::max(1, max_tiles)),
-      m_max_wait(std::max(std::chrono::microseconds(0), max_wait)), m_max_ms(max_ms),
-      m_worker([this] { run(); }) {}
+    : m_lanes(std::move(lanes)), m_max_tiles(std::max(1, max_tiles)),
+      m_max_wait(std::max(std::chrono::microseconds(0), max_wait)), m_max_ms(max_ms) {
+    for (const auto& lane : m_lanes) m_workers.emplace_back([this, &lane] { run(*lane); });
+}
 
 TileBatcher::~TileBatcher() {
     {
@@ -21,12 +22,12 @@ TileBatcher::~TileBatcher() {
         m_stop = true;
     }
     m_queued.notify_all();
-    m_worker.join();
+    for (std::thread& w : m_workers) w.join();
 }
 
 Result<core::Image> TileBatcher::render(const PreparedTexton& texton, const PreparedMix* mix,
                                         const NoiseRequest& request) {
-    auto work = m_gl->prepare(texton, mix, request); // on the caller's thread
+    auto work = m_lanes.front()->prepare(texton, mix, request); // on the caller's thread
     if (!work) return work.error();
     Job job{std::move(work.value())};
     {
@@ -39,7 +40,7 @@ Result<core::Image> TileBatcher::render(const PreparedTexton& texton, const Prep
     return std::move(job.work.image);
 }
 
-void TileBatcher::run() {
+void TileBatcher::run(GlBackend& gl) {
     auto pixels_of = [](const Job& job) {
         return static_cast<double>(job.work.window->width) * job.work.window->height;
     };
@@ -72,7 +73,7 @@ void TileBatcher::run() {
         for (Job* j : jobs) batch.push_back(&j->work);
         const auto t0 = std::chrono::steady_clock::now();
         try {
-            m_gl->render_batch(batch);
+            gl.render_batch(batch);
         } catch (const std::exception& e) { // bad_alloc: fail the batch, not the process
             for (Job* j : jobs) j->work.image = Error{ErrorCode::internal, e.what()};
         }

@@ -340,7 +340,18 @@ std::vector<Result<core::Image>> GlBackend::render_many(const PreparedTexton& te
 }
 
 std::size_t GlBackend::pass_words() const {
+    if (m_pass_words > 0) return m_pass_words;
     return m_software ? kSoftwarePassWords : kPassWords;
+}
+
+void GlBackend::set_pass_words(std::size_t words) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_pass_words = words;
+}
+
+std::vector<double> GlBackend::last_pass_ms() {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    return m_pass_ms;
 }
 
 namespace {
@@ -375,6 +386,7 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
         fail_batch(batch, Error{ErrorCode::internal, m_name + ": cannot make context current"});
         return 0;
     }
+    m_pass_ms.clear();
     if (auto e = map_slots()) {
         fail_batch(batch, *e);
         return 0;
@@ -395,9 +407,13 @@ double GlBackend::render_batch(const std::vector<Work*>& batch) {
 // The two output buffers a pass writes and their persistently mapped readback copies, made once.
 std::optional<Error> GlBackend::map_slots() {
     const gl::GlApi& g = *m_gl;
+    const std::size_t words = pass_words();
+    if (m_slot_words != words)
+        for (Slot& slot : m_slots) release_slot(slot);
+    m_slot_words = words;
     for (Slot& slot : m_slots) {
         if (slot.mapped) continue;
-        const auto bytes = static_cast<GLsizeiptr>(kPassWords * 4);
+        const auto bytes = static_cast<GLsizeiptr>(words * 4);
         release_slot(slot); // a failed attempt's
         g.GenBuffers(1, &slot.out);
         g.BindBuffer(GL_SHADER_STORAGE_BUFFER, slot.out);
@@ -537,6 +553,7 @@ std::optional<Error> GlBackend::finish_pass(int s, const gl::Pass& pass, double&
     g.GetQueryObjectui64v(slot.query, GL_QUERY_RESULT, &ns);
     const double pass_ms = slot.host_ms >= 0 ? slot.host_ms : static_cast<double>(ns) * 1e-6;
     gpu_ms += pass_ms;
+    m_pass_ms.push_back(pass_ms);
     std::map<Work*, bool> seen;
     for (const gl::Piece& p : pass.pieces) {
         if (!seen[p.work]) p.work->stats.gpu_ms = std::max(0.0, p.work->stats.gpu_ms) + pass_ms;

@@ -115,6 +115,10 @@ public:
     // Test hook: pretend storage buffers hold at most `bytes` (batches split below it).
     void limit_storage_block(std::size_t bytes) { m_max_block_bytes = bytes; }
     std::size_t pass_words() const; // output words a pass: fewer on a software renderer
+    // Bench hooks: another pass size (0: the default; its buffers are remade), and the GPU ms of
+    // each pass of the last batch.
+    void set_pass_words(std::size_t words);
+    std::vector<double> last_pass_ms();
 
     // Test hook: runs render/glsl/spec_probe.comp on `queries` (8 words each) with the given
     // Poisson thresholds; returns 64 words per query.
@@ -155,6 +159,9 @@ private:
         double host_ms = -1;   // software renderers: the dispatches' time on the host clock
     };
     Slot m_slots[2];
+    std::size_t m_pass_words = 0;  // set_pass_words; 0: by renderer
+    std::size_t m_slot_words = 0;  // what the slots were made for
+    std::vector<double> m_pass_ms; // the last batch's
     void release_slot(Slot& slot); // deletes what it holds, leaves it empty
     std::size_t m_max_block_bytes = std::size_t{128} << 20; // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
     // Storage buffers grown as needed and reused: 0 cell starts (binding 1), 1 points (2), 2 a

@@ -30,7 +30,7 @@ Milliseconds per frame of texton noise (MNI 30, level 0) for each backend at 256
 FFTW ADSN of the same size measured in the same run (ratio = ADSN ms / backend ms); for OpenGL
 also the GPU time of the dispatches alone (timer queries), where the rest is readback and
 conversion, and (OpenGL) the same frame read back as 8-bit RGB, rounded on the GPU as the PNG
-encoder rounds. Then 64 tiles of 256x256 as 8-bit: one call each, and as one batch (OpenGL: one
+encoder rounds; on a GPU, 4K frames at 1, 2 and 4 times the pass size, each pass's GPU ms. Then 64 tiles of 256x256 as 8-bit: one call each, and as one batch (OpenGL: one
 upload, one dispatch and one readback; the CPU renders them one after another). Also one
 256x256 tile at every level 0..5 (exact box filtering), 6 and 8 (limit model), 24 and -2, with
 its ratio to level 0, one 1024x1024 frame at interpolation orders 0, 1, 3, and (CPU,
@@ -142,6 +142,83 @@ Result<bool> frame_row(const Bench& b, render::Backend& backend, const render::P
                 s.label, ms, gpu_text, u8_text, adsn, adsn / ms);
     std::fflush(stdout);
     return true;
+}
+
+// The 4K frame by pass size (output words a pass; the default first), with each pass's GPU ms.
+void passes_by_size(const Bench& b, render::GlBackend& gl) {
+    const std::size_t standard = gl.pass_words();
+    for (auto precision : {render::Precision::f32, render::Precision::u8})
+        for (std::size_t words : {standard, standard * 2, standard * 4}) {
+            gl.set_pass_words(words);
+            render::NoiseRequest q;
+            q.width = 3840;
+            q.height = 2160;
+            q.precision = precision;
+            std::vector<std::pair<double, std::vector<double>>> gpu;
+            const double ms = median_ms(b.repeat, [&] {
+                ++q.seed;
+                render::RenderStats stats;
+                auto img = gl.render(*b.r64, q, &stats);
+                gpu.emplace_back(stats.gpu_ms, gl.last_pass_ms());
+            });
+            std::sort(gpu.begin(), gpu.end());
+            const auto& [total, each] = gpu[gpu.size() / 2];
+            std::string list;
+            for (double p : each)
+                list += (list.empty() ? "" : " ") + std::to_string(p).substr(0, 5);
+            std::printf("| %s | %s | 2^%d | %zu | %.2f | %.2f | %s |\n", gl.name().c_str(),
+                        precision == render::Precision::u8 ? "8-bit" : "float",
+                        static_cast<int>(std::log2(static_cast<double>(words))), each.size(), ms,
+                        total, list.c_str());
+            std::fflush(stdout);
+        }
+    gl.set_pass_words(0);
+}
+
+// One pass a frame (8-bit, 4 times the default pass): GPU ns a pixel by the frame's shape. The
+// same ns for every shape means a 4K/HD ratio off 4x is the GPU's clock, not the kernel.
+void frames_by_shape(const Bench& b, render::GlBackend& gl) {
+    std::printf(
+        "\nOne-pass 8-bit frames by shape (r = 64; GPU ms: min and median of %d)\n"
+        "| backend | frame | GPU ms min | median | ns/pixel (min) |\n|---|---|---|---|---|\n",
+        b.repeat);
+    gl.set_pass_words(gl.pass_words() * 4);
+    const Size shapes[] = {{1920, 1080, "1920x1080"}, {2048, 1080, "2048x1080"},
+                           {1920, 2160, "1920x2160"}, {3840, 1080, "3840x1080"},
+                           {2048, 2048, "2048x2048"}, {3840, 2160, "3840x2160"}};
+    for (const Size& s : shapes) {
+        render::NoiseRequest q;
+        q.width = s.w;
+        q.height = s.h;
+        q.precision = render::Precision::u8;
+        std::vector<double> gpu;
+        median_ms(b.repeat, [&] {
+            ++q.seed;
+            render::RenderStats stats;
+            auto img = gl.render(*b.r64, q, &stats);
+            gpu.push_back(stats.gpu_ms);
+        });
+        std::sort(gpu.begin(), gpu.end());
+        std::printf("| %s | %s | %.2f | %.2f | %.3f |\n", gl.name().c_str(), s.label, gpu.front(),
+                    gpu[gpu.size() / 2], gpu.front() * 1e6 / (double(s.w) * s.h));
+        std::fflush(stdout);
+    }
+    gl.set_pass_words(0);
+}
+
+// OpenGL on a GPU: what a large frame's GPU time is made of (passes, then the frame's shape).
+void passes_table(const Bench& b) {
+    if (b.max_side < 3840) return;
+    for (const auto& backend : b.backends) {
+        auto gl = std::dynamic_pointer_cast<render::GlBackend>(backend);
+        if (!gl || gl->software()) continue;
+        std::printf("\n4K 3840x2160 frames by pass size (r = 64, MNI 30, level 0, median of %d)"
+                    "\n| backend | output | words a pass | passes | ms/frame | GPU ms | GPU ms "
+                    "of each pass |\n|---|---|---|---|---|---|---|\n",
+                    b.repeat);
+        passes_by_size(b, *gl);
+        frames_by_shape(b, *gl);
+    }
 }
 
 // The paper's Table 1: frames of r = 64 and r = 256 textons against FFTW's ADSN; keeps r = 64.
@@ -382,6 +459,7 @@ Result<bool> cpu_table(const Bench& b) {
 
 Result<bool> run_tables(Bench& b) {
     if (auto r = frames_table(b); !r) return r;
+    passes_table(b);
     tiles_table(b);
     if (auto r = levels_table(b); !r) return r;
     if (auto r = orders_table(b); !r) return r;

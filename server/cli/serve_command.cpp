@@ -54,6 +54,8 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --gpu-batch-wait-us N    GL: how long a batch waits for more windows         [200]
   --gpu-batch-ms N         GL: measured work one batch holds at most (all its
                            windows are answered when it ends)                  [25]
+  --gpu-lanes N            GL: batches in flight at once, each with a context
+                           of its own; 0 = 3 on a GPU, 1 in software           [0]
   --analysis-workers N     analyses at once (each uses every core)             [1]
   --analysis-queue N       analyses waiting before uploads get 429             [4]
   --cache-mb N             in-memory image cache budget, MiB                   [256]
@@ -105,6 +107,7 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--gpu-batch-tiles",
                                                 "--gpu-batch-wait-us",
                                                 "--gpu-batch-ms",
+                                                "--gpu-lanes",
                                                 "--analysis-workers",
                                                 "--analysis-queue",
                                                 "--cache-mb",
@@ -173,6 +176,7 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
           num("--gpu-batch-tiles", c.gpu_batch_tiles, 1, 1024, c.gpu_batch_tiles),
           num("--gpu-batch-wait-us", c.gpu_batch_wait_us, 0, 100000, c.gpu_batch_wait_us),
           num("--gpu-batch-ms", c.gpu_batch_ms, 1, 60000, c.gpu_batch_ms),
+          num("--gpu-lanes", c.gpu_lanes, 0, 16, c.gpu_lanes),
           num("--analysis-workers", c.analysis_workers, 1, 64, c.analysis_workers),
           num("--analysis-queue", c.analysis_queue, 0, 10000, c.analysis_queue),
           num("--cache-mb", cache_mb, 0, 1 << 20, cache_mb),

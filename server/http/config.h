@@ -31,12 +31,13 @@ struct ServeConfig {
     // the pool must cover the connections expected at once; renders are bounded separately.
     int http_threads = 128;     // connection threads kept
     int max_connections = 1024; // connection threads at most (more are started on demand)
-    // Renders at once; 0 = one per core, plus --gpu-batch-tiles more when tiles and frames both
-    // go to a GL backend (a slot then mostly waits for its batch).
+    // Renders at once; 0 = one per core, plus --gpu-batch-tiles more a GL lane when tiles and
+    // frames both go to a GL backend (a slot then mostly waits for its batch).
     int render_slots = 0;
     int gpu_batch_tiles = 64;    // GL: windows gathered into one batch at most
     int gpu_batch_wait_us = 200; // GL: how long a batch waits for more once one is queued
     int gpu_batch_ms = 25;       // GL: measured work a batch holds at most (one window at least)
+    int gpu_lanes = 0;           // GL: batch workers, a context each; 0 = 3 on a GPU, 1 in software
     int analysis_workers = 1;    // analyses at once (each uses every core)
     int analysis_queue = 4;      // waiting analyses before 429
     int read_timeout_s = 30;

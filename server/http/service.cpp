@@ -96,15 +96,16 @@ std::optional<Error> Service::open_parts() {
     options.batch_tiles = m_config.gpu_batch_tiles;
     options.batch_wait_us = m_config.gpu_batch_wait_us;
     options.batch_ms = m_config.gpu_batch_ms;
+    options.gl_lanes = m_config.gpu_lanes;
     auto renderer = render::Renderer::make(m_config.backend, options);
     if (!renderer) return renderer.error();
     m_renderer = std::move(renderer.value());
     m_gate.set_work_factor(m_renderer->work_factor());
     // Tiles on a GL backend: a slot mostly waits for its batch, so one per core would never fill
-    // one. Enough more to gather a whole batch while the cores encode the last.
+    // one. Enough more to gather a whole batch a lane while the cores encode the last.
     // Only when frames go there too: CPU frames and fallbacks would take the extra slots.
     if (m_config.render_slots == 0 && m_renderer->all_batched())
-        m_gate.render_slots().add(m_config.gpu_batch_tiles);
+        m_gate.render_slots().add(m_config.gpu_batch_tiles * m_renderer->gl_lanes());
     m_pool = std::make_unique<AnalysisPool>(m_config.analysis_workers, m_config.analysis_queue);
     return std::nullopt;
 }
@@ -147,6 +148,8 @@ void Service::add_gauges() {
             count([r] { return r->batches(); }));
     m.gauge("textond_gpu_batched_windows", "Windows rendered in GL batches since start.",
             count([r] { return r->batched_windows(); }));
+    m.gauge("textond_gpu_lanes", "GL batch workers, each with a context (0 without a GL backend).",
+            count([r] { return r->gl_lanes(); }));
     const WorkSlots* slots = &m_gate.render_slots();
     m.gauge("textond_render_waiting", "Renders waiting for a render slot.",
             count([slots] { return slots->waiting(); }));

@@ -21,9 +21,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <thread>
 #include <tuple>
 
 namespace textond::test {
@@ -750,6 +753,37 @@ TEST(BackendFactory, PicksTheFastestAndNeverOneSlowerThanTheCpu) {
               std::make_pair(std::size_t{1}, std::size_t{1}));
 }
 
+// A backend that renders blank windows slowly and counts how many of its renders overlap.
+class OverlapProbe final : public render::Backend {
+public:
+    std::string name() const override { return "probe"; }
+    std::string renderer() const override { return "probe"; }
+    Result<core::Image> render(const render::PreparedTexton&, const render::NoiseRequest& q,
+                               render::RenderStats* = nullptr) override {
+        const int now = ++active;
+        for (int seen = most.load(); now > seen && !most.compare_exchange_weak(seen, now);) {
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        ++renders;
+        --active;
+        return core::Image(q.width, q.height, 3);
+    }
+    static std::atomic<int> active, most, renders;
+};
+std::atomic<int> OverlapProbe::active{0}, OverlapProbe::most{0}, OverlapProbe::renders{0};
+
+// auto measures tiles as the server renders them: sixteen on every worker (a CPU render slot, a
+// GL lane) at once, and the figure is sixteen tiles' share of the wall time.
+TEST(BackendFactory, CalibrationRendersOnEveryWorkerAtOnce) {
+    OverlapProbe a, b, c;
+    auto out = render::calibrate({&a, &b, &c, &c}, a, true);
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    EXPECT_EQ(OverlapProbe::most.load(), 4); // the two slots of `c` too
+    // Warm-ups (the frame, then a tile on each worker), 3 x 16 tiles a worker, 3 frames.
+    EXPECT_EQ(OverlapProbe::renders.load(), 1 + 4 + 3 * 16 * 4 + 3);
+    EXPECT_GT(out.value().tile_ms, 0);
+}
+
 // The calibration itself, on whatever EGL finds (llvmpipe in CI): real figures for both
 // candidates, and the choice follows them.
 TEST(BackendFactory, AutoMeasuresEveryCandidate) {
@@ -772,6 +806,16 @@ TEST(BackendFactory, AutoMeasuresEveryCandidate) {
     EXPECT_EQ(automatic.value().tiles->name(), c[t].backend);
     EXPECT_EQ(automatic.value().backend->name(), c[f].backend);
     EXPECT_NE(automatic.value().reason.find("measured"), std::string::npos);
+    // The lanes it measured the GL backend with go to the batcher when GL won anything.
+    const auto& lanes = automatic.value().lanes;
+    if (t == 1 || f == 1) {
+        ASSERT_FALSE(lanes.empty());
+        EXPECT_EQ(static_cast<int>(lanes.size()), render::gl_lanes(o, *lanes[0])); // 1 on llvmpipe
+        EXPECT_EQ(std::static_pointer_cast<render::Backend>(lanes[0]),
+                  t == 1 ? automatic.value().tiles : automatic.value().backend);
+    } else {
+        EXPECT_TRUE(lanes.empty());
+    }
 }
 
 TEST(OsmesaBackend, SpecVectors) {

@@ -138,6 +138,7 @@ TEST(Concurrency, BatchedGlTilesAreTheCpusBytes) {
     config.backend = render::BackendKind::osmesa;
     config.gpu_batch_wait_us = 20000; // gather generously: llvmpipe is slow to fill a batch
     config.gpu_batch_ms = 60000;      // and lets no batch hold more than 25 ms of its work
+    config.gpu_lanes = 2;             // two batches in flight, each on a context of its own
     TestServer gl(config);
     auto setup = gl.client();
     const std::string id = upload(setup, "etr_floor01.png", "?size=32&iterations=20");
@@ -168,6 +169,7 @@ TEST(Concurrency, BatchedGlTilesAreTheCpusBytes) {
     };
     EXPECT_GT(value("textond_gpu_batched_windows"), value("textond_gpu_batches"));
     EXPECT_GE(value("textond_gpu_batched_windows"), kClients);
+    EXPECT_EQ(value("textond_gpu_lanes"), 2);
 
     http::ServeConfig cpu = TestServer::default_config();
     cpu.data_dir = gl.data_dir(); // the same stored texton
