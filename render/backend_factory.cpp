@@ -1,9 +1,9 @@
 #include "render/backend_factory.h"
 
 #include "render/cpu_backend.h"
-#include "render/egl_backend.h"
+#include "render/gl/egl_backend.h"
 #include "render/gl/gl_backend.h"
-#include "render/osmesa_backend.h"
+#include "render/gl/osmesa_backend.h"
 
 #include <algorithm>
 #include <chrono>

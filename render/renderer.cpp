@@ -58,7 +58,7 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
 
 Renderer::~Renderer() = default;
 
-// CPU seconds of llvmpipe (wall x cores) over server/http/request_body.h's estimate of the same
+// CPU seconds of llvmpipe (wall x cores) over server/app/work_cost.h's estimate of the same
 // render, fitted on one render and checked on another (deploy/README.md "Hostile clients"): sand, r
 // 32, 512 x 512 at MNI 30 and 200: 47 and 47; held out, pebbles, r 64, 768 x 512, MNI 100: 50.
 constexpr double kSoftwareGlWorkFactor = 47.0;

@@ -37,7 +37,7 @@ public:
     Result<core::Image> mix(const PreparedMix& mix, const NoiseRequest& request, Work work,
                             std::string* used = nullptr);
     // A splat map (render/prepared_splat.h): each layer a window of its texton on the backend
-    // `work` picks, blended on the CPU (render/splat_render.cpp). Large windows go in strips.
+    // `work` picks, blended on the CPU (render/renderer_splat.cpp). Large windows go in strips.
     Result<core::Image> splat(const PreparedSplat& splat, const NoiseRequest& request, Work work,
                               std::string* used = nullptr);
     // Its normalised weights at every pixel of the window, one channel a layer.

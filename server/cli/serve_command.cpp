@@ -2,7 +2,7 @@
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
 #include "server/http/http_support.h"
-#include "server/http/service.h"
+#include "server/http/textond_server.h"
 #include "server/store/redis_store.h"
 
 #include <spdlog/spdlog.h>
@@ -321,11 +321,11 @@ int serve_command(const Argv& argv) {
 
     const sigset_t stop_signals = block_stop_signals();
 
-    auto service = http::Service::create(config.value());
+    auto service = http::TextondServer::create(config.value());
     if (!service) return fail(1, service.error().message);
     auto port = service.value()->bind();
     if (!port) return fail(1, port.error().message);
-    http::Service& svc = *service.value();
+    http::TextondServer& svc = *service.value();
     spdlog::info("backend: {}", svc.backend_description());
     spdlog::info("build: {}", app::build_id());
     // The URL on stdout (one line) so scripts and tests can read the port chosen by --port 0.

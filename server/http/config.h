@@ -6,7 +6,7 @@
 #include "api/requests.h"
 #include "render/backend_factory.h"
 #include "server/app/url_signing.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 
 #include <cstdint>
 #include <string>
@@ -51,9 +51,9 @@ struct ServeConfig {
     int max_headers = 100;
     int header_timeout_s = 10;
     int body_timeout_s = 120;
-    // Admission (server/http/request_body.h): how long a request may wait for a render slot, how
-    // many may wait, the most estimated CPU seconds one request may cost, and the request bodies
-    // held in memory by all requests together.
+    // Admission (server/http/gate.h, server/app/work_cost.h): how long a request may wait for a
+    // render slot, how many may wait, the most estimated CPU seconds one request may cost, and the
+    // request bodies held in memory by all requests together.
     int queue_timeout_ms = 10'000;
     // Renders (cache misses) a client may start a minute, and in one burst (rate_limiter.h);
     // 0: no limit.

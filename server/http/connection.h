@@ -1,5 +1,5 @@
 #pragma once
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 // One client connection, with the limits cpp-httplib 0.11 (Debian 12) does not have. The library
 // reads a request line and headers of any length and count, at any pace, and its per-request
 // socket stream forgets bytes it had already read (pipelined requests were dropped). Its

@@ -1,5 +1,5 @@
 #pragma once
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 // The one table from an error code (api::ApiError::code, the `code` of every JSON error body) to
 // its HTTP status. api/ and core/ name no status; routes name a code and send_error() looks the
 // status up here. api/openapi.yaml lists the same codes (tests/server/errors_test.cpp).

@@ -5,7 +5,7 @@
 // pools connections the second would go to another client. What the service and the
 // framing fuzzer (tests/fuzz/request_fuzzer.cpp) share:
 #include "api/requests.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 
 #include <httplib.h>
 

@@ -9,7 +9,7 @@
 #include "server/app/analysis_pool.h"
 #include "server/app/metrics.h"
 #include "server/http/config.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/http/request_body.h"
 
 #include <httplib.h>
@@ -32,7 +32,7 @@ public:
     std::optional<SlotGuard> admit(httplib::Response& res, double work_s, double cpu_share = 0);
     bool within_budget(httplib::Response& res, double work_s,
                        double cpu_share = 0); // 413 sent when not
-    // Estimates are the CPU path's (server/http/request_body.h); a backend that does the same
+    // Estimates are the CPU path's (server/app/work_cost.h); a backend that does the same
     // work slower (llvmpipe) multiplies them, so admission counts what will really run.
     void set_work_factor(double factor) { m_work_factor = factor > 0 ? factor : 1.0; }
     double work_factor() const { return m_work_factor; }

@@ -3,7 +3,7 @@
 // JSON error body, the mapping from library errors to HTTP, and entity-tag matching.
 #include "api/requests.h"
 #include "core/result.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 
 #include <httplib.h>
 #include <nlohmann/json.hpp>

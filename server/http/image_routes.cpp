@@ -6,6 +6,7 @@
 #include "render/image_buffers.h"
 #include "render/prepared_texton.h"
 #include "server/app/engine_kit.h"
+#include "server/app/work_cost.h"
 #include "server/http/http_support.h"
 #include "server/io/slow_point.h"
 

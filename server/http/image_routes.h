@@ -9,7 +9,7 @@
 #include "server/app/metrics.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/http/rate_limiter.h"
 #include "server/store/image_cache.h"
 

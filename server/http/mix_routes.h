@@ -5,7 +5,7 @@
 #include "server/app/mix_service.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/store/image_cache.h"
 #include "server/store/mix_store.h"
 

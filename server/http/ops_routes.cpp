@@ -3,7 +3,7 @@
 #include "api/openapi_spec.h"
 #include "server/app/build_id.h"
 #include "server/http/http_support.h"
-#include "server/http/service.h"
+#include "server/http/textond_server.h"
 #include "server/io/image_io.h"
 
 #include <spdlog/spdlog.h>

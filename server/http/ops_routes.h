@@ -5,7 +5,7 @@
 #include "render/renderer.h"
 #include "server/app/metrics.h"
 #include "server/http/config.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/store/mix_store.h"
 #include "server/store/texton_store.h"
 

@@ -1,5 +1,5 @@
 #pragma once
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 // Rate limits on cold work (--render-rate a minute, --render-burst): a token bucket per client,
 // taken only by renders (a cache miss), never by cache hits or 304s, which cost next to nothing. A
 // client is its API key when it sends one (Authorization: Bearer, or X-API-Key), else its

@@ -4,8 +4,7 @@
 // clients. What work may cost is server/app/work_cost.h, when it may start server/app/slots.h.
 #include "api/requests.h"
 #include "server/app/slots.h"
-#include "server/app/work_cost.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 
 #include <httplib.h>
 

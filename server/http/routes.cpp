@@ -3,7 +3,7 @@
 // their order is free) before the /v1/textons/*, /v1/mixes/* and /v1/splats/* fallbacks, and a
 // catch-all POST last.
 #include "server/http/http_support.h"
-#include "server/http/service.h"
+#include "server/http/textond_server.h"
 
 namespace textond::http {
 
@@ -24,7 +24,7 @@ httplib::Server::HandlerWithContentReader call(Group* group,
 }
 } // namespace
 
-void Service::install_routes() {
+void TextondServer::install_routes() {
     install_get_routes();
     TextonRoutes* t = m_texton_routes.get();
     m_http.Post("/v1/textons", call(t, &TextonRoutes::upload));
@@ -55,7 +55,7 @@ void Service::install_routes() {
 }
 
 // A mix's and a splat's images: the same routes as a texton's (no tileable, spectrum or kit).
-void Service::install_mix_and_splat_image_routes() {
+void TextondServer::install_mix_and_splat_image_routes() {
     ImageRoutes* i = m_image_routes.get();
     using api::parse_map_tile;
     using api::parse_tile;
@@ -86,7 +86,7 @@ void Service::install_mix_and_splat_image_routes() {
                [i](Req req, Res res) { i->tilejson(req, res, Source::splat); });
 }
 
-void Service::install_get_routes() {
+void TextondServer::install_get_routes() {
     ImageRoutes* i = m_image_routes.get();
     using api::parse_map_tile;
     using api::parse_tile;

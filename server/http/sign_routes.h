@@ -5,7 +5,7 @@
 // --api-key nobody may sign (403 signing_unavailable), or anyone could.
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 
 #include <httplib.h>
 

@@ -4,7 +4,7 @@
 #include "server/app/splat_service.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/http/request_body.h"
 #include "server/io/image_io.h"
 #include "server/store/image_cache.h"

@@ -3,7 +3,7 @@
 // mesh) read and admitted through the Gate at the cost SurfaceService knows before it runs.
 #include "server/app/surface_service.h"
 #include "server/http/gate.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/store/texton_store.h"
 
 #include <httplib.h>

@@ -6,7 +6,7 @@
 #include "server/app/texton_service.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/store/image_cache.h"
 #include "server/store/texton_store.h"
 

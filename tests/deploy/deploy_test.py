@@ -45,7 +45,7 @@ ROOT = os.path.abspath(sys.argv[2])
 DEPLOY = os.path.join(ROOT, "deploy")
 KUSTOMIZATIONS = ["base"] + ["overlays/" + d for d in sorted(os.listdir(os.path.join(DEPLOY, "overlays")))]
 BASE_IMAGE_PACKAGES = {"libc6", "libstdc++6", "libgcc-s1"}  # in debian:bookworm-slim
-DLOPENED = ["libOSMesa.so.8", "libEGL.so.1"]  # render/osmesa_backend.cpp, render/egl_backend.cpp
+DLOPENED = ["libOSMesa.so.8", "libEGL.so.1"]  # render/gl/osmesa_backend.cpp, render/gl/egl_backend.cpp
 
 
 def kustomize_usable():

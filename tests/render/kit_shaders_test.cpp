@@ -9,8 +9,8 @@
 #include "render/gl/gl_api.h"
 #include "render/gl/glsl_sources.h"
 #include "render/gl/noise_window.h"
+#include "render/gl/osmesa_backend.h"
 #include "render/normal_map.h"
-#include "render/osmesa_backend.h"
 #include "tests/render/render_fixtures.h"
 
 #include <gtest/gtest.h>

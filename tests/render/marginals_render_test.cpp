@@ -2,7 +2,7 @@
 // region on every backend, OSMesa agrees with the CPU, zoomed-out levels keep level 0's mean, and
 // the acceptance measures of marginal restoration on two photos.
 #include "render/cpu_backend.h"
-#include "render/osmesa_backend.h"
+#include "render/gl/osmesa_backend.h"
 #include "tests/render/marginal_fidelity.h"
 #include "tests/render/render_fixtures.h"
 #include "tests/support/test_support.h"

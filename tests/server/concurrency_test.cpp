@@ -1,6 +1,6 @@
 // Concurrency over real HTTP: identical uploads share one analysis (single flight), and many
 // clients fetching tiles at once all get the right bytes.
-#include "render/osmesa_backend.h"
+#include "render/gl/osmesa_backend.h"
 #include "server/store/load_limit.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"

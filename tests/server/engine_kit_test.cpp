@@ -2,7 +2,7 @@
 // and fed the kit's coefficients and parameters, reproduces the server's tiles; its HLSL passes
 // glslang's HLSL front end.
 #include "core/grid_poisson.h"
-#include "render/osmesa_backend.h"
+#include "render/gl/osmesa_backend.h"
 #include "server/io/image_io.h"
 #include "server/io/texton_file.h"
 #include "tests/server/server_fixture.h"

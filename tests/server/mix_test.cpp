@@ -2,7 +2,7 @@
 // for one request, 201 then 200), the image endpoints under /v1/mixes/{id}/ (tiles stitch into
 // the region, TileJSON points at them), masks, bad requests, and persistence across a restart.
 #include "render/cpu_backend.h"
-#include "render/osmesa_backend.h"
+#include "render/gl/osmesa_backend.h"
 #include "server/io/image_io.h"
 #include "server/io/mix_file.h"
 #include "tests/server/server_fixture.h"

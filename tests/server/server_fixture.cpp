@@ -71,7 +71,7 @@ http::ServeConfig TestServer::default_config() {
 }
 
 TestServer::TestServer(http::ServeConfig config) : m_config(std::move(config)) {
-    auto s = http::Service::create(m_config);
+    auto s = http::TextondServer::create(m_config);
     if (!s) throw std::runtime_error("cannot create the service: " + s.error().message);
     m_service = std::move(s.value());
     auto port = m_service->bind();

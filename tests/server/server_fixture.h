@@ -4,7 +4,7 @@
 // for kill -9 and signals). Both are spoken to over real HTTP with cpp-httplib's client.
 #include "core/image.h"
 #include "server/http/config.h"
-#include "server/http/service.h"
+#include "server/http/textond_server.h"
 
 #include <httplib.h>
 
@@ -22,13 +22,13 @@ public:
     static http::ServeConfig default_config(); // port 0, CPU backend, a fresh data directory
 
     httplib::Client client() const;
-    http::Service& service() { return *m_service; }
+    http::TextondServer& service() { return *m_service; }
     const std::string& data_dir() const { return m_config.data_dir; }
     int port() const { return m_port; }
 
 private:
     http::ServeConfig m_config;
-    std::unique_ptr<http::Service> m_service;
+    std::unique_ptr<http::TextondServer> m_service;
     std::thread m_thread;
     int m_port = 0;
 };

@@ -1,6 +1,6 @@
 // Surface noise over HTTP: POST /v1/textons/{id}/surface (JSON and binary float32, the same
 // colours as the library's evaluation of the stored texton) and POST /v1/textons/{id}/mesh.png.
-#include "render/osmesa_backend.h"
+#include "render/gl/osmesa_backend.h"
 #include "render/surface_eval.h"
 #include "server/io/texton_file.h"
 #include "tests/server/server_fixture.h"

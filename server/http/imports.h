@@ -1,6 +1,7 @@
 #pragma once
-// The transport serves the application (server/app/) and its stores (server/store/): their names,
-// unqualified, in textond::http. Nothing below http includes this (tests/style/layers_test.py).
+// The names http imports: the transport serves the application (server/app/) and its stores
+// (server/store/), their names unqualified in textond::http. Nothing below http includes this
+// (tests/style/layers_test.py).
 namespace textond::app {}
 namespace textond::store {}
 

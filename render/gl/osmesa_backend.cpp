@@ -1,4 +1,4 @@
-#include "render/osmesa_backend.h"
+#include "render/gl/osmesa_backend.h"
 
 #include <GL/osmesa.h>
 #include <dlfcn.h>

@@ -1,4 +1,4 @@
-#include "render/egl_backend.h"
+#include "render/gl/egl_backend.h"
 
 #include <EGL/egl.h>
 #include <EGL/eglext.h>

@@ -1,4 +1,4 @@
-#include "server/http/service.h"
+#include "server/http/textond_server.h"
 
 #include "api/query_text.h"
 
@@ -47,18 +47,18 @@ void apply_cors(bool any, const std::vector<std::string>& listed, const httplib:
 }
 } // namespace
 
-Service::Service(ServeConfig config)
+TextondServer::TextondServer(ServeConfig config)
     : m_config(std::move(config)), m_cache(m_config.cache_bytes), m_gate(m_config, m_metrics),
       m_cors_any(m_config.cors_origin == "*"),
       m_cors_origins(m_cors_any ? std::vector<std::string>{} : split_list(m_config.cors_origin)) {}
 
-Service::~Service() {
+TextondServer::~TextondServer() {
     stop();
     if (m_pool) m_pool->shutdown();
 }
 
-Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
-    std::unique_ptr<Service> s(new Service(std::move(config)));
+Result<std::unique_ptr<TextondServer>> TextondServer::create(ServeConfig config) {
+    std::unique_ptr<TextondServer> s(new TextondServer(std::move(config)));
     if (auto err = s->open_parts()) return *err;
     s->make_services();
     s->add_gauges();
@@ -67,7 +67,7 @@ Result<std::unique_ptr<Service>> Service::create(ServeConfig config) {
     return s;
 }
 
-std::optional<Error> Service::open_parts() {
+std::optional<Error> TextondServer::open_parts() {
     std::unique_ptr<store::RedisStore> shared;
     if (!m_config.store_url.empty()) {
         auto address = store::parse_redis_url(m_config.store_url);
@@ -110,7 +110,7 @@ std::optional<Error> Service::open_parts() {
     return std::nullopt;
 }
 
-void Service::make_services() {
+void TextondServer::make_services() {
     io::DecodeLimits limits;
     limits.max_pixels = m_config.max_pixels;
     limits.formats = m_config.formats;
@@ -136,7 +136,7 @@ void Service::make_services() {
                                                m_stopping);
 }
 
-void Service::add_gauges() {
+void TextondServer::add_gauges() {
     Metrics& m = m_metrics;
     std::vector<Metrics::CalibrationFigure> figures;
     for (const auto& c : m_renderer->calibration())
@@ -269,8 +269,8 @@ void answer_exception(const httplib::Request& req, httplib::Response& res,
 
 } // namespace
 
-httplib::Server::HandlerResponse Service::pre_route(const httplib::Request& req,
-                                                    httplib::Response& res) {
+httplib::Server::HandlerResponse TextondServer::pre_route(const httplib::Request& req,
+                                                          httplib::Response& res) {
     begin_request(req);
     if (auto e = frame_request(req, static_cast<std::size_t>(m_config.max_headers),
                                m_config.max_upload_bytes)) {
@@ -299,7 +299,7 @@ httplib::Server::HandlerResponse Service::pre_route(const httplib::Request& req,
     return httplib::Server::HandlerResponse::Unhandled;
 }
 
-void Service::install_hooks() {
+void TextondServer::install_hooks() {
     configure(m_http, m_config);
     m_http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
         return pre_route(req, res);
@@ -351,7 +351,7 @@ void Service::install_hooks() {
     });
 }
 
-Result<int> Service::bind() {
+Result<int> TextondServer::bind() {
     const int port = m_config.port == 0
                          ? m_http.bind_to_any_port(m_config.host)
                          : (m_http.bind_to_port(m_config.host, m_config.port) ? m_config.port : -1);
@@ -365,11 +365,11 @@ Result<int> Service::bind() {
     return port;
 }
 
-void Service::run() {
+void TextondServer::run() {
     m_http.listen_after_bind();
 }
 
-void Service::stop() {
+void TextondServer::stop() {
     if (m_stopping.exchange(true)) return;
     m_http.stop();
 }

@@ -1,8 +1,8 @@
 #pragma once
-// The HTTP service of `textond serve`: owns the stores, the analysis pool, the renderer, the
-// image cache, the Gate and the application services, and wires the routes of api/openapi.yaml
-// (one table, routes.cpp) to the route groups (texton_routes.h, image_routes.h, mix_routes.h,
-// surface_routes.h) on cpp-httplib.
+// The server of `textond serve` and the place its parts are built: owns the stores, the analysis
+// pool, the renderer, the image cache, the Gate and the application services (app/), and wires the
+// routes of api/openapi.yaml (one table, routes.cpp) to the route groups (texton_routes.h,
+// image_routes.h, mix_routes.h, surface_routes.h) on connection.h's HttpServer (cpp-httplib).
 #include "core/result.h"
 #include "render/backend.h"
 #include "render/cancel.h"
@@ -16,7 +16,7 @@
 #include "server/http/connection.h"
 #include "server/http/gate.h"
 #include "server/http/image_routes.h"
-#include "server/http/layers.h"
+#include "server/http/imports.h"
 #include "server/http/mix_routes.h"
 #include "server/http/ops_routes.h"
 #include "server/http/request_body.h"
@@ -43,10 +43,10 @@
 
 namespace textond::http {
 
-class Service {
+class TextondServer {
 public:
-    static Result<std::unique_ptr<Service>> create(ServeConfig config);
-    ~Service();
+    static Result<std::unique_ptr<TextondServer>> create(ServeConfig config);
+    ~TextondServer();
 
     // Binds the listening socket (port 0: any free port) and returns the port.
     Result<int> bind();
@@ -61,7 +61,7 @@ public:
     const std::string& backend_description() const { return m_renderer->reason(); }
 
 private:
-    explicit Service(ServeConfig config);
+    explicit TextondServer(ServeConfig config);
     std::optional<Error> open_parts(); // stores, renderer, pool, services
     void make_services();
     void add_gauges();
