@@ -130,13 +130,22 @@ int gl_lanes(const BackendOptions& options, const GlBackend& gl) {
     return gl.software() ? 1 : 3;
 }
 
-Result<std::shared_ptr<GlBackend>> make_gl_lane(const GlBackend& gl,
-                                                const BackendOptions& options) {
-    auto lane =
-        gl.name() == "egl" ? make_egl_backend(options.allow_software_egl) : make_osmesa_backend();
-    if (!lane) return lane.error();
-    lane.value()->set_point_kernel(gl.point_kernel());
-    return lane;
+std::vector<std::shared_ptr<GlBackend>> make_gl_lanes(std::shared_ptr<GlBackend> first,
+                                                      const BackendOptions& options,
+                                                      std::string* failure) {
+    const GlBackend& gl = *first;
+    std::vector<std::shared_ptr<GlBackend>> lanes{std::move(first)};
+    while (static_cast<int>(lanes.size()) < gl_lanes(options, gl)) {
+        auto lane = gl.name() == "egl" ? make_egl_backend(options.allow_software_egl)
+                                       : make_osmesa_backend();
+        if (!lane) {
+            if (failure) *failure = lane.error().message;
+            break;
+        }
+        lane.value()->set_point_kernel(gl.point_kernel());
+        lanes.push_back(std::move(lane.value()));
+    }
+    return lanes;
 }
 
 Result<BackendKind> parse_backend_kind(std::string_view name) {
@@ -192,12 +201,7 @@ Result<BackendChoice> make_backend(BackendKind kind, const BackendOptions& optio
         auto all = std::make_shared<CpuBackend>(options.threads);
         auto one = std::make_shared<CpuBackend>(1);
         const bool quick = options.quick_calibration;
-        std::vector<std::shared_ptr<GlBackend>> lanes{b.value()};
-        while (static_cast<int>(lanes.size()) < gl_lanes(options, *b.value())) {
-            auto lane = make_gl_lane(*b.value(), options);
-            if (!lane) break; // the batcher says how many it has
-            lanes.push_back(std::move(lane.value()));
-        }
+        auto lanes = make_gl_lanes(b.value(), options); // the batcher says how many it has
         auto on_cpu = calibrate(std::vector<Backend*>(static_cast<std::size_t>(slots), one.get()),
                                 *all, quick);
         std::vector<Backend*> gpu_workers;

@@ -41,10 +41,13 @@ struct BackendOptions {
     bool quick_calibration = false;
 };
 
-// The lanes `options` asks of `gl`, and one more lane like `gl` (its kind and point kernel, a
-// context of its own).
+// The lanes `options` asks of `gl`; and `first` followed by lanes like it (its kind and point
+// kernel, a context each) up to that count, fewer where a context fails (`failure` then says why:
+// a device that takes one context only gives fewer lanes, the same bits).
 int gl_lanes(const BackendOptions& options, const GlBackend& gl);
-Result<std::shared_ptr<GlBackend>> make_gl_lane(const GlBackend& gl, const BackendOptions& options);
+std::vector<std::shared_ptr<GlBackend>> make_gl_lanes(std::shared_ptr<GlBackend> first,
+                                                      const BackendOptions& options,
+                                                      std::string* failure = nullptr);
 
 // What the calibration of `auto` measured for one backend (milliseconds, median of 3).
 struct Calibration {

@@ -30,16 +30,10 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
     if (r->m_batched) {
         // auto calibrated its lanes already (the first is the batched backend).
         std::vector<std::shared_ptr<GlBackend>> lanes = choice.value().lanes;
-        if (lanes.empty() || lanes.front() != r->m_batched) lanes = {r->m_batched};
-        const int want = render::gl_lanes(options, *r->m_batched);
-        while (static_cast<int>(lanes.size()) < want) {
-            auto lane = make_gl_lane(*r->m_batched, options);
-            if (!lane) { // a device that takes one context only: fewer lanes, same bits
-                lanes_note = " (another context failed: " + lane.error().message + ")";
-                break;
-            }
-            lanes.push_back(std::move(lane.value()));
-        }
+        std::string failure;
+        if (lanes.empty() || lanes.front() != r->m_batched)
+            lanes = make_gl_lanes(r->m_batched, options, &failure);
+        if (!failure.empty()) lanes_note = " (another context failed: " + failure + ")";
         lanes_note = "; GL batches in " + std::to_string(lanes.size()) + " lane" +
                      (lanes.size() == 1 ? "" : "s") + lanes_note;
         r->m_batcher = std::make_unique<TileBatcher>(
