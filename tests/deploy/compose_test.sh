@@ -65,7 +65,8 @@ done
 # Ready includes degraded (a replica serves what it holds while Redis is down), and
 # podman-compose 1.0 starts the replicas without waiting for Redis's health: wait until both
 # are connected to it.
-connected() { curl -sf "$1/readyz" | grep -q '"degraded": *false'; }
+# Read whole, then searched (`curl | grep -q` under pipefail can fail on curl's write error).
+connected() { grep -q '"degraded": *false' <<<"$(curl -sf "$1/readyz")"; }
 for u in "$r1" "$r2"; do
     for _ in $(seq 300); do connected "$u" && break; sleep 0.1; done
     connected "$u" || fail "$u is not connected to Redis: $(curl -s "$u/readyz")"
@@ -159,7 +160,7 @@ code=$(upload "$edge" "$exemplars/etr_floor01.png" 99)
 for u in "$r1" "$r2"; do
     curl -sf -o /dev/null "$u/v1/textons/$id/tiles/0/40/40.png?seed=3" ||
         fail "$u no longer serves the texton it holds with Redis stopped"
-    curl -sf "$u/readyz" | grep -q '"degraded": *true' || fail "$u/readyz is not degraded: $(curl -s "$u/readyz")"
+    grep -q '"degraded": *true' <<<"$(curl -sf "$u/readyz")" || fail "$u/readyz is not degraded: $(curl -s "$u/readyz")"
 done
 curl -sf -o /dev/null "$edge$tile" || fail "the edge no longer serves a cached tile with Redis stopped"
 echo "Redis stopped: uploads 503, tiles 200, /readyz degraded"
