@@ -1,7 +1,7 @@
 #include "server/app/build_id.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
-#include "server/http/http_support.h"
+#include "server/http/config.h"
 #include "server/http/textond_server.h"
 #include "server/store/redis_store.h"
 

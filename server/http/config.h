@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace textond::http {
@@ -88,5 +89,21 @@ struct ServeConfig {
     std::string log_level = "info";
     bool access_log = true;
 };
+
+// "a, b,c" -> {"a", "b", "c"}: spaces trimmed, empty items dropped (--formats, --cors-origin).
+inline std::vector<std::string> split_list(std::string_view s) {
+    std::vector<std::string> out;
+    std::size_t pos = 0;
+    while (pos <= s.size()) {
+        std::size_t end = s.find(',', pos);
+        if (end == std::string_view::npos) end = s.size();
+        std::string item(s.substr(pos, end - pos));
+        item.erase(0, item.find_first_not_of(' '));
+        item.erase(item.find_last_not_of(' ') + 1);
+        if (!item.empty()) out.push_back(item);
+        pos = end + 1;
+    }
+    return out;
+}
 
 } // namespace textond::http

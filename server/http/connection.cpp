@@ -1,7 +1,8 @@
 #include "server/http/connection.h"
 
 #include "server/http/errors.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 
 #include <netdb.h>
 #include <poll.h>
@@ -11,6 +12,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <thread>
 
@@ -53,7 +55,7 @@ void address_of(int sock, bool peer, std::string& ip, int& port) {
                       NI_NUMERICHOST | NI_NUMERICSERV) != 0)
         return;
     ip = host;
-    port = std::atoi(serv);
+    port = static_cast<int>(std::strtol(serv, nullptr, 10)); // numeric (NI_NUMERICSERV)
 }
 
 } // namespace

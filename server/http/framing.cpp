@@ -2,7 +2,7 @@
 
 #include "api/safe_text.h"
 #include "server/http/connection.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
 
 #include <algorithm>
 #include <cctype>

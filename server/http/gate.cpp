@@ -1,7 +1,7 @@
 #include "server/http/gate.h"
 
 #include "server/http/connection.h"
-#include "server/http/http_support.h"
+#include "server/http/responses.h"
 
 #include <algorithm>
 #include <chrono>

@@ -7,10 +7,10 @@
 #include "render/prepared_texton.h"
 #include "server/app/engine_kit.h"
 #include "server/app/work_cost.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/io/slow_point.h"
 
-#include <openssl/crypto.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -20,7 +20,6 @@ namespace textond::http {
 
 namespace {
 
-constexpr const char* kImmutable = "public, max-age=31536000, immutable";
 // One engine kit's CPU a channel (its threshold tables and reference values; r does not matter):
 // fitted on half the shared exemplars, within 7% on the other half (tests/bench/kit_cost.py).
 constexpr double kKitWorkSPerChannel = 0.18;
@@ -62,13 +61,7 @@ ImageRoutes::ImageRoutes(const ServeConfig& config, ImageService& images, Texton
                          MixStore& mixes, ImageCache& cache, Gate& gate, Metrics& metrics,
                          const int& port)
     : m_config(config), m_images(images), m_textons(textons), m_mixes(mixes), m_cache(cache),
-      m_gate(gate), m_metrics(metrics), m_port(port),
-      m_limiter(config.render_rate / 60.0, config.render_burst) {
-    if (m_limiter.enabled())
-        m_metrics.gauge("textond_rate_limited_clients",
-                        "Clients with a render bucket (--render-rate).",
-                        [this] { return static_cast<double>(m_limiter.clients()); });
-}
+      m_gate(gate), m_metrics(metrics), m_links(config, metrics, port) {}
 
 void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& res,
                                const std::string& id, const std::string& key,
@@ -80,7 +73,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
     m_metrics.tile_cache(cached != nullptr);
     const std::string etag = cached ? cached->etag : m_images.etag(key);
     // A signed URL with exp must not outlive it in any cache (the edge's, a CDN's, a browser's).
-    const std::string cache_control = cache_control_for(req);
+    const std::string cache_control = m_links.cache_control_for(req);
     auto validators = [&] {
         res.set_header("ETag", etag);
         res.set_header("Cache-Control", cache_control);
@@ -95,7 +88,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         return send_cached(res, m_metrics, std::move(cached));
     }
     // Only renders count against a client's rate: hits and 304s cost next to nothing.
-    if (!within_rate(req, res)) return;
+    if (!m_links.within_rate(req, res)) return;
     // The encoded image outlives the slot while a client reads it: large ones hold bytes of the
     // transfer budget until they are written (10 concurrent 4K regions took 326 MB without).
     std::shared_ptr<BudgetLease> lease;
@@ -182,7 +175,7 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, Sour
         // No extension: the format the client's Accept header asks for (AVIF, WebP, else PNG);
         // caches must key the answer on Accept too.
         std::string ext = req.matches.size() > 5 ? req.matches[5].str() : "";
-        const auto params = served_query(req, res, ext);
+        const auto params = m_links.served_query(req, res, ext);
         if (!params) return;
         if (ext.empty()) { // a preset's format, else the one Accept asks for
             if (const auto p = req.params.find("preset");
@@ -210,7 +203,7 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, Source source) {
     return [this, route, source](const httplib::Request& req, httplib::Response& res) {
         set_route(route);
         api::RegionRequest r;
-        const auto params = served_query(req, res, req.matches[2].str());
+        const auto params = m_links.served_query(req, res, req.matches[2].str());
         if (!params) return;
         if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), *params,
                                        m_config.limits, r, source != Source::texton))
@@ -228,7 +221,7 @@ ImageRoutes::Handler ImageRoutes::region(const char* route, Source source) {
 void ImageRoutes::tileable(const httplib::Request& req, httplib::Response& res) {
     set_route("/v1/textons/{id}/tileable.{format}");
     api::TileableRequest t;
-    const auto params = served_query(req, res, req.matches[2].str());
+    const auto params = m_links.served_query(req, res, req.matches[2].str());
     if (!params) return;
     if (auto e = api::parse_tileable(req.matches[1].str(), req.matches[2].str(), *params,
                                      m_config.limits, t))
@@ -244,7 +237,7 @@ void ImageRoutes::spectrum(const httplib::Request& req, httplib::Response& res) 
     set_route("/v1/textons/{id}/spectrum.png");
     const std::string id = req.matches[1].str();
     api::NoiseParams noise;
-    const auto params = served_query(req, res, "png");
+    const auto params = m_links.served_query(req, res, "png");
     if (!params) return;
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     serve_cached(
@@ -259,7 +252,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
     set_route(png ? "/v1/textons/{id}/quality.png" : "/v1/textons/{id}/quality.json");
     const std::string id = req.matches[1].str();
     api::NoiseParams noise;
-    const auto params = served_query(req, res, png ? "png" : "");
+    const auto params = m_links.served_query(req, res, png ? "png" : "");
     if (!params) return;
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     auto produce = [&](const render::Cancel& cancel) -> Result<core::Image> {
@@ -273,7 +266,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
                             noise.mni);
     auto order = m_images.interpolation_order(id, Source::texton);
     if (!order) return send_error(res, to_api_error(order.error()));
-    if (!within_rate(req, res)) return; // a render every time
+    if (!m_links.within_rate(req, res)) return; // a render every time
     auto slot = m_gate.admit(res, noise_work_s(2 * 256 * 256, noise.mni, order.value()));
     if (!slot) return;
     const render::Cancel cancel = m_gate.work_cancel();
@@ -281,10 +274,11 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
     if (!report) return m_gate.send_work_error(res, report.error(), cancel);
     const auto preset = req.params.find("preset");
     report.value().json["links"] = {
-        {"png", signed_link(req, "/v1/textons/" + id + "/quality.png" +
-                                     (!m_config.presets.empty() && preset != req.params.end()
-                                          ? "?preset=" + preset->second
-                                          : "?" + api::noise_query(noise, api::kReportRoute)))}};
+        {"png",
+         m_links.signed_link(req, "/v1/textons/" + id + "/quality.png" +
+                                      (!m_config.presets.empty() && preset != req.params.end()
+                                           ? "?preset=" + preset->second
+                                           : "?" + api::noise_query(noise, api::kReportRoute)))}};
     send_json(res, 200, report.value().json, "no-cache");
 }
 
@@ -292,7 +286,7 @@ void ImageRoutes::splat_report(const httplib::Request& req, httplib::Response& r
     set_route("/v1/splats/{id}/quality.png");
     const std::string id = req.matches[1].str();
     api::NoiseParams noise;
-    const auto params = served_query(req, res, "png");
+    const auto params = m_links.served_query(req, res, "png");
     if (!params) return;
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     auto layers = m_images.splat_layers(id);
@@ -318,7 +312,7 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
     set_route("/v1/textons/{id}/kit.tar");
     const std::string id = req.matches[1].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    auto served = served_query(req, res, "");
+    auto served = m_links.served_query(req, res, "");
     if (!served) return;
     api::Query q;
     // A preset's fields are an image's; of them the kit takes its density.
@@ -339,7 +333,7 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
         headers();
         return send_cached(res, m_metrics, std::move(cached));
     }
-    if (!within_rate(req, res)) return;
+    if (!m_links.within_rate(req, res)) return;
     auto record = m_textons.record(id);
     if (!record) return send_error(res, to_api_error(record.error()));
     auto exr = m_textons.file_bytes(id);
@@ -356,106 +350,6 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
     m_cache.put(key, entry);
     headers();
     send_cached(res, m_metrics, std::move(entry));
-}
-
-std::optional<api::Query> ImageRoutes::served_query(const httplib::Request& req,
-                                                    httplib::Response& res,
-                                                    std::string_view format) const {
-    const bool signing = !m_config.url_signing_key.empty();
-    if (signing) {
-        const auto now = std::chrono::duration_cast<std::chrono::seconds>(
-                             std::chrono::system_clock::now().time_since_epoch())
-                             .count();
-        if (auto e = check_signature(m_config.url_signing_key, req.path, req.params, now)) {
-            send_error(res, *e);
-            return std::nullopt;
-        }
-    }
-    api::Query q;
-    if (!m_config.presets.empty()) {
-        if (auto e = apply_preset(m_config.presets, req.params, format, q)) {
-            send_error(res, *e);
-            return std::nullopt;
-        }
-        return q;
-    }
-    for (const auto& [k, v] : req.params)
-        if (!signing || (k != "sig" && k != "exp")) q.emplace(k, v);
-    return q;
-}
-
-std::string ImageRoutes::signed_link(const httplib::Request& req,
-                                     const std::string& path_and_query) const {
-    if (m_config.url_signing_key.empty()) return path_and_query;
-    std::int64_t exp = 0;
-    if (const auto e = req.params.find("exp"); e != req.params.end())
-        exp = api::parse_i64(e->second).value_or(0);
-    auto signed_url = sign_url(m_config.url_signing_key, path_and_query, exp);
-    return signed_url ? signed_url.value() : path_and_query;
-}
-
-bool ImageRoutes::within_rate(const httplib::Request& req, httplib::Response& res) {
-    double wait = 0;
-    if (m_limiter.take(rate_client(req), wait)) return true;
-    m_metrics.not_admitted("rate_limited");
-    res.set_header("Retry-After", std::to_string(std::max(1, static_cast<int>(std::ceil(wait)))));
-    send_error(res, {"rate_limited", "this client starts at most " +
-                                         std::to_string(m_config.render_rate) +
-                                         " renders a minute (cached images are not counted)"});
-    return false;
-}
-
-std::string ImageRoutes::rate_client(const httplib::Request& req) const {
-    // Any other token would be a fresh bucket for the asking: only the server's key counts.
-    if (!m_config.api_key.empty()) {
-        const std::string got = req.get_header_value("Authorization"),
-                          want = "Bearer " + m_config.api_key;
-        if (got.size() == want.size() && CRYPTO_memcmp(got.data(), want.data(), want.size()) == 0)
-            return "api-key";
-    }
-    // IPv6: a /64 is one client (anyone holding one has 2^64 addresses).
-    const std::string& a = req.remote_addr;
-    if (a.find(':') != std::string::npos) {
-        std::size_t at = 0;
-        for (int groups = 0; groups < 4 && at != std::string::npos; ++groups)
-            at = a.find(':', at + (groups ? 1 : 0));
-        return "net6:" + a.substr(0, at);
-    }
-    return "addr:" + a;
-}
-
-std::string ImageRoutes::cache_control_for(const httplib::Request& req) const {
-    const auto exp = req.params.find("exp");
-    if (m_config.url_signing_key.empty() || exp == req.params.end()) return kImmutable;
-    const auto now = std::chrono::duration_cast<std::chrono::seconds>(
-                         std::chrono::system_clock::now().time_since_epoch())
-                         .count();
-    // At most a year, as immutable images: an exp far in the future is no reason for more.
-    const std::int64_t until = std::max<std::int64_t>(0, api::parse_i64(exp->second).value_or(0));
-    const std::int64_t left = std::clamp<std::int64_t>(until - now, 0, 31'536'000);
-    return "public, max-age=" + std::to_string(left);
-}
-
-std::string ImageRoutes::base_url(const httplib::Request& req) const {
-    if (!m_config.public_url.empty()) {
-        std::string u = m_config.public_url;
-        while (!u.empty() && u.back() == '/') u.pop_back();
-        return u;
-    }
-    std::string host = req.get_header_value("Host");
-    bool sane = !host.empty() && host.size() < 256 &&
-                host.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                       "0123456789.-:[]") == std::string::npos;
-    // A port, if any, is 1..65535 (x:99999999 was echoed into every tile URL).
-    if (const auto colon = host.rfind(':');
-        sane && colon != std::string::npos && host.find(']', colon) == std::string::npos) {
-        const std::string port = host.substr(colon + 1);
-        sane = !port.empty() && port.size() <= 5 &&
-               port.find_first_not_of("0123456789") == std::string::npos && std::stoi(port) >= 1 &&
-               std::stoi(port) <= 65535;
-    }
-    if (!sane) host = m_config.host + ":" + std::to_string(m_port);
-    return "http://" + host;
 }
 
 // What the tiles of a TileJSON would refuse, refused once here: marginals a texton does not
@@ -518,7 +412,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
               : source == Source::splat ? "/v1/splats/{id}/tilejson.json"
                                         : "/v1/textons/{id}/tilejson.json");
     api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
-    const auto params = served_query(req, res, "");
+    const auto params = m_links.served_query(req, res, "");
     if (!params) return;
     // A preset's quality belongs to its format and its tiles, which the templates name by the
     // preset; a TileJSON takes none of its own (its templates are PNG).
@@ -531,7 +425,7 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
                                : source == Source::splat ? "/v1/splats/"
                                                          : "/v1/textons/";
     const auto [ext, query] = tile_suffix(req, probe);
-    const std::string base = base_url(req);
+    const std::string base = m_links.base_url(req);
     const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
     nlohmann::json j = {
         {"tilejson", "3.0.0"},
@@ -543,7 +437,8 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
                             api::query_text(probe.noise.mni) + "), an unbounded seamless plane"},
         {"version", "1.0.0"},
         {"scheme", "xyz"},
-        {"tiles", {base + signed_link(req, prefix + id + "/map/{z}/{x}/{y}." + ext + query)}},
+        {"tiles",
+         {base + m_links.signed_link(req, prefix + id + "/map/{z}/{x}/{y}." + ext + query)}},
         {"minzoom", 0},
         {"maxzoom", api::kMapMaxZoom},
         {"center", {0, 0, native_zoom}},
@@ -558,8 +453,8 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
                                 "the texton's own resolution"},
           {"native_zoom", native_zoom},
           {"crs", "Leaflet L.CRS.Simple / OpenLayers pixel projection; y grows downwards"},
-          {"game_tiles",
-           base + signed_link(req, prefix + id + "/tiles/{level}/{x}/{y}." + ext + query)}}}};
+          {"game_tiles", base + m_links.signed_link(req, prefix + id + "/tiles/{level}/{x}/{y}." +
+                                                             ext + query)}}}};
     // Elevation tiles: what a raster-dem source (MapLibre, Mapbox) reads to decode them.
     if (probe.noise.map.encoding) {
         j["encoding"] = core::elevation_encoding_name(*probe.noise.map.encoding);

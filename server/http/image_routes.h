@@ -9,8 +9,8 @@
 #include "server/app/metrics.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
+#include "server/http/image_links.h"
 #include "server/http/imports.h"
-#include "server/http/rate_limiter.h"
 #include "server/store/image_cache.h"
 
 #include <httplib.h>
@@ -60,26 +60,10 @@ private:
                                                  api::ImageFormat format, int quality,
                                                  const Produce& produce, double work_s,
                                                  double cpu_share = 0);
-    std::string base_url(const httplib::Request& req) const;
     std::optional<api::ApiError> tilejson_refusal(const std::string& id,
                                                   const api::TileRequest& probe, Source source);
     std::pair<std::string, std::string> tile_suffix(const httplib::Request& req,
                                                     const api::TileRequest& probe) const;
-    // Cache-Control of an image: immutable, or until a signed URL's exp.
-    std::string cache_control_for(const httplib::Request& req) const;
-    // Takes a render from the client's rate (--render-rate); false, 429 sent, when it is spent.
-    bool within_rate(const httplib::Request& req, httplib::Response& res);
-    // Whom a render is counted against: the --api-key's holder, else the client's address.
-    std::string rate_client(const httplib::Request& req) const;
-    // The query an image is served with (api/README.md "Signed URLs and presets"): the request's,
-    // its signature checked and sig and exp dropped, or the fields of the preset it names. Nothing,
-    // the error sent, when refused. `format`: the URL's extension ("" when negotiated).
-    std::optional<api::Query> served_query(const httplib::Request& req, httplib::Response& res,
-                                           std::string_view format) const;
-    // `path_and_query` as this server's clients must ask for it: signed when URLs are, with the
-    // request's exp.
-    std::string signed_link(const httplib::Request& req, const std::string& path_and_query) const;
-
     const ServeConfig& m_config;
     ImageService& m_images;
     TextonStore& m_textons;
@@ -87,8 +71,7 @@ private:
     ImageCache& m_cache;
     Gate& m_gate;
     Metrics& m_metrics;
-    const int& m_port;
-    RateLimiter m_limiter; // renders per client (--render-rate)
+    ImageLinks m_links;
 };
 
 } // namespace textond::http

@@ -5,7 +5,9 @@
 
 #include "api/requests.h"
 #include "core/texture_mix.h"
-#include "server/http/http_support.h"
+#include "server/http/auth.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/io/image_io.h"
 #include "server/io/mix_file.h"
 

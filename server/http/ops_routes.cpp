@@ -2,7 +2,8 @@
 
 #include "api/openapi_spec.h"
 #include "server/app/build_id.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/http/textond_server.h"
 #include "server/io/image_io.h"
 

@@ -2,7 +2,8 @@
 // they were added, first match wins: every specific route (their patterns do not overlap, so
 // their order is free) before the /v1/textons/*, /v1/mixes/* and /v1/splats/* fallbacks, and a
 // catch-all POST last.
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/http/textond_server.h"
 
 namespace textond::http {

@@ -2,7 +2,9 @@
 
 #include "api/sign_request.h"
 #include "server/app/url_signing.h"
-#include "server/http/http_support.h"
+#include "server/http/auth.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 
 #include <chrono>
 

@@ -1,8 +1,10 @@
 #include "server/http/splat_routes.h"
 
 #include "api/requests.h"
-#include "server/http/http_support.h"
+#include "server/http/auth.h"
 #include "server/http/request_body.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/io/image_io.h"
 
 #include <algorithm>

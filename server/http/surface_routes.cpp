@@ -2,7 +2,8 @@
 
 #include "api/json_body.h"
 #include "api/requests.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/io/image_io.h"
 
 #include <cstring>

@@ -4,8 +4,10 @@
 
 #include "api/requests.h"
 #include "core/texton_analysis.h"
+#include "server/http/auth.h"
 #include "server/http/connection.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/io/image_io.h"
 #include "server/io/texton_file.h"
 

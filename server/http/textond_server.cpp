@@ -7,8 +7,10 @@
 #include "core/texton_analysis.h"
 #include "render/backend_factory.h"
 #include "render/noise_request.h"
+#include "server/http/config.h"
 #include "server/http/framing.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
+#include "server/http/responses.h"
 #include "server/io/image_io.h"
 
 #include <spdlog/spdlog.h>
@@ -254,12 +256,13 @@ httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
 
 void answer_exception(const httplib::Request& req, httplib::Response& res,
                       const std::exception_ptr& ep) {
-    std::string what = "unknown exception";
+    std::string what;
     try {
         std::rethrow_exception(ep);
     } catch (const std::exception& e) {
         what = e.what();
     } catch (...) {
+        what = "unknown exception";
     }
     spdlog::error("{} {} {}: unhandled exception: {}", current_request().id,
                   api::printable(req.method, 16), api::printable(req.path, 256),

@@ -8,7 +8,7 @@
 
 #include "server/http/connection.h"
 #include "server/http/framing.h"
-#include "server/http/http_support.h"
+#include "server/http/request_context.h"
 
 #include <fuzzer/FuzzedDataProvider.h>
 #include <sys/socket.h>

@@ -1,55 +1,11 @@
-#include "server/http/http_support.h"
+#include "server/http/responses.h"
 
 #include "server/http/errors.h"
+#include "server/http/request_context.h"
 
 #include "api/safe_text.h"
 
-#include <atomic>
-#include <cstdio>
-#include <ctime>
-#include <random>
-
 namespace textond::http {
-
-RequestContext& current_request() {
-    thread_local RequestContext ctx;
-    return ctx;
-}
-
-namespace {
-bool sane_request_id(const std::string& s) {
-    if (s.empty() || s.size() > 64) return false;
-    for (char c : s)
-        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
-            return false;
-    return true;
-}
-
-} // namespace
-
-std::string fresh_request_id() {
-    // A per-process random prefix and a counter: unique, cheap, and sortable within a process.
-    static const std::uint32_t prefix = std::random_device{}();
-    static std::atomic<std::uint64_t> counter{0};
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%08x-%08llx", prefix,
-                  static_cast<unsigned long long>(counter.fetch_add(1) + 1));
-    return buf;
-}
-
-void begin_request(const httplib::Request& req) {
-    RequestContext& ctx = current_request();
-    const std::string given = req.get_header_value("X-Request-Id");
-    ctx.id = sane_request_id(given) ? given : fresh_request_id();
-    ctx.route = "unmatched";
-    ctx.start = std::chrono::steady_clock::now();
-    ctx.active = true;
-    ctx.request = const_cast<httplib::Request*>(&req);
-}
-
-void set_route(const char* route_template) {
-    current_request().route = route_template;
-}
 
 void send_error(httplib::Response& res, const api::ApiError& e, int status) noexcept {
     if (status == 0) status = http_status(e.code);
@@ -76,22 +32,6 @@ void send_error(httplib::Response& res, const api::ApiError& e, int status) noex
         res.status = status;
         res.body = R"({"error": {"code": "internal", "message": "error body unavailable"}})";
         res.set_header("Content-Type", "application/json");
-    }
-}
-
-void fit_ranges(std::size_t size) {
-    httplib::Request* req = current_request().request;
-    if (!req || req->ranges.empty()) return;
-    const auto n = static_cast<ssize_t>(size);
-    for (auto& [first, last] : req->ranges) {
-        if (first < 0 && last < 0) return req->ranges.clear();
-        if (first < 0) { // the last `last` bytes
-            first = std::max<ssize_t>(0, n - last);
-            last = n - 1;
-        } else if (last < 0 || last >= n) {
-            last = n - 1;
-        }
-        if (first >= n || first > last) return req->ranges.clear();
     }
 }
 
@@ -165,43 +105,6 @@ bool etag_matches(std::string_view header, std::string_view etag) {
         if (tag == bare) return true;
         pos = end + 1;
     }
-    return false;
-}
-
-std::vector<std::string> split_list(std::string_view s) {
-    std::vector<std::string> out;
-    std::size_t pos = 0;
-    while (pos <= s.size()) {
-        std::size_t end = s.find(',', pos);
-        if (end == std::string_view::npos) end = s.size();
-        std::string item(s.substr(pos, end - pos));
-        item.erase(0, item.find_first_not_of(' '));
-        item.erase(item.find_last_not_of(' ') + 1);
-        if (!item.empty()) out.push_back(item);
-        pos = end + 1;
-    }
-    return out;
-}
-
-namespace {
-bool constant_time_equal(const std::string& a, const std::string& b) {
-    unsigned char diff = a.size() == b.size() ? 0 : 1;
-    const std::string& ref = a.size() == b.size() ? b : a;
-    for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ ref[i]);
-    return diff == 0;
-}
-} // namespace
-
-bool authorised(const std::string& api_key, const httplib::Request& req, httplib::Response& res) {
-    if (api_key.empty()) return true;
-    const std::string h = req.get_header_value("Authorization");
-    const std::string prefix = "Bearer ";
-    if (h.size() > prefix.size() && h.compare(0, prefix.size(), prefix) == 0 &&
-        constant_time_equal(h.substr(prefix.size()), api_key))
-        return true;
-    res.set_header("WWW-Authenticate", "Bearer realm=\"textond\"");
-    send_error(res, {"unauthorized",
-                     "this server needs an API key for writes: Authorization: Bearer <key>"});
     return false;
 }
 
