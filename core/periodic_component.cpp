@@ -16,7 +16,6 @@ template <bool kPeriodic> Image laplacian(const Image& u) {
             for (int x = 0; x < w; ++x) {
                 const double v = u.at(c, x, y);
                 double acc = 0.0;
-                int n = 0;
                 const int nx[4] = {x - 1, x + 1, x, x};
                 const int ny[4] = {y, y, y - 1, y + 1};
                 for (int k = 0; k < 4; ++k) {
@@ -27,7 +26,6 @@ template <bool kPeriodic> Image laplacian(const Image& u) {
                         yy = (yy + h) % h;
                     }
                     acc += v - u.at(c, xx, yy);
-                    ++n;
                 }
                 out.at(c, x, y) = static_cast<float>(acc);
             }

@@ -28,7 +28,7 @@ runtime=(
 tests=(
     openimageio-tools googletest libgtest-dev
     # the style checks (tests/style/format_check.sh, tidy_check.sh)
-    clang-format clang-tidy
+    clang-format clang-tidy-22
     # the deflate benchmark (tests/bench: zlib against libdeflate on tile bytes)
     zlib1g-dev libdeflate-dev
     # the API schema and deployment tests (Debian's python, not whatever python3 is first on

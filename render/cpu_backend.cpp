@@ -373,6 +373,10 @@ RunSplat phase_splat(const LevelGeometry& geo, const LevelTable& table, const Ce
 
 // `tables` holds one table (a texton) or one per mix level (`mix` set): then every point takes
 // the table of the level of the field at its own position (texton-noise section 7).
+// The CPU kernel's inner loop, the one function of render/ over 120 lines, on purpose: the point
+// loop, the tap loops and their accumulators are one body for the compiler to keep in registers
+// (measure with `textond bench render` before splitting it).
+// NOLINTNEXTLINE(readability-function-size)
 void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*>& tables,
                   const PreparedMix* mix, const GridPoisson& grid, const LevelGeometry& geo,
                   const NoiseRequest& q, const Block& blk, core::Image& out, std::uint64_t& points,

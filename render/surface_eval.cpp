@@ -44,7 +44,7 @@ std::optional<Error> check_request(const SurfaceRequest& req) {
 std::optional<Error> check_surface_input(const SurfaceRequest& req,
                                          const std::vector<float>& points,
                                          const std::vector<float>& normals) {
-    if (auto e = check_request(req)) return *e;
+    if (auto e = check_request(req)) return e;
     if (points.size() % 3 != 0 || normals.size() != points.size())
         return make_error(ErrorCode::invalid_argument,
                           "points and normals must be equally many x, y, z triples");
@@ -223,24 +223,27 @@ std::uint64_t mesh_raster_tests(const Mesh& mesh, const MeshView& mv, int width,
     return total;
 }
 
-Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
-                                        const Mesh& mesh, Camera cam, int width, int height,
-                                        int threads, const Relief& relief) {
-    auto view = mesh_view(mesh, req, cam, width, height);
-    if (!view) return view.error();
-    const MeshView& mv = view.value();
-    const double scale = mv.scale;
+namespace {
 
-    std::vector<double> sx, sy, sz;
-    project_vertices(mesh, mv, width, height, sx, sy, sz);
-    // Z-buffer of (triangle, barycentrics) per pixel; then one noise evaluation per pixel.
+// Each pixel's nearest triangle (-1: none) and its perspective-correct barycentrics.
+struct ZBuffer {
+    std::vector<std::int64_t> tri;
+    std::vector<double> bary;
+};
+
+// The projected triangles rasterised into `zb`; false when `cancel` stopped it.
+bool rasterise(const Mesh& mesh, const std::vector<double>& sx, const std::vector<double>& sy,
+               const std::vector<double>& sz, int width, int height, const Cancel* cancel,
+               ZBuffer& zb) {
     const std::size_t npx = static_cast<std::size_t>(width) * height;
     std::vector<double> depth(npx, std::numeric_limits<double>::infinity());
-    std::vector<std::int64_t> tri(npx, -1);
-    std::vector<double> bary(npx * 3, 0.0);
+    std::vector<std::int64_t>& tri = zb.tri;
+    std::vector<double>& bary = zb.bary;
+    tri.assign(npx, -1);
+    bary.assign(npx * 3, 0.0);
     const std::size_t nt = mesh.triangles.size() / 3;
     for (std::size_t t = 0; t < nt; ++t) {
-        if (stopped(req.cancel)) return abandoned(req.cancel, "the evaluation");
+        if (stopped(cancel)) return false;
         const std::uint32_t i0 = mesh.triangles[3 * t], i1 = mesh.triangles[3 * t + 1],
                             i2 = mesh.triangles[3 * t + 2];
         if (sz[i0] <= 1e-9 || sz[i1] <= 1e-9 || sz[i2] <= 1e-9) continue; // behind the eye
@@ -271,6 +274,27 @@ Result<core::Image> render_mesh_preview(const core::Texton& texton, const Surfac
                 bary[3 * k + 2] = q2 / qs;
             }
     }
+    return true;
+}
+
+} // namespace
+
+Result<core::Image> render_mesh_preview(const core::Texton& texton, const SurfaceRequest& req,
+                                        const Mesh& mesh, Camera cam, int width, int height,
+                                        int threads, const Relief& relief) {
+    auto view = mesh_view(mesh, req, cam, width, height);
+    if (!view) return view.error();
+    const MeshView& mv = view.value();
+    const double scale = mv.scale;
+
+    std::vector<double> sx, sy, sz;
+    project_vertices(mesh, mv, width, height, sx, sy, sz);
+    // Z-buffer of (triangle, barycentrics) per pixel; then one noise evaluation per pixel.
+    ZBuffer zb;
+    if (!rasterise(mesh, sx, sy, sz, width, height, req.cancel, zb))
+        return abandoned(req.cancel, "the evaluation");
+    const std::vector<std::int64_t>& tri = zb.tri;
+    const std::vector<double>& bary = zb.bary;
     // Every visible pixel's surface point and normal, then one evaluation of them all.
     std::vector<std::size_t> where;
     std::vector<double> ys;

@@ -55,6 +55,110 @@ void interleave_table(const LevelTable& t, int components, float* out) {
                 out[(static_cast<std::size_t>(y) * n + x) * components + c] = t.row(c, y)[x];
 }
 
+namespace {
+
+// The mean (grey repeats its channel) and the noise's scale 1 / sqrt(lambda).
+void write_mean(Record& rec, const PreparedTexton& tex, double scale) {
+    const auto& mean = tex.texton().mean;
+    const bool grey = tex.channels() != 3;
+    rec.f(slot::mean, mean[0], grey ? mean[0] : mean[1], grey ? mean[0] : mean[2], scale);
+}
+
+// The limit model's record (its kappa weights and colour matrix): no cells, no points.
+void write_limit(Record& rec, const PreparedTexton& tex, const NoiseRequest& q) {
+    const int nc = tex.channels();
+    const auto& lm = tex.limit(q.level);
+    rec.i(slot::mode, 1, q.level, 0, 0);
+    for (int s = 0; s < 7; ++s) {
+        double k[4] = {0, 0, 0, 0};
+        for (int j = 0; j < 4 && 4 * s + j < 25; ++j)
+            k[j] = lm.kappa[static_cast<std::size_t>(4 * s + j)];
+        rec.f(slot::kappa + s, k[0], k[1], k[2], k[3]);
+    }
+    for (int c = 0; c < 3; ++c) {
+        double row[3] = {0, 0, 0};
+        if (c < nc)
+            for (int d = 0; d < nc; ++d) row[d] = lm.a(c, d);
+        rec.f(slot::colour + c, row[0], row[1], row[2], 0.0);
+    }
+    const std::int64_t q0x = q.x0 - 2, q0y = q.y0 - 2;
+    rec.u(slot::seed, static_cast<std::uint32_t>(q.seed), static_cast<std::uint32_t>(q.seed >> 32),
+          0, 0);
+    write_mean(rec, tex, 0.0); // the limit model has no scale
+    rec.u(slot::base_y, 0, 0, lo(q0x), hi(q0x));
+    rec.u(slot::thresholds, lo(q0y), hi(q0y), 0, 0);
+}
+
+// The window's cells, counted from the base cell (bcx, bcy), and how many there are.
+struct Cells {
+    std::int64_t bcx = 0, bcy = 0, ncx = 0, ncy = 0;
+};
+
+// The window's points listed once: rows of cells (in parallel only for a frame's many rows: a
+// tile's few are cheaper on the caller's thread than waking a team), then one run: cells by y
+// then x, points in draw order, each point's mix layer in its top byte.
+void list_points(NoiseWindow& win, const core::noise::GridPoisson& grid, const PreparedMix* mix,
+                 std::uint64_t seed, const Cells& c) {
+    const int a = grid.a;
+    std::vector<std::vector<std::uint32_t>> rows(static_cast<std::size_t>(c.ncy));
+    std::vector<std::uint32_t> counts(static_cast<std::size_t>(c.ncx * c.ncy));
+#pragma omp parallel for schedule(dynamic) if (c.ncx * c.ncy > 4096)
+    for (std::int64_t cy = 0; cy < c.ncy; ++cy) {
+        std::vector<core::noise::CellPoint> pts;
+        auto& row = rows[static_cast<std::size_t>(cy)];
+        for (std::int64_t cx = 0; cx < c.ncx; ++cx) {
+            const int n = grid.cell_points(seed, c.bcx + cx, c.bcy + cy, pts);
+            counts[static_cast<std::size_t>(cy * c.ncx + cx)] = static_cast<std::uint32_t>(n);
+        }
+        row.reserve(pts.size() * 4);
+        for (const auto& p : pts) {
+            const int layer = mix ? mix->level_at(static_cast<double>(p.bx) + p.fx / 16777216.0,
+                                                  static_cast<double>(p.by) + p.fy / 16777216.0)
+                                  : 0;
+            row.push_back(static_cast<std::uint32_t>(p.bx - c.bcx * a));
+            row.push_back(static_cast<std::uint32_t>(p.by - c.bcy * a));
+            row.push_back(p.fx | (p.eps < 0 ? 0x80000000u : 0u));
+            row.push_back(p.fy | (static_cast<std::uint32_t>(layer) << 24));
+        }
+    }
+    win.starts.assign(counts.size() + 1, 0);
+    for (std::size_t i = 0; i < counts.size(); ++i) win.starts[i + 1] = win.starts[i] + counts[i];
+    win.points.reserve(static_cast<std::size_t>(win.starts.back()) * 4);
+    for (const auto& row : rows) win.points.insert(win.points.end(), row.begin(), row.end());
+}
+
+// A mix: all level tables as one array, and the field as an affine map (or a mask) of the
+// position relative to the base cell's origin (NOISE_SPEC.md section 9).
+void write_mix(NoiseWindow& win, Record& rec, const PreparedMix& mix, const LevelTable& table,
+               int level, double bx, double by) {
+    const int side = table.side(), nl = mix.levels();
+    const std::size_t layer = static_cast<std::size_t>(side) * side * 4;
+    win.mix_tables.assign(layer * static_cast<std::size_t>(nl), 0.0f);
+    for (int l = 0; l < nl; ++l)
+        interleave_table(*mix.level(l).table(level), 4,
+                         win.mix_tables.data() + layer * static_cast<std::size_t>(l));
+    const core::MixField& f = mix.field();
+    if (f.kind == core::MixField::Kind::ramp) {
+        const double n = std::hypot(f.dx, f.dy) * f.width;
+        rec.f(slot::field, 0, f.dx / n, f.dy / n, ((bx - f.x0) * f.dx + (by - f.y0) * f.dy) / n);
+        win.record[slot::field * 4] = 0; // the kind, an integer
+        rec.f(slot::mask, 0, 0, 0, 0);
+    } else {
+        win.mask = &f;
+        rec.f(slot::field, 0, 0, 0, 0);
+        win.record[slot::field * 4] = 1;
+        rec.f(slot::mask, 1.0 / f.scale, (bx - f.x0) / f.scale, (by - f.y0) / f.scale, 0);
+    }
+    win.record[slot::mask * 4 + 3] = static_cast<std::uint32_t>(nl);
+    const auto& mu = mix.level(0).texton().mean;
+    const auto& mv = mix.level(nl - 1).texton().mean;
+    const bool grey = win.channels == 1;
+    rec.f(slot::mean_u, mu[0], grey ? mu[0] : mu[1], grey ? mu[0] : mu[2], 0);
+    rec.f(slot::mean_v, mv[0], grey ? mv[0] : mv[1], grey ? mv[0] : mv[2], 0);
+}
+
+} // namespace
+
 NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
                               const NoiseRequest& q, bool host_lists) {
     NoiseWindow win;
@@ -64,37 +168,10 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     win.precision = q.precision;
     win.cancel = q.cancel;
     Record rec{win.record};
-    const int nc = tex.channels();
-    const bool limit = q.level >= tex.limit_level();
-    win.limit_model = limit;
-    const auto& mean = tex.texton().mean;
-    // The mean (grey repeats its channel) and the noise's scale 1 / sqrt(lambda).
-    auto mean_and_scale = [&](double scale) {
-        rec.f(slot::mean, mean[0], nc == 3 ? mean[1] : mean[0], nc == 3 ? mean[2] : mean[0], scale);
-    };
-    const auto seed_lo = static_cast<std::uint32_t>(q.seed);
-    const auto seed_hi = static_cast<std::uint32_t>(q.seed >> 32);
-    rec.i(slot::size, 0, 0, 0, nc);
-    if (limit) {
-        const auto& lm = tex.limit(q.level);
-        rec.i(slot::mode, 1, q.level, 0, 0);
-        for (int s = 0; s < 7; ++s) {
-            double k[4] = {0, 0, 0, 0};
-            for (int j = 0; j < 4 && 4 * s + j < 25; ++j)
-                k[j] = lm.kappa[static_cast<std::size_t>(4 * s + j)];
-            rec.f(slot::kappa + s, k[0], k[1], k[2], k[3]);
-        }
-        for (int c = 0; c < 3; ++c) {
-            double row[3] = {0, 0, 0};
-            if (c < nc)
-                for (int d = 0; d < nc; ++d) row[d] = lm.a(c, d);
-            rec.f(slot::colour + c, row[0], row[1], row[2], 0.0);
-        }
-        const std::int64_t q0x = q.x0 - 2, q0y = q.y0 - 2;
-        rec.u(slot::seed, seed_lo, seed_hi, 0, 0);
-        mean_and_scale(0.0); // the limit model has no scale
-        rec.u(slot::base_y, 0, 0, lo(q0x), hi(q0x));
-        rec.u(slot::thresholds, lo(q0y), hi(q0y), 0, 0);
+    win.limit_model = q.level >= tex.limit_level();
+    rec.i(slot::size, 0, 0, 0, tex.channels());
+    if (win.limit_model) {
+        write_limit(rec, tex, q);
         return win;
     }
 
@@ -114,20 +191,22 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
             origin = static_cast<int>(p0 - (cell * a << sub_log2));
         }
     };
-    std::int64_t bcx, bcy;
+    Cells cells;
     int ox, oy;
-    base(q.x0, bcx, ox);
-    base(q.y0, bcy, oy);
+    base(q.x0, cells.bcx, ox);
+    base(q.y0, cells.bcy, oy);
     const bool tileable = q.period[0] > 0;
     rec.i(slot::mode, 0, q.level, st, sub_log2);
     rec.i(slot::geometry, table->length, r, tex.order(), a);
-    rec.u(slot::seed, seed_lo, seed_hi, lo(bcx), hi(bcx));
-    rec.u(slot::base_y, lo(bcy), hi(bcy), 0, 0);
+    rec.u(slot::seed, static_cast<std::uint32_t>(q.seed), static_cast<std::uint32_t>(q.seed >> 32),
+          lo(cells.bcx), hi(cells.bcx));
+    rec.u(slot::base_y, lo(cells.bcy), hi(cells.bcy), 0, 0);
     rec.i(slot::thresholds, 0, 0, static_cast<std::int64_t>(grid.thresholds.size()), 0);
     rec.i(slot::period, tileable ? q.period[0] : 0, tileable ? q.period[1] : 0,
-          tileable ? floor_mod(bcx, q.period[0]) : 0, tileable ? floor_mod(bcy, q.period[1]) : 0);
+          tileable ? floor_mod(cells.bcx, q.period[0]) : 0,
+          tileable ? floor_mod(cells.bcy, q.period[1]) : 0);
     rec.i(slot::origin, ox, oy, 0, 0);
-    mean_and_scale(1.0 / std::sqrt(grid.lambda));
+    write_mean(rec, tex, 1.0 / std::sqrt(grid.lambda));
     win.thresholds = grid.thresholds;
 
     // The window's cells from the base cell: up to the last pixel's reach (the shader's
@@ -136,76 +215,22 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
         if (q.level >= 0) return (origin + std::int64_t{n - 1} * st + st - 1 + reach) / a;
         return (((origin + std::int64_t{n - 1}) >> sub_log2) + 1 + reach) / a;
     };
-    const std::int64_t ncx = last_cell(ox, q.width) + 1, ncy = last_cell(oy, q.height) + 1;
+    cells.ncx = last_cell(ox, q.width) + 1;
+    cells.ncy = last_cell(oy, q.height) + 1;
     // Listing the window's points pays while there are far fewer of them than pixels (levels
     // <= 1); above, each pixel regenerates its own.
     const bool listed =
-        host_lists && static_cast<double>(ncx) * static_cast<double>(ncy) * grid.mu <=
+        host_lists && static_cast<double>(cells.ncx) * static_cast<double>(cells.ncy) * grid.mu <=
                           std::max(65536.0, static_cast<double>(q.width) * q.height / 8);
     rec.i(slot::table, table->side(), 0, listed ? 1 : 0, 0);
-    rec.i(slot::cells, listed ? ncx : 0, listed ? ncy : 0, 0, mix ? 1 : 0);
-    if (listed) {
-        // Rows of cells (in parallel only for a frame's many rows: a tile's few are cheaper on
-        // the caller's thread than waking a team), then one run: cells by y then x, points in
-        // draw order.
-        std::vector<std::vector<std::uint32_t>> rows(static_cast<std::size_t>(ncy));
-        std::vector<std::uint32_t> counts(static_cast<std::size_t>(ncx * ncy));
-#pragma omp parallel for schedule(dynamic) if (ncx * ncy > 4096)
-        for (std::int64_t cy = 0; cy < ncy; ++cy) {
-            std::vector<core::noise::CellPoint> pts;
-            auto& row = rows[static_cast<std::size_t>(cy)];
-            for (std::int64_t cx = 0; cx < ncx; ++cx) {
-                const int n = grid.cell_points(q.seed, bcx + cx, bcy + cy, pts);
-                counts[static_cast<std::size_t>(cy * ncx + cx)] = static_cast<std::uint32_t>(n);
-            }
-            row.reserve(pts.size() * 4);
-            for (const auto& p : pts) {
-                const int layer = mix ? mix->level_at(static_cast<double>(p.bx) + p.fx / 16777216.0,
-                                                      static_cast<double>(p.by) + p.fy / 16777216.0)
-                                      : 0;
-                row.push_back(static_cast<std::uint32_t>(p.bx - bcx * a));
-                row.push_back(static_cast<std::uint32_t>(p.by - bcy * a));
-                row.push_back(p.fx | (p.eps < 0 ? 0x80000000u : 0u));
-                row.push_back(p.fy | (static_cast<std::uint32_t>(layer) << 24));
-            }
-        }
-        win.starts.assign(counts.size() + 1, 0);
-        for (std::size_t i = 0; i < counts.size(); ++i)
-            win.starts[i + 1] = win.starts[i] + counts[i];
-        win.points.reserve(static_cast<std::size_t>(win.starts.back()) * 4);
-        for (const auto& row : rows) win.points.insert(win.points.end(), row.begin(), row.end());
-    }
+    rec.i(slot::cells, listed ? cells.ncx : 0, listed ? cells.ncy : 0, 0, mix ? 1 : 0);
+    if (listed) list_points(win, grid, mix, q.seed, cells);
     if (!mix) {
         win.table = table;
         return win;
     }
-    // All level tables as one array, and the field as an affine map (or a mask) of the position
-    // relative to the base cell's origin (NOISE_SPEC.md section 9).
-    const int side = table->side(), nl = mix->levels();
-    const std::size_t layer = static_cast<std::size_t>(side) * side * 4;
-    win.mix_tables.assign(layer * static_cast<std::size_t>(nl), 0.0f);
-    for (int l = 0; l < nl; ++l)
-        interleave_table(*mix->level(l).table(q.level), 4,
-                         win.mix_tables.data() + layer * static_cast<std::size_t>(l));
-    const core::MixField& f = mix->field();
-    const double bx = static_cast<double>(bcx) * a, by = static_cast<double>(bcy) * a;
-    if (f.kind == core::MixField::Kind::ramp) {
-        const double n = std::hypot(f.dx, f.dy) * f.width;
-        rec.f(slot::field, 0, f.dx / n, f.dy / n, ((bx - f.x0) * f.dx + (by - f.y0) * f.dy) / n);
-        win.record[slot::field * 4] = 0; // the kind, an integer
-        rec.f(slot::mask, 0, 0, 0, 0);
-    } else {
-        win.mask = &f;
-        rec.f(slot::field, 0, 0, 0, 0);
-        win.record[slot::field * 4] = 1;
-        rec.f(slot::mask, 1.0 / f.scale, (bx - f.x0) / f.scale, (by - f.y0) / f.scale, 0);
-    }
-    win.record[slot::mask * 4 + 3] = static_cast<std::uint32_t>(nl);
-    const auto& mu = mix->level(0).texton().mean;
-    const auto& mv = mix->level(nl - 1).texton().mean;
-    const bool grey = nc == 1;
-    rec.f(slot::mean_u, mu[0], grey ? mu[0] : mu[1], grey ? mu[0] : mu[2], 0);
-    rec.f(slot::mean_v, mv[0], grey ? mv[0] : mv[1], grey ? mv[0] : mv[2], 0);
+    write_mix(win, rec, *mix, *table, q.level, static_cast<double>(cells.bcx) * a,
+              static_cast<double>(cells.bcy) * a);
     return win;
 }
 

@@ -72,7 +72,7 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m) {
     // full pool answers 429 at once (it waited on a mutex before: 15 s became 159 s).
     store::TextonStore* textons = &m_textons;
     store::MixStore* mixes = &m_mixes;
-    const api::TextonMeta mu = u.value();
+    const api::TextonMeta& mu = u.value(); // copied into the job by its capture
     const std::string id = out.id;
     out.submitted = m_pool.submit(
         "mix:" + id,

@@ -377,7 +377,7 @@ Result<OpenedUpload> open_upload(std::string_view bytes, const DecodeLimits& lim
     void* proxy = format == "jpeg" ? static_cast<void*>(out.whole.get())
                                    : static_cast<void*>(out.bounded.get());
     ImageSpec config = read_config();
-    config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+    config.attribute("oiio:ioproxy", TypeDesc::PTR, static_cast<const void*>(&proxy));
     ImageSpec opened;
     if (!in->open("upload." + format, opened, config))
         return unprocessable("cannot decode " + format + " image: " + oiio_message(in->geterror()));
@@ -542,7 +542,7 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
     buffer.reserve(in.pixels.size() + in.pixels.size() / 64 + 4096); // stored PNG, no regrowth
     OIIO::Filesystem::IOVecOutput proxy(buffer);
     void* proxy_ptr = &proxy;
-    in.spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy_ptr);
+    in.spec.attribute("oiio:ioproxy", TypeDesc::PTR, static_cast<const void*>(&proxy_ptr));
     // One encoder per thread and format, reused: creating one looks up the plugin each time.
     // The name only picks the encoder; with an I/O proxy nothing touches the filesystem.
     const char* name = e == Encoding::exr ? "tile.exr" : "tile.png";

@@ -774,8 +774,9 @@ std::optional<std::string> RedisStore::memory_warning() {
     if (!policy.empty() && policy != "noeviction")
         return "Redis evicts keys (maxmemory-policy " + api::printable(policy, 40) +
                "): textons, splats and mixes would be lost; set noeviction";
-    const long long max = std::atoll(field("maxmemory").c_str());
-    const long long used = std::atoll(field("used_memory").c_str());
+    // Redis's own decimal integers; anything else reads as 0 (no limit known).
+    const long long max = std::strtoll(field("maxmemory").c_str(), nullptr, 10);
+    const long long used = std::strtoll(field("used_memory").c_str(), nullptr, 10);
     // Full once less than 5% or 16 MiB is left: the next texton with its exemplar may not fit.
     if (max > 0 && used > max - std::max(max / 20, 16LL << 20))
         return "Redis is nearly full: " + std::to_string(used) + " of " + std::to_string(max) +

@@ -153,7 +153,7 @@ Result<api::TextonMeta> TextonStore::fetch_shared_once(const std::string& id) {
         api::read_provenance(nlohmann::json::parse(got.value()->meta_json), theirs);
         provenance = api::provenance_json(theirs);
     } catch (const std::exception&) {
-        // Absent or unreadable: the texton is served without it.
+        provenance = nlohmann::json::object(); // absent or unreadable: served without it
     }
     const std::string signature = got.value()->signature;
     auto w = m_local->write(id, got.value()->file, &got.value()->exemplar_png, provenance);

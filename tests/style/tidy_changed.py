@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Which of FILES clang-tidy must check again: those whose translation unit changed since their
-last clean pass. A file's key is the hash of clang-tidy's version, every .clang-tidy of the tree,
+last clean pass. A file's key is the hash of clang-tidy's version and arguments (TIDY_ARGS), every
+.clang-tidy of the tree,
 its compile command and its preprocessed text with comments and macro definitions (so an edited
 header re-checks every file that includes it, a removed NOLINT or a new macro re-checks, and a
 changed flag re-checks what it compiles). Clean passes leave the key in
@@ -45,6 +46,7 @@ def main():
         by_file[os.path.relpath(f, root)] = e
     common = hashlib.sha256()
     common.update(subprocess.run([tidy, "--version"], capture_output=True).stdout)
+    common.update(os.environ.get("TIDY_ARGS", "").encode())
     for d, _, names in sorted(os.walk(root)):
         if "node_modules" in d or os.path.relpath(d, root).split(os.sep)[0] in ("build", ".git"):
             continue
