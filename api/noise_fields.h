@@ -23,7 +23,7 @@ enum NoiseRoute : unsigned {
     kKitRoute = 1U << 4,      // kit.tar
     kSurfaceRoute = 1U << 5,  // POST surface
     kMeshRoute = 1U << 6,     // POST mesh.png
-    kMixTileRoute = 1U << 7,  // a mix's tiles/, map/ and tilejson.json: a mix has no maps
+    kMixTileRoute = 1U << 7,  // a mix's or splat's tiles/, map/ and tilejson.json: no maps
     kMixRegionRoute = 1U << 8,
 };
 

@@ -1,7 +1,7 @@
 #pragma once
 // The v1 requests as plain structs, parsed and validated from path segments and query fields
-// (style.md: OSRM's *_parameters). No HTTP here: server/ hands in strings and maps ApiError to a
-// response. Every rule below is also written in api/openapi.yaml.
+// (../shared/design/style.md: OSRM's *_parameters). No HTTP here: server/ hands in strings and maps
+// ApiError to a response. Every rule below is also written in api/openapi.yaml.
 #include "core/elevation_encoding.h"
 #include "core/material_set.h"
 #include "core/splat_blend.h"
@@ -70,7 +70,7 @@ struct NoiseParams {
     // marginals=exemplar: each pixel mapped onto the exemplar's colour marginals (README
     // "Marginals"); the default, gaussian, is the noise as it is.
     bool exemplar_marginals = false;
-    MapChoice map; // map=, strength=, light=
+    MapChoice map; // map=, strength=, light=, encoding=, height_scale=
 };
 
 // libwebp's largest side (WEBP_MAX_DIMENSION).
@@ -115,8 +115,8 @@ struct ListRequest {
 };
 
 // Path pieces arrive as the raw strings of the URL (already percent-decoded by the server).
-// `mix`: the id names a texture mix, which has no maps (api/noise_fields.h: its routes take no
-// map=, strength= or light=).
+// `mix`: the id names a texture mix or a splat map, which have no maps (api/noise_fields.h:
+// kMixTileRoute takes no map=, strength= or light=).
 std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
                                    std::string_view y, std::string_view ext, const Query& q,
                                    TileRequest& out, bool mix = false);

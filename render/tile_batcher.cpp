@@ -55,8 +55,8 @@ void TileBatcher::run(GlBackend& gl) {
             });
         // Every window of a batch is answered when the batch ends, so a batch holds at most
         // m_max_ms of measured work (always one window): a GPU takes all 64 tiles at once,
-        // llvmpipe (60 ms a tile) one at a time, as before batching. Until a batch has been
-        // measured, one window: a first batch of 64 on llvmpipe answered nothing for 30 s.
+        // llvmpipe (60 ms a tile) one at a time. Until a batch has been measured, one window: a
+        // first batch of 64 on llvmpipe would answer nothing for 30 s.
         const double budget_px = m_ms_per_pixel > 0 ? m_max_ms / m_ms_per_pixel : 0;
         std::vector<Job*> jobs;
         double pixels = 0;

@@ -62,13 +62,13 @@ void OpsRoutes::readyz(Req, Res res) {
     nlohmann::json shared = nullptr;
     bool degraded = false;
     if (store::RedisStore* r = m_store.shared()) {
-        auto ping = r->ping();
-        degraded = !ping;
-        shared = {{"url", r->describe()}, {"up", ping.ok()}};
-        if (!ping) shared["error"] = ping.error().message;
-        // A full (or evicting) Redis is seen before a write fails, by its own figures: a replica
-        // that never wrote said "degraded": false until an upload found out.
-        if (ping)
+        auto up = r->up();
+        degraded = !up;
+        shared = {{"url", r->describe()}, {"up", up.ok()}};
+        if (!up) shared["error"] = up.error().message;
+        // A full (or evicting) Redis is seen before a write fails, by its own figures, so that a
+        // replica that has not written yet reports it too.
+        if (up)
             if (auto full = r->memory_warning()) {
                 degraded = true;
                 shared["error"] = *full;

@@ -6,6 +6,7 @@
 #include "server/http/request_context.h"
 #include "server/http/responses.h"
 #include "server/io/image_io.h"
+#include "server/io/splat_file.h"
 
 #include <algorithm>
 
@@ -80,10 +81,9 @@ void SplatRoutes::create(Req req, Res res, const httplib::ContentReader& reader)
 
 bool SplatRoutes::admit_weights(Res res, const httplib::MultipartFormData* const* images, int sent,
                                 int layers, Admitted& out) {
-    out.limits.max_pixels = std::min<std::uint64_t>(
-        m_config.max_pixels, static_cast<std::uint64_t>(core::kMaxSplatWeightPixels));
-    out.limits.formats = m_config.formats;
-    out.limits.all_channels = true; // RGBA: four layers
+    // The stored weights' own limits, and --max-pixels when that is lower.
+    out.limits = io::splat_weight_limits(m_config.formats);
+    out.limits.max_pixels = std::min<std::uint64_t>(m_config.max_pixels, out.limits.max_pixels);
     std::vector<io::ImageHeader> headers;
     for (int i = 0; i < sent; ++i) {
         auto h = io::image_header_memory(images[i]->content, out.limits);

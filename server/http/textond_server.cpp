@@ -76,8 +76,8 @@ std::optional<Error> TextondServer::open_parts() {
         if (!address) return address.error();
         shared = std::make_unique<store::RedisStore>(
             address.value(), std::chrono::milliseconds(m_config.store_timeout_ms));
-        if (auto ping = shared->ping(); !ping) // not fatal: local copies can still be served
-            spdlog::warn("{}; starting anyway", ping.error().message);
+        if (auto up = shared->up(); !up) // not fatal: local copies can still be served
+            spdlog::warn("{}; starting anyway", up.error().message);
     }
     auto store = TextonStore::open(m_config.data_dir, 64, std::move(shared),
                                    std::chrono::milliseconds(1000LL * m_config.store_recheck_s),
@@ -164,8 +164,9 @@ void TextondServer::add_gauges() {
             count([pool] { return pool->running(); }));
     TextonStore* store = m_store.get();
     if (store->shared())
-        m.gauge("textond_shared_store_up", "1 when the shared texton store answers a PING.",
-                [store] { return store->shared()->ping() ? 1.0 : 0.0; });
+        m.gauge("textond_shared_store_up",
+                "1 when the shared store answers PING and took its last minute's writes.",
+                [store] { return store->shared()->up() ? 1.0 : 0.0; });
     m.gauge("textond_store_textons", "Textons held in the local store (or cache).",
             count([store] { return store->local().count(); }));
     m.gauge("textond_store_bytes", "Bytes of texton files in the store.",

@@ -25,9 +25,9 @@ struct SplatRecord {
     std::vector<std::string> weight_uploads; // image weights: the images as uploaded
 };
 
-// How weight images are decoded, at creation and at load alike: every channel (RGBA = four
-// layers), at most 4,194,304 pixels (core::kMaxSplatWeightPixels), any format the uploads take
-// (`formats` narrows it at creation).
+// How weight images are decoded, at creation (which also caps them at --max-pixels) and at load:
+// every channel (RGBA = four layers), at most 4,194,304 pixels (core::kMaxSplatWeightPixels),
+// any format the uploads take (`formats` narrows it at creation).
 DecodeLimits splat_weight_limits(const std::vector<std::string>& formats = {});
 
 // Layer k's weights: channel k of `weights` (R, G, B, A), then for layers 5 to 8 channel k - 4

@@ -617,7 +617,7 @@ Result<std::uint64_t> RedisStore::count() {
     return static_cast<std::uint64_t>(std::max(0LL, r.value()->integer()));
 }
 
-Result<bool> RedisStore::ping() {
+Result<bool> RedisStore::up() {
     auto r = command({"PING"});
     if (!r) return r.error();
     const redisReply* p = r.value()->r;

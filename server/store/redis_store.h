@@ -97,7 +97,9 @@ public:
     static constexpr long long kMaxListedMetaBytes = 64LL << 10;
     static constexpr std::size_t kListPageBytes = std::size_t{8} << 20;
     Result<std::uint64_t> count();
-    Result<bool> ping();
+    // Up: Redis answers PING, and no write was refused in the last minute (a full or read-only
+    // Redis answers PING and still loses uploads). What /readyz and textond_shared_store_up say.
+    Result<bool> up();
 
     // Splats and mixes: an object of `kind` ("splat", "mix") is the files of
     // its directory by suffix, under "<kind>:<id>" as {<suffix>: bytes, <suffix>.sha256: hex},
