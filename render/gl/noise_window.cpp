@@ -57,6 +57,13 @@ void interleave_table(const LevelTable& t, int components, float* out) {
 
 namespace {
 
+// The seed's two words and the base cell's x, as the shader's hash and cell loop take them.
+void write_seed(Record& rec, std::uint64_t seed, std::int64_t base_x) {
+    const auto seed_lo = static_cast<std::uint32_t>(seed);
+    const auto seed_hi = static_cast<std::uint32_t>(seed >> 32);
+    rec.u(slot::seed, seed_lo, seed_hi, lo(base_x), hi(base_x));
+}
+
 // The mean (grey repeats its channel) and the noise's scale 1 / sqrt(lambda).
 void write_mean(Record& rec, const PreparedTexton& tex, double scale) {
     const auto& mean = tex.texton().mean;
@@ -82,9 +89,8 @@ void write_limit(Record& rec, const PreparedTexton& tex, const NoiseRequest& q) 
         rec.f(slot::colour + c, row[0], row[1], row[2], 0.0);
     }
     const std::int64_t q0x = q.x0 - 2, q0y = q.y0 - 2;
-    rec.u(slot::seed, static_cast<std::uint32_t>(q.seed), static_cast<std::uint32_t>(q.seed >> 32),
-          0, 0);
-    write_mean(rec, tex, 0.0); // the limit model has no scale
+    write_seed(rec, q.seed, 0); // no base cell: lo(0) = hi(0) = 0
+    write_mean(rec, tex, 0.0);  // the limit model has no scale
     rec.u(slot::base_y, 0, 0, lo(q0x), hi(q0x));
     rec.u(slot::thresholds, lo(q0y), hi(q0y), 0, 0);
 }
@@ -198,8 +204,7 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     const bool tileable = q.period[0] > 0;
     rec.i(slot::mode, 0, q.level, st, sub_log2);
     rec.i(slot::geometry, table->length, r, tex.order(), a);
-    rec.u(slot::seed, static_cast<std::uint32_t>(q.seed), static_cast<std::uint32_t>(q.seed >> 32),
-          lo(cells.bcx), hi(cells.bcx));
+    write_seed(rec, q.seed, cells.bcx);
     rec.u(slot::base_y, lo(cells.bcy), hi(cells.bcy), 0, 0);
     rec.i(slot::thresholds, 0, 0, static_cast<std::int64_t>(grid.thresholds.size()), 0);
     rec.i(slot::period, tileable ? q.period[0] : 0, tileable ? q.period[1] : 0,

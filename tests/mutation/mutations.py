@@ -69,7 +69,7 @@ MUTATIONS = [
      "if (s.size() < 64) return false;",
      ["api_unit_test", "server_test"]),
     ("gl-seed-high-word", "render/gl/noise_window.cpp",
-     "const auto seed_hi = static_cast<std::uint32_t>(q.seed >> 32);",
+     "const auto seed_hi = static_cast<std::uint32_t>(seed >> 32);",
      "const auto seed_hi = std::uint32_t{0};",
      ["render_test"]),
     ("limit-model-white-noise", "render/cpu_backend.cpp",
