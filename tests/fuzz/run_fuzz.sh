@@ -56,13 +56,14 @@ cp -n tests/fuzz/seeds/render/* "$wcorpus"/
 # The three targets run at once, each single-threaded. Each is given the CPU time it would have
 # had alone for SECONDS (SECONDS x targets / cores of wall time when the targets outnumber the
 # cores): the same executions and coverage per CPU second, in less wall time.
+cores=$(nproc) # before OMP_NUM_THREADS below, which nproc would report instead
 # One thread each (the analysis's OpenMP FFTs included): three targets already share the cores.
 export OMP_NUM_THREADS=1 OMP_WAIT_POLICY=PASSIVE
 targets=(decode_analyze_fuzzer:build/fuzz/work request_fuzzer:"$rcorpus" render_fuzzer:"$wcorpus")
-cores=$(nproc)
 wall=$seconds
 [ "$cores" -lt ${#targets[@]} ] && wall=$(((seconds * ${#targets[@]} + cores - 1) / cores))
 pids=()
+trap 'kill "${pids[@]}" 2>/dev/null || true' EXIT # none left running if the script stops early
 for t in "${targets[@]}"; do
     name=${t%%:*}
     "build/fuzz/$name" "${t#*:}" -max_total_time="$wall" -rss_limit_mb=2048 -timeout=20 \
@@ -79,7 +80,7 @@ for i in "${!targets[@]}"; do
     status=$?
     set -e
     echo "$name ($wall s of wall time):"
-    grep -E "stat::number_of_executed_units|stat::peak_rss_mb|cov:" "$log" | tail -n 3
+    grep -E "stat::number_of_executed_units|stat::peak_rss_mb|cov:" "$log" | tail -n 3 || true
     if [ $status -ne 0 ]; then
         echo "fuzz: $name failed (status $status); inputs in build/fuzz/crashes/:" >&2
         ls build/fuzz/crashes >&2

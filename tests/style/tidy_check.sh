@@ -18,7 +18,7 @@ build=${1:?usage: tidy_check.sh BUILD_DIR [FILE...]}
 shift
 cd "$root" || exit 1
 tidy=$(command -v clang-tidy-22 || true)
-[ -n "$tidy" ] || { echo "tidy_check: clang-tidy-22 is not installed (docker/install-deps.sh --tests)" >&2; exit 1; }
+[ -n "$tidy" ] || { echo "tidy_check: clang-tidy-22 is not installed (docker/install-deps.sh)" >&2; exit 1; }
 # GCC's vectorisation hints (#pragma GCC ivdep) are unknown to clang: not a finding.
 # std::stable_sort in GCC 12's libstdc++ calls get_temporary_buffer, which clang 22 finds
 # deprecated (C++17) inside that system header: not ours to change.
