@@ -1,9 +1,8 @@
 #include "server/http/image_links.h"
 
 #include "server/app/url_signing.h"
+#include "server/http/auth.h"
 #include "server/http/responses.h"
-
-#include <openssl/crypto.h>
 
 #include <algorithm>
 #include <chrono>
@@ -73,12 +72,7 @@ bool ImageLinks::within_rate(const httplib::Request& req, httplib::Response& res
 
 std::string ImageLinks::rate_client(const httplib::Request& req) const {
     // Any other token would be a fresh bucket for the asking: only the server's key counts.
-    if (!m_config.api_key.empty()) {
-        const std::string got = req.get_header_value("Authorization"),
-                          want = "Bearer " + m_config.api_key;
-        if (got.size() == want.size() && CRYPTO_memcmp(got.data(), want.data(), want.size()) == 0)
-            return "api-key";
-    }
+    if (holds_api_key(m_config.api_key, req)) return "api-key";
     // IPv6: a /64 is one client (anyone holding one has 2^64 addresses).
     const std::string& a = req.remote_addr;
     if (a.find(':') != std::string::npos) {
