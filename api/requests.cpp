@@ -143,8 +143,8 @@ std::optional<ApiError> check_window(std::int64_t x0, std::int64_t y0, std::int6
 }
 
 // What every tile URL takes (a TileJSON too, but for quality: it writes PNG templates).
-std::optional<ApiError> tile_fields(const Query& q, bool mix, bool tilejson, TileRequest& out) {
-    const NoiseRoute route = mix ? kMixTileRoute : kTileRoute;
+std::optional<ApiError> tile_fields(const Query& q, bool maps, bool tilejson, TileRequest& out) {
+    const NoiseRoute route = maps ? kTileRoute : kMixTileRoute;
     if (auto e = tilejson ? check_fields(q, {"size"}, route)
                           : check_fields(q, {"size", "quality"}, route))
         return e;
@@ -161,12 +161,12 @@ std::optional<ApiError> tile_fields(const Query& q, bool mix, bool tilejson, Til
 }
 
 std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std::string_view y,
-                                    std::string_view ext, const Query& q, bool mix,
+                                    std::string_view ext, const Query& q, bool maps,
                                     TileRequest& out) {
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
-    if (auto e = tile_fields(q, mix, false, out)) return e;
+    if (auto e = tile_fields(q, maps, false, out)) return e;
     if (out.noise.map.encoding && out.format != ImageFormat::png)
         return bad("invalid_parameter", "elevation tiles (encoding=) are 8-bit RGB PNG: ask for "
                                         ".png, not ." +
@@ -388,27 +388,27 @@ std::optional<double> parse_finite(std::string_view s) {
 
 std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
                                    std::string_view y, std::string_view ext, const Query& q,
-                                   TileRequest& out, bool mix) {
+                                   TileRequest& out, bool maps) {
     if (auto e = check_texton_id(id)) return e;
     if (auto e = level_of(z, out.level)) return e;
-    return tile_common(id, x, y, ext, q, mix, out);
+    return tile_common(id, x, y, ext, q, maps, out);
 }
 
 std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, std::string_view x,
                                        std::string_view y, std::string_view ext, const Query& q,
-                                       TileRequest& out, bool mix) {
+                                       TileRequest& out, bool maps) {
     if (auto e = check_texton_id(id)) return e;
     auto zoom = parse_i64(z);
     if (!zoom || *zoom < 0 || *zoom > kMapMaxZoom)
         return bad("level_out_of_range",
                    "map zoom must be an integer in [0, " + std::to_string(kMapMaxZoom) + "]");
     out.level = kMapMaxLevel - static_cast<int>(*zoom);
-    return tile_common(id, x, y, ext, q, mix, out);
+    return tile_common(id, x, y, ext, q, maps, out);
 }
 
 std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, const Query& q,
-                                     const Limits& limits, RegionRequest& out, bool mix) {
-    const NoiseRoute route = mix ? kMixRegionRoute : kRegionRoute;
+                                     const Limits& limits, RegionRequest& out, bool maps) {
+    const NoiseRoute route = maps ? kRegionRoute : kMixRegionRoute;
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
@@ -478,10 +478,10 @@ std::optional<ApiError> parse_list(const Query& q, ListRequest& out) {
 }
 
 std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out,
-                                       bool mix) {
+                                       bool maps) {
     if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
-    return tile_fields(q, mix, true, out);
+    return tile_fields(q, maps, true, out);
 }
 
 std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out) {

@@ -115,25 +115,25 @@ struct ListRequest {
 };
 
 // Path pieces arrive as the raw strings of the URL (already percent-decoded by the server).
-// `mix`: the id names a texture mix or a splat map, which have no maps (api/noise_fields.h:
-// kMixTileRoute takes no map=, strength= or light=).
+// `maps`: whether the id's kind takes map= (app::ImageSource::has_maps: a texton does; a texture
+// mix and a splat map, whose routes' fields are kMixTileRoute's in api/noise_fields.h, do not).
 std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
                                    std::string_view y, std::string_view ext, const Query& q,
-                                   TileRequest& out, bool mix = false);
+                                   TileRequest& out, bool maps = true);
 // The web-map flavour (TileJSON): client zoom Z, larger = more detail, level = kMapMaxLevel - Z.
 inline constexpr int kMapMaxLevel = 24;
 inline constexpr int kMapMaxZoom = 28; // level -4
 std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, std::string_view x,
                                        std::string_view y, std::string_view ext, const Query& q,
-                                       TileRequest& out, bool mix = false);
+                                       TileRequest& out, bool maps = true);
 std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, const Query& q,
-                                     const Limits& limits, RegionRequest& out, bool mix = false);
+                                     const Limits& limits, RegionRequest& out, bool maps = true);
 std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext, const Query& q,
                                        const Limits& limits, TileableRequest& out);
 std::optional<ApiError> parse_list(const Query& q, ListRequest& out);
 // TileJSON: the tile fields it will write into its templates (not quality: they are PNG).
 std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out,
-                                       bool mix = false);
+                                       bool maps = true);
 // POST /v1/mixes: two texton ids, the level count and the field. Without a body the field is a
 // ramp (x0, y0, dx, dy, width); with one (a mask image, decoded by the caller) it is the mask's
 // placement (x0, y0, scale).

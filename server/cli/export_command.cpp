@@ -5,6 +5,7 @@
 #include "api/noise_fields.h"
 #include "render/renderer.h"
 #include "server/app/image_service.h"
+#include "server/app/texton_source.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
 #include "server/cli/export_plan.h"

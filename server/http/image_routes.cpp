@@ -57,17 +57,22 @@ std::size_t encoded_bytes_at_most(api::ImageFormat f, std::int64_t pixels) {
 
 } // namespace
 
-ImageRoutes::ImageRoutes(const ServeConfig& config, ImageService& images, TextonStore& textons,
-                         MixStore& mixes, ImageCache& cache, Gate& gate, Metrics& metrics,
-                         const int& port)
-    : m_config(config), m_images(images), m_textons(textons), m_mixes(mixes), m_cache(cache),
-      m_gate(gate), m_metrics(metrics), m_links(config, metrics, port) {}
+ImageRoutes::ImageRoutes(const ServeConfig& config, ImageService& images, TextonSource& textons,
+                         ImageCache& cache, Gate& gate, Metrics& metrics, const int& port)
+    : m_config(config), m_images(images), m_textons(textons), m_cache(cache), m_gate(gate),
+      m_metrics(metrics), m_links(config, metrics, port) {}
+
+const char* ImageRoutes::route_name(const ImageSource& source, const std::string& route) {
+    return m_route_names.emplace_back("/v1/" + std::string(source.collection()) + "/" + route)
+        .c_str();
+}
 
 void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& res,
                                const std::string& id, const std::string& key,
-                               api::ImageFormat format, const Produce& produce, Source source,
-                               std::int64_t pixels, double mni, int quality, double cpu_share) {
-    auto order = m_images.interpolation_order(id, source);
+                               api::ImageFormat format, const Produce& produce,
+                               const ImageSource& source, std::int64_t pixels, double mni,
+                               int quality, double cpu_share) {
+    auto order = source.interpolation_order(id);
     if (!order) return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
@@ -148,28 +153,23 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
 
 void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
                         const ImageService::Job& job) {
-    // Admission's estimate: normals take two CPU gradient passes, the lit view a render more; a
-    // splat at most a render a layer (and its rules' height and normals).
-    std::int64_t passes = job.noise.map.name == core::kLitMap      ? 3
-                          : job.noise.map.name == core::kNormalMap ? 2
-                                                                   : 1;
-    if (job.source == Source::splat) {
-        auto layers = m_images.splat_layers(job.id);
-        if (!layers) return send_error(res, to_api_error(layers.error()));
-        passes = layers.value() + 3;
-    }
+    // Admission's estimate: a window's pixels times the renders it takes.
+    const auto passes = job.source->passes(job.id, job.noise.map);
+    if (!passes) return send_error(res, to_api_error(passes.error()));
     // Normals are made on the CPU whatever the backend (the lit view's albedo is rendered).
     const double cpu_share = job.noise.map.name == core::kLitMap      ? 2.0 / 3.0
                              : job.noise.map.name == core::kNormalMap ? 1.0
                                                                       : 0.0;
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
-        [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, job.source,
-        job.pixels() * passes, job.request.mni, job.quality, cpu_share);
+        [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, *job.source,
+        job.pixels() * passes.value(), job.request.mni, job.quality, cpu_share);
 }
 
-ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, Source source) {
-    return [this, route, parse, source](const httplib::Request& req, httplib::Response& res) {
+ImageRoutes::Handler ImageRoutes::tile(ImageSource& source, const std::string& route_template,
+                                       TileParser parse) {
+    const char* route = route_name(source, route_template);
+    return [this, route, parse, &source](const httplib::Request& req, httplib::Response& res) {
         set_route(route);
         api::TileRequest t;
         // No extension: the format the client's Accept header asks for (AVIF, WebP, else PNG);
@@ -187,32 +187,33 @@ ImageRoutes::Handler ImageRoutes::tile(const char* route, TileParser parse, Sour
             res.set_header("Vary", "Accept");
         }
         if (auto e = parse(req.matches[1].str(), req.matches[2].str(), req.matches[3].str(),
-                           req.matches[4].str(), ext, *params, t, source != Source::texton))
+                           req.matches[4].str(), ext, *params, t, source.has_maps()))
             return send_error(res, *e);
         ImageService::Job job{
             t.id,     "tile",
             t.format, noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
             t.size,   t.size,
-            false,    source,
+            false,    &source,
             t.noise,  t.quality};
         serve(req, res, job);
     };
 }
 
-ImageRoutes::Handler ImageRoutes::region(const char* route, Source source) {
-    return [this, route, source](const httplib::Request& req, httplib::Response& res) {
+ImageRoutes::Handler ImageRoutes::region(ImageSource& source, const std::string& route_template) {
+    const char* route = route_name(source, route_template);
+    return [this, route, &source](const httplib::Request& req, httplib::Response& res) {
         set_route(route);
         api::RegionRequest r;
         const auto params = m_links.served_query(req, res, req.matches[2].str());
         if (!params) return;
         if (auto e = api::parse_region(req.matches[1].str(), req.matches[2].str(), *params,
-                                       m_config.limits, r, source != Source::texton))
+                                       m_config.limits, r, source.has_maps()))
             return send_error(res, *e);
         ImageService::Job job{
             r.id,     "region",
             r.format, noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
             r.width,  r.height,
-            true,     source,
+            true,     &source,
             r.noise,  r.quality};
         serve(req, res, job);
     };
@@ -242,35 +243,28 @@ void ImageRoutes::spectrum(const httplib::Request& req, httplib::Response& res) 
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     serve_cached(
         req, res, id, ImageService::spectrum_key(id, noise), api::ImageFormat::png,
-        [&](const render::Cancel& cancel) { return m_images.spectrum(id, noise, cancel); },
-        Source::texton, 512 * 512, noise.mni);
+        [&](const render::Cancel& cancel) { return m_textons.spectrum(id, noise, cancel); },
+        m_textons, 512 * 512, noise.mni);
 }
 
-// The quality report (quality_report.h): the PNG cached like a spectrum, the JSON computed in a
-// render slot (two windows of at most 256 x 256).
-void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, bool png) {
-    set_route(png ? "/v1/textons/{id}/quality.png" : "/v1/textons/{id}/quality.json");
+// The texton's quality report as JSON (quality_report.h), computed in a render slot (two windows
+// of at most 256 x 256) every time; its PNG is the texton's `report`, cached.
+void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res) {
+    set_route("/v1/textons/{id}/quality.json");
     const std::string id = req.matches[1].str();
     api::NoiseParams noise;
-    const auto params = m_links.served_query(req, res, png ? "png" : "");
+    const auto params = m_links.served_query(req, res, "");
     if (!params) return;
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
-    auto produce = [&](const render::Cancel& cancel) -> Result<core::Image> {
-        auto r = m_images.quality(id, noise, cancel);
-        if (!r) return r.error();
-        return std::move(r.value().png);
-    };
-    if (png)
-        return serve_cached(req, res, id, ImageService::quality_key(id, noise),
-                            api::ImageFormat::png, produce, Source::texton, 2 * 256 * 256,
-                            noise.mni);
-    auto order = m_images.interpolation_order(id, Source::texton);
+    auto order = m_textons.interpolation_order(id);
     if (!order) return send_error(res, to_api_error(order.error()));
+    auto pixels = m_textons.report_pixels(id);
+    if (!pixels) return send_error(res, to_api_error(pixels.error()));
     if (!m_links.within_rate(req, res)) return; // a render every time
-    auto slot = m_gate.admit(res, noise_work_s(2 * 256 * 256, noise.mni, order.value()));
+    auto slot = m_gate.admit(res, noise_work_s(pixels.value(), noise.mni, order.value()));
     if (!slot) return;
     const render::Cancel cancel = m_gate.work_cancel();
-    auto report = m_images.quality(id, noise, cancel);
+    auto report = m_textons.quality(id, noise, cancel);
     if (!report) return m_gate.send_work_error(res, report.error(), cancel);
     const auto preset = req.params.find("preset");
     report.value().json["links"] = {
@@ -282,26 +276,29 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res, b
     send_json(res, 200, report.value().json, "no-cache");
 }
 
-void ImageRoutes::splat_report(const httplib::Request& req, httplib::Response& res) {
-    set_route("/v1/splats/{id}/quality.png");
-    const std::string id = req.matches[1].str();
-    api::NoiseParams noise;
-    const auto params = m_links.served_query(req, res, "png");
-    if (!params) return;
-    if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
-    auto layers = m_images.splat_layers(id);
-    if (!layers) return send_error(res, to_api_error(layers.error()));
-    serve_cached(
-        req, res, id, "splat-" + ImageService::quality_key(id, noise), api::ImageFormat::png,
-        [&](const render::Cancel& cancel) { return m_images.splat_report(id, noise, cancel); },
-        Source::splat, (layers.value() + 4) * 256 * 256, noise.mni);
+ImageRoutes::Handler ImageRoutes::report(ImageSource& source) {
+    const char* route = route_name(source, "{id}/quality.png");
+    return [this, route, &source](const httplib::Request& req, httplib::Response& res) {
+        set_route(route);
+        const std::string id = req.matches[1].str();
+        api::NoiseParams noise;
+        const auto params = m_links.served_query(req, res, "png");
+        if (!params) return;
+        if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
+        auto pixels = source.report_pixels(id);
+        if (!pixels) return send_error(res, to_api_error(pixels.error()));
+        serve_cached(
+            req, res, id, ImageService::report_key(source, id, noise), api::ImageFormat::png,
+            [&](const render::Cancel& cancel) { return source.report(id, noise, cancel); }, source,
+            pixels.value(), noise.mni);
+    };
 }
 
 void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) {
     set_route("/v1/textons/{id}/exemplar.png");
     const std::string id = req.matches[1].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
-    auto png = m_textons.exemplar_png(id);
+    auto png = m_textons.store().exemplar_png(id);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_header("Cache-Control", kDeletableFor);
     fit_ranges(png.value().size());
@@ -334,9 +331,9 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
         return send_cached(res, m_metrics, std::move(cached));
     }
     if (!m_links.within_rate(req, res)) return;
-    auto record = m_textons.record(id);
+    auto record = m_textons.store().record(id);
     if (!record) return send_error(res, to_api_error(record.error()));
-    auto exr = m_textons.file_bytes(id);
+    auto exr = m_textons.store().file_bytes(id);
     if (!exr) return send_error(res, to_api_error(exr.error()));
     auto slot = m_gate.admit(res, kKitWorkSPerChannel * record.value().texton.channels,
                              1.0); // all on the CPU
@@ -350,46 +347,6 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
     m_cache.put(key, entry);
     headers();
     send_cached(res, m_metrics, std::move(entry));
-}
-
-// What the tiles of a TileJSON would refuse, refused once here: marginals a texton does not
-// keep, a map it does not have (a mix's routes take no map=: api/noise_fields.h).
-std::optional<api::ApiError>
-ImageRoutes::tilejson_refusal(const std::string& id, const api::TileRequest& probe, Source source) {
-    const api::ApiError no_marginals{
-        "invalid_parameter",
-        "marginals=exemplar needs the exemplar's marginals, which this texton does not keep "
-        "(analysed before they were kept); use marginals=gaussian"};
-    if (source == Source::splat) {
-        if (auto order = m_images.interpolation_order(id, source); !order)
-            return to_api_error(order.error());
-        if (probe.noise.exemplar_marginals)
-            return api::ApiError{"invalid_parameter",
-                                 "splats blend Gaussian layers, whose exemplar marginals the "
-                                 "blend does not keep; use marginals=gaussian"};
-        return std::nullopt;
-    }
-    if (source == Source::mix) {
-        if (auto meta = m_mixes.meta(id); !meta) return to_api_error(meta.error());
-        if (probe.noise.exemplar_marginals)
-            return api::ApiError{"invalid_parameter",
-                                 "marginals=exemplar is for textons of one exemplar: a mix "
-                                 "interpolates two Gaussian models; use marginals=gaussian"};
-        return std::nullopt;
-    }
-    if (auto meta = m_textons.find(id); !meta)
-        return to_api_error(meta.error());
-    else if (probe.noise.exemplar_marginals && !meta.value().exemplar_marginals)
-        return meta.value().maps.empty()
-                   ? no_marginals
-                   : api::ApiError{"invalid_parameter",
-                                   "marginals=exemplar is for textons of one exemplar: a material "
-                                   "set's maps are analysed as one joint Gaussian model, without "
-                                   "exemplar marginals; use marginals=gaussian"};
-    if (!probe.noise.map.name.empty())
-        if (auto view = render::map_view(m_textons.prepared(id), probe.noise.map.name); !view)
-            return to_api_error(view.error());
-    return std::nullopt;
 }
 
 // The extension and query of a TileJSON's tile templates. With presets the tiles name the preset
@@ -406,11 +363,17 @@ std::pair<std::string, std::string> ImageRoutes::tile_suffix(const httplib::Requ
                        (probe.size != 256 ? "&size=" + std::to_string(probe.size) : "")};
 }
 
-void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, Source source) {
+ImageRoutes::Handler ImageRoutes::tilejson(ImageSource& source) {
+    const char* route = route_name(source, "{id}/tilejson.json");
+    return [this, route, &source](const httplib::Request& req, httplib::Response& res) {
+        set_route(route);
+        tilejson_of(source, req, res);
+    };
+}
+
+void ImageRoutes::tilejson_of(const ImageSource& source, const httplib::Request& req,
+                              httplib::Response& res) {
     const std::string id = req.matches[1].str();
-    set_route(source == Source::mix     ? "/v1/mixes/{id}/tilejson.json"
-              : source == Source::splat ? "/v1/splats/{id}/tilejson.json"
-                                        : "/v1/textons/{id}/tilejson.json");
     api::TileRequest probe; // seed, mni and size, checked exactly as the tiles will check them
     const auto params = m_links.served_query(req, res, "");
     if (!params) return;
@@ -418,23 +381,19 @@ void ImageRoutes::tilejson(const httplib::Request& req, httplib::Response& res, 
     // preset; a TileJSON takes none of its own (its templates are PNG).
     api::Query fields = *params;
     if (!m_config.presets.empty()) fields.erase("quality");
-    if (auto e = api::parse_tilejson(id, fields, probe, source != Source::texton))
+    if (auto e = api::parse_tilejson(id, fields, probe, source.has_maps()))
         return send_error(res, *e);
-    if (auto e = tilejson_refusal(id, probe, source)) return send_error(res, *e);
-    const std::string prefix = source == Source::mix     ? "/v1/mixes/"
-                               : source == Source::splat ? "/v1/splats/"
-                                                         : "/v1/textons/";
+    if (auto e = source.tilejson_refusal(id, probe.noise)) return send_error(res, to_api_error(*e));
+    const std::string prefix = "/v1/" + std::string(source.collection()) + "/";
     const auto [ext, query] = tile_suffix(req, probe);
     const std::string base = m_links.base_url(req);
     const int native_zoom = api::kMapMaxLevel; // level 0: one texel per pixel
     nlohmann::json j = {
         {"tilejson", "3.0.0"},
         {"name", "textond " + id.substr(0, 12)},
-        {"description", std::string(source == Source::mix     ? "Texture mix "
-                                    : source == Source::splat ? "Splat map "
-                                                              : "Texton noise of texton ") +
-                            id + " (seed " + std::to_string(probe.noise.seed) + ", MNI " +
-                            api::query_text(probe.noise.mni) + "), an unbounded seamless plane"},
+        {"description", source.described_as() + id + " (seed " + std::to_string(probe.noise.seed) +
+                            ", MNI " + api::query_text(probe.noise.mni) +
+                            "), an unbounded seamless plane"},
         {"version", "1.0.0"},
         {"scheme", "xyz"},
         {"tiles",

@@ -6,7 +6,9 @@
 // ETag and cached; the work is ImageService's, admitted through the Gate.
 #include "api/requests.h"
 #include "server/app/image_service.h"
+#include "server/app/image_source.h"
 #include "server/app/metrics.h"
+#include "server/app/texton_source.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
 #include "server/http/image_links.h"
@@ -15,6 +17,7 @@
 
 #include <httplib.h>
 
+#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
@@ -24,27 +27,33 @@ namespace textond::http {
 class ImageRoutes {
 public:
     // `port`: the bound port, for absolute URLs when no --public-url is set.
-    ImageRoutes(const ServeConfig& config, ImageService& images, TextonStore& textons,
-                MixStore& mixes, ImageCache& cache, Gate& gate, Metrics& metrics, const int& port);
+    // `textons`: the source of the routes only a texton has (tileable, spectrum, quality.json,
+    // exemplar, kit).
+    ImageRoutes(const ServeConfig& config, ImageService& images, TextonSource& textons,
+                ImageCache& cache, Gate& gate, Metrics& metrics, const int& port);
 
     using Handler = httplib::Server::Handler;
+    // Every source's image routes: `route_template` is the one under /v1/{collection}/ that the
+    // metrics name it by ("{id}/region.{format}").
     // Game tiles (z = level) and web-map tiles (z = zoom, level = 24 - z) differ only in parsing:
     // routes.cpp passes api::parse_tile or api::parse_map_tile here (no call in this file names
     // them).
     using TileParser = decltype(&api::parse_tile);
-    Handler tile(const char* route, TileParser parse, Source source);
-    Handler region(const char* route, Source source);
+    Handler tile(ImageSource& source, const std::string& route_template, TileParser parse);
+    Handler region(ImageSource& source, const std::string& route_template);
+    Handler tilejson(ImageSource& source);
+    // Its report (has_report): a texton's quality PNG, a splat's weights beside its render.
+    Handler report(ImageSource& source);
+
+    // A texton's only.
     void tileable(const httplib::Request& req, httplib::Response& res);
     void spectrum(const httplib::Request& req, httplib::Response& res);
-    // The texton's quality report: JSON (png = false) or its PNG.
-    void quality(const httplib::Request& req, httplib::Response& res, bool png);
-    // A splat's report (ImageService::splat_report), cached like a quality PNG.
-    void splat_report(const httplib::Request& req, httplib::Response& res);
+    // The texton's quality report as JSON, with a link to its PNG (`report`).
+    void quality(const httplib::Request& req, httplib::Response& res);
     void exemplar(const httplib::Request& req, httplib::Response& res);
     // The engine kit (tar): signed, preset and rate limited like an image, built under a render
     // slot and cached like one.
     void kit(const httplib::Request& req, httplib::Response& res);
-    void tilejson(const httplib::Request& req, httplib::Response& res, Source source);
 
 private:
     using Produce = std::function<Result<core::Image>(const render::Cancel&)>;
@@ -52,7 +61,7 @@ private:
     // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format, const Produce& produce,
-                      Source source, std::int64_t pixels, double mni,
+                      const ImageSource& source, std::int64_t pixels, double mni,
                       int quality = api::kDefaultQuality, double cpu_share = 0);
     // The image's bytes, produced and encoded under a render slot; null when the answer (429,
     // 413, 503, an error) was sent instead.
@@ -60,14 +69,16 @@ private:
                                                  api::ImageFormat format, int quality,
                                                  const Produce& produce, double work_s,
                                                  double cpu_share = 0);
-    std::optional<api::ApiError> tilejson_refusal(const std::string& id,
-                                                  const api::TileRequest& probe, Source source);
+    void tilejson_of(const ImageSource& source, const httplib::Request& req,
+                     httplib::Response& res);
     std::pair<std::string, std::string> tile_suffix(const httplib::Request& req,
                                                     const api::TileRequest& probe) const;
     const ServeConfig& m_config;
+    // The metrics' names of the routes, kept for as long as the requests that point to them.
+    const char* route_name(const ImageSource& source, const std::string& route);
     ImageService& m_images;
-    TextonStore& m_textons;
-    MixStore& m_mixes;
+    TextonSource& m_textons;
+    std::deque<std::string> m_route_names;
     ImageCache& m_cache;
     Gate& m_gate;
     Metrics& m_metrics;

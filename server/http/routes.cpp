@@ -55,64 +55,34 @@ void TextondServer::install_routes() {
     m_http.Delete(R"(/v1/splats/(.*))", &SplatRoutes::fallback);
 }
 
-// A mix's and a splat's images: the same routes as a texton's (no tileable, spectrum or kit).
-void TextondServer::install_mix_and_splat_image_routes() {
+// One source's images (image_source.h): the same routes under /v1/{collection}/ for every kind.
+void TextondServer::install_image_routes(ImageSource& source) {
     ImageRoutes* i = m_image_routes.get();
     using api::parse_map_tile;
     using api::parse_tile;
-    m_http.Get(R"(/v1/splats/([^/]+)/quality\.png)", call(i, &ImageRoutes::splat_report));
-    m_http.Get(R"(/v1/mixes/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, Source::mix));
-    m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, Source::mix));
-    m_http.Get(R"(/v1/mixes/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/mixes/{id}/tiles/{z}/{x}/{y}", &parse_tile, Source::mix));
-    m_http.Get(R"(/v1/mixes/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/mixes/{id}/map/{z}/{x}/{y}", &parse_map_tile, Source::mix));
-    m_http.Get(R"(/v1/mixes/([^/]+)/region\.([a-z0-9]+))",
-               i->region("/v1/mixes/{id}/region.{format}", Source::mix));
-    m_http.Get(R"(/v1/mixes/([^/]+)/tilejson\.json)",
-               [i](Req req, Res res) { i->tilejson(req, res, Source::mix); });
-    m_http.Get(R"(/v1/splats/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/splats/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, Source::splat));
-    m_http.Get(R"(/v1/splats/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/splats/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, Source::splat));
-    m_http.Get(R"(/v1/splats/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/splats/{id}/tiles/{z}/{x}/{y}", &parse_tile, Source::splat));
-    m_http.Get(R"(/v1/splats/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/splats/{id}/map/{z}/{x}/{y}", &parse_map_tile, Source::splat));
-    m_http.Get(R"(/v1/splats/([^/]+)/region\.([a-z0-9]+))",
-               i->region("/v1/splats/{id}/region.{format}", Source::splat));
-    m_http.Get(R"(/v1/splats/([^/]+)/tilejson\.json)",
-               [i](Req req, Res res) { i->tilejson(req, res, Source::splat); });
+    const std::string c = "/v1/" + std::string(source.collection()) + "/";
+    m_http.Get(c + R"(([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile(source, "{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile));
+    m_http.Get(c + R"(([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+               i->tile(source, "{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile));
+    // Extension-less tiles: the format from Accept (AVIF, WebP or PNG), with Vary: Accept.
+    m_http.Get(c + R"(([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile(source, "{id}/tiles/{z}/{x}/{y}", &parse_tile));
+    m_http.Get(c + R"(([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
+               i->tile(source, "{id}/map/{z}/{x}/{y}", &parse_map_tile));
+    m_http.Get(c + R"(([^/]+)/region\.([a-z0-9]+))", i->region(source, "{id}/region.{format}"));
+    m_http.Get(c + R"(([^/]+)/tilejson\.json)", i->tilejson(source));
+    if (source.has_report()) m_http.Get(c + R"(([^/]+)/quality\.png)", i->report(source));
 }
 
 void TextondServer::install_get_routes() {
     ImageRoutes* i = m_image_routes.get();
-    using api::parse_map_tile;
-    using api::parse_tile;
-    install_mix_and_splat_image_routes();
-    m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile, Source::texton));
-    m_http.Get(
-        R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-        i->tile("/v1/textons/{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile, Source::texton));
-    // Extension-less tiles: the format from Accept (AVIF, WebP or PNG), with Vary: Accept.
-    m_http.Get(R"(/v1/textons/([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/textons/{id}/tiles/{z}/{x}/{y}", &parse_tile, Source::texton));
-    m_http.Get(R"(/v1/textons/([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile("/v1/textons/{id}/map/{z}/{x}/{y}", &parse_map_tile, Source::texton));
-    m_http.Get(R"(/v1/textons/([^/]+)/region\.([a-z0-9]+))",
-               i->region("/v1/textons/{id}/region.{format}", Source::texton));
+    for (const auto& source : m_sources) install_image_routes(*source);
+    // What only a texton has.
     m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", call(i, &ImageRoutes::tileable));
     m_http.Get(R"(/v1/textons/([^/]+)/spectrum\.png)", call(i, &ImageRoutes::spectrum));
-    m_http.Get(R"(/v1/textons/([^/]+)/quality\.json)",
-               [i](Req req, Res res) { i->quality(req, res, false); });
-    m_http.Get(R"(/v1/textons/([^/]+)/quality\.png)",
-               [i](Req req, Res res) { i->quality(req, res, true); });
+    m_http.Get(R"(/v1/textons/([^/]+)/quality\.json)", call(i, &ImageRoutes::quality));
     m_http.Get(R"(/v1/textons/([^/]+)/exemplar\.png)", call(i, &ImageRoutes::exemplar));
-    m_http.Get(R"(/v1/textons/([^/]+)/tilejson\.json)",
-               [i](Req req, Res res) { i->tilejson(req, res, Source::texton); });
     TextonRoutes* t = m_texton_routes.get();
     m_http.Get("/v1/textons", call(t, &TextonRoutes::list));
     m_http.Get(R"(/v1/textons/([^/]+))", call(t, &TextonRoutes::get));

@@ -121,9 +121,14 @@ void TextondServer::make_services() {
         std::chrono::milliseconds(m_config.queue_timeout_ms), m_config.max_request_cpu_s);
     m_mix_service = std::make_unique<MixService>(*m_store, *m_mixes, *m_pool);
     m_splat_service = std::make_unique<SplatService>(*m_splats);
-    m_images = std::make_unique<ImageService>(*m_store, *m_mixes, *m_splats, *m_renderer, m_metrics,
-                                              m_config.png_compression);
-    m_image_routes = std::make_unique<ImageRoutes>(m_config, *m_images, *m_store, *m_mixes, m_cache,
+    auto textons = std::make_unique<TextonSource>(*m_store, *m_renderer, m_metrics);
+    m_texton_source = textons.get();
+    m_sources.push_back(std::move(textons));
+    m_sources.push_back(std::make_unique<MixSource>(*m_mixes, *m_renderer, m_metrics));
+    m_sources.push_back(std::make_unique<SplatSource>(*m_splats, *m_renderer, m_metrics));
+    m_images =
+        std::make_unique<ImageService>(*m_texton_source, *m_renderer, m_config.png_compression);
+    m_image_routes = std::make_unique<ImageRoutes>(m_config, *m_images, *m_texton_source, m_cache,
                                                    m_gate, m_metrics, m_port);
     m_texton_routes = std::make_unique<TextonRoutes>(m_config, *m_store, *m_textons, *m_pool,
                                                      m_cache, m_gate, m_stopping);

@@ -9,9 +9,13 @@
 #include "render/renderer.h"
 #include "server/app/analysis_pool.h"
 #include "server/app/image_service.h"
+#include "server/app/image_source.h"
 #include "server/app/metrics.h"
 #include "server/app/mix_service.h"
+#include "server/app/mix_source.h"
+#include "server/app/splat_source.h"
 #include "server/app/texton_service.h"
+#include "server/app/texton_source.h"
 #include "server/http/config.h"
 #include "server/http/connection.h"
 #include "server/http/gate.h"
@@ -71,7 +75,7 @@ private:
     // routes.cpp: the route table, in the order cpp-httplib tries it.
     void install_routes();
     void install_get_routes();
-    void install_mix_and_splat_image_routes();
+    void install_image_routes(ImageSource& source);
 
     ServeConfig m_config;
     HttpServer m_http;
@@ -85,6 +89,9 @@ private:
     std::unique_ptr<SplatService> m_splat_service; // and behind POST /v1/splats
     ImageCache m_cache;
     std::unique_ptr<render::Renderer> m_renderer; // every evaluation goes through it
+    // What an image's id names, each kind once: their image routes are installed in this order.
+    std::vector<std::unique_ptr<ImageSource>> m_sources;
+    TextonSource* m_texton_source = nullptr; // the first; a texton's own routes use it
     std::unique_ptr<ImageService> m_images;
     std::unique_ptr<SurfaceService> m_surfaces;
     std::unique_ptr<ImageRoutes> m_image_routes;

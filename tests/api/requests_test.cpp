@@ -469,17 +469,17 @@ TEST(NoiseFields, EachParserTakesItsRoutesRows) {
             {kMixTileRoute,
              [](const Query& q) {
                  TileRequest t;
-                 return parse_map_tile(kId, "0", "0", "0", "png", q, t, true);
+                 return parse_map_tile(kId, "0", "0", "0", "png", q, t, false);
              }},
             {kMixTileRoute,
              [](const Query& q) {
                  TileRequest t;
-                 return parse_tilejson(kId, q, t, true);
+                 return parse_tilejson(kId, q, t, false);
              }},
             {kMixRegionRoute,
              [&](const Query& q) {
                  RegionRequest r;
-                 return parse_region(kId, "png", q, limits, r, true);
+                 return parse_region(kId, "png", q, limits, r, false);
              }},
             {kTileableRoute,
              [&](const Query& q) {
