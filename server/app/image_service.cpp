@@ -59,10 +59,6 @@ std::string ImageService::key(const Job& job) {
            api::extension(job.format);
 }
 
-std::string ImageService::spectrum_key(const std::string& id, const api::NoiseParams& noise) {
-    return "spectrum/" + id + "/" + api::noise_query(noise, api::kReportRoute) + ".png";
-}
-
 std::string ImageService::report_key(const ImageSource& source, const std::string& id,
                                      const api::NoiseParams& noise) {
     return std::string(source.collection()) + "/report/" + id + "/" +

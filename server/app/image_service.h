@@ -41,7 +41,6 @@ public:
     };
     // One key per distinct image: everything that changes a pixel or a byte of it.
     static std::string key(const Job& job);
-    static std::string spectrum_key(const std::string& id, const api::NoiseParams& noise);
     static std::string report_key(const ImageSource& source, const std::string& id,
                                   const api::NoiseParams& noise);
     // The strong ETag of a key's bytes: the build, the renderer's identity and the key.

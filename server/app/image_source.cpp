@@ -35,13 +35,21 @@ Result<core::Image> ImageSource::window(const std::string& id, const render::Noi
 }
 
 // The kinds without a report (has_report false) install no route that calls these.
-Result<std::int64_t> ImageSource::report_pixels(const std::string& /*id*/) const {
-    return make_error(ErrorCode::not_found, std::string(described_as()) + "has no report");
+namespace {
+Error no_report(const ImageSource& source) {
+    return make_error(ErrorCode::not_found,
+                      "/v1/" + std::string(source.collection()) + " have no report");
+}
+} // namespace
+
+Result<std::int64_t> ImageSource::report_work_pixels(const std::string& /*id*/) const {
+    return no_report(*this);
 }
 
-Result<core::Image> ImageSource::report(const std::string& id, const api::NoiseParams& /*noise*/,
+Result<core::Image> ImageSource::report(const std::string& /*id*/,
+                                        const api::NoiseParams& /*noise*/,
                                         const render::Cancel& /*cancel*/) {
-    return report_pixels(id).error();
+    return no_report(*this);
 }
 
 } // namespace textond::app

@@ -2,8 +2,10 @@
 // What an image's id names: a texton (or material set), a texture mix or a splat map, behind one
 // interface (as Martin's tile-server Source: one get_tile and one tilejson per kind). Each kind is
 // a class beside this one (texton_source.h, mix_source.h, splat_source.h). The server builds one
-// of each and installs the same image routes for every one (server/http/routes.cpp); nothing
-// else branches on the kind, so a fourth kind is one more class and one more line there.
+// of each (TextondServer::make_services) and installs the same image routes for every one
+// (routes.cpp, install_image_routes); the image routes and ImageService never branch on the kind.
+// A fourth kind is one more class and one more line in make_services, beside its store and its
+// create, get and delete routes (server/README.md "Adding a kind of image").
 #include "api/requests.h"
 #include "core/image.h"
 #include "core/result.h"
@@ -47,8 +49,13 @@ public:
     // The stored id's interpolation order, which admission costs a window at; not_found when
     // there is none, so it is also the routes' first existence check.
     virtual Result<int> interpolation_order(const std::string& id) const = 0;
-    // The renders a window of view `map` costs: what admission multiplies its pixels by.
-    virtual Result<int> passes(const std::string& id, const api::MapChoice& map) const = 0;
+    // What admission costs a window of view `map` at: the renders it takes (its pixels times
+    // these) and the share of that work on the CPU whatever the backend.
+    struct WindowCost {
+        int passes = 1;
+        double cpu_share = 0;
+    };
+    virtual Result<WindowCost> cost(const std::string& id, const api::MapChoice& map) const = 0;
     // What its tiles would refuse (marginals or a map the id does not have, an unknown id),
     // refused once by its TileJSON.
     virtual std::optional<Error> tilejson_refusal(const std::string& id,
@@ -58,8 +65,9 @@ public:
     // Its time goes to the render histogram of the backend that ran, under `kind`.
     Result<core::Image> window(const std::string& id, const render::NoiseRequest& q, Work work,
                                const char* kind, const api::MapChoice& map = {});
-    // The pixels of its report and the report (has_report), rendered in the caller's slot.
-    virtual Result<std::int64_t> report_pixels(const std::string& id) const;
+    // Its report (has_report), rendered in the caller's slot, and the pixels of work admission
+    // costs it at (its windows, not the image's size).
+    virtual Result<std::int64_t> report_work_pixels(const std::string& id) const;
     virtual Result<core::Image> report(const std::string& id, const api::NoiseParams& noise,
                                        const render::Cancel& cancel);
 
@@ -67,7 +75,8 @@ protected:
     // A window ready to run on the renderer; `used` names the backend that ran (empty when it
     // refused before any did).
     using Evaluate = std::function<Result<core::Image>(std::string* used)>;
-    // The id's window prepared: its stored model loaded and checked against q and `map`.
+    // The id's window prepared: its stored model loaded and, where the kind can before the
+    // render, checked against q and `map` (a texton's views refuse inside the Evaluate).
     virtual Result<Evaluate> prepare(const std::string& id, const render::NoiseRequest& q,
                                      Work work, const api::MapChoice& map) = 0;
 

@@ -8,8 +8,9 @@ Result<int> MixSource::interpolation_order(const std::string& id) const {
     return found.value().order;
 }
 
-Result<int> MixSource::passes(const std::string& /*id*/, const api::MapChoice& /*map*/) const {
-    return 1;
+Result<ImageSource::WindowCost> MixSource::cost(const std::string& /*id*/,
+                                                const api::MapChoice& /*map*/) const {
+    return WindowCost{};
 }
 
 std::optional<Error> MixSource::tilejson_refusal(const std::string& id,

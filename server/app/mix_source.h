@@ -15,7 +15,7 @@ public:
     bool has_maps() const override { return false; }
     bool has_report() const override { return false; }
     Result<int> interpolation_order(const std::string& id) const override;
-    Result<int> passes(const std::string& id, const api::MapChoice& map) const override;
+    Result<WindowCost> cost(const std::string& id, const api::MapChoice& map) const override;
     std::optional<Error> tilejson_refusal(const std::string& id,
                                           const api::NoiseParams& noise) const override;
 

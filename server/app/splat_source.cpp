@@ -25,10 +25,11 @@ Result<int> SplatSource::interpolation_order(const std::string& id) const {
     return found.value()->order();
 }
 
-Result<int> SplatSource::passes(const std::string& id, const api::MapChoice& /*map*/) const {
+Result<ImageSource::WindowCost> SplatSource::cost(const std::string& id,
+                                                  const api::MapChoice& /*map*/) const {
     auto found = m_splats.prepared(id);
     if (!found) return found.error();
-    return found.value()->layers() + 3;
+    return WindowCost{found.value()->layers() + 3, 0.0};
 }
 
 std::optional<Error> SplatSource::tilejson_refusal(const std::string& id,
@@ -54,7 +55,7 @@ Result<ImageSource::Evaluate> SplatSource::prepare(const std::string& id,
     });
 }
 
-Result<std::int64_t> SplatSource::report_pixels(const std::string& id) const {
+Result<std::int64_t> SplatSource::report_work_pixels(const std::string& id) const {
     auto found = m_splats.prepared(id);
     if (!found) return found.error();
     return std::int64_t{found.value()->layers() + 4} * kReportSide * kReportSide;

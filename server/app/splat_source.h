@@ -19,12 +19,12 @@ public:
     bool has_report() const override { return true; }
     Result<int> interpolation_order(const std::string& id) const override;
     // At most a render a layer, and its rules' height and normals.
-    Result<int> passes(const std::string& id, const api::MapChoice& map) const override;
+    Result<WindowCost> cost(const std::string& id, const api::MapChoice& map) const override;
     std::optional<Error> tilejson_refusal(const std::string& id,
                                           const api::NoiseParams& noise) const override;
     // Its weights (each layer a colour of splat_palette) beside its render, one 256 x 256 window
     // at the level that shows the whole weight image (level 2 for rules).
-    Result<std::int64_t> report_pixels(const std::string& id) const override;
+    Result<std::int64_t> report_work_pixels(const std::string& id) const override;
     Result<core::Image> report(const std::string& id, const api::NoiseParams& noise,
                                const render::Cancel& cancel) override;
 

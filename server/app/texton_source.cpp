@@ -1,5 +1,6 @@
 #include "server/app/texton_source.h"
 
+#include "api/noise_fields.h"
 #include "core/periodic_component.h"
 #include "core/power_spectrum.h"
 #include "render/normal_map.h"
@@ -89,9 +90,13 @@ Result<int> TextonSource::interpolation_order(const std::string& id) const {
     return found.value().order;
 }
 
-// Normals take two CPU gradient passes, the lit view a render more.
-Result<int> TextonSource::passes(const std::string& /*id*/, const api::MapChoice& map) const {
-    return map.name == core::kLitMap ? 3 : map.name == core::kNormalMap ? 2 : 1;
+// Normals take two CPU gradient passes, the lit view a render more; normals are made on the CPU
+// whatever the backend (the lit view's albedo is rendered).
+Result<ImageSource::WindowCost> TextonSource::cost(const std::string& /*id*/,
+                                                   const api::MapChoice& map) const {
+    if (map.name == core::kLitMap) return WindowCost{3, 2.0 / 3.0};
+    if (map.name == core::kNormalMap) return WindowCost{2, 1.0};
+    return WindowCost{1, 0.0};
 }
 
 std::optional<Error> TextonSource::tilejson_refusal(const std::string& id,
@@ -122,7 +127,7 @@ Result<ImageSource::Evaluate> TextonSource::prepare(const std::string& id,
     });
 }
 
-Result<std::int64_t> TextonSource::report_pixels(const std::string& /*id*/) const {
+Result<std::int64_t> TextonSource::report_work_pixels(const std::string& /*id*/) const {
     return std::int64_t{2} * kReportSide * kReportSide;
 }
 
@@ -155,6 +160,11 @@ Result<QualityReport> TextonSource::quality(const std::string& id, const api::No
         restored = std::move(r.value());
     }
     return quality_report(meta.value(), centre_crop(u, w, h), gaussian.value(), restored);
+}
+
+std::string TextonSource::spectrum_key(const std::string& id, const api::NoiseParams& noise) const {
+    return std::string(collection()) + "/spectrum/" + id + "/" +
+           api::noise_query(noise, api::kReportRoute) + ".png";
 }
 
 // Where the Gaussian model holds the two spectra look alike; for a macro-texture (bricks) the

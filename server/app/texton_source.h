@@ -28,11 +28,11 @@ public:
     bool has_maps() const override { return true; }
     bool has_report() const override { return true; }
     Result<int> interpolation_order(const std::string& id) const override;
-    Result<int> passes(const std::string& id, const api::MapChoice& map) const override;
+    Result<WindowCost> cost(const std::string& id, const api::MapChoice& map) const override;
     std::optional<Error> tilejson_refusal(const std::string& id,
                                           const api::NoiseParams& noise) const override;
     // The quality report's PNG (two windows of at most 256 x 256).
-    Result<std::int64_t> report_pixels(const std::string& id) const override;
+    Result<std::int64_t> report_work_pixels(const std::string& id) const override;
     Result<core::Image> report(const std::string& id, const api::NoiseParams& noise,
                                const render::Cancel& cancel) override;
 
@@ -40,9 +40,11 @@ public:
     // beside level-0 windows of its noise, Gaussian and restored.
     Result<QualityReport> quality(const std::string& id, const api::NoiseParams& noise,
                                   const render::Cancel& cancel);
-    // The exemplar's power spectrum beside that of a window of its noise, on one log scale.
+    // The exemplar's power spectrum beside that of a window of its noise, on one log scale, and
+    // its image cache key.
     Result<core::Image> spectrum(const std::string& id, const api::NoiseParams& noise,
                                  const render::Cancel& cancel);
+    std::string spectrum_key(const std::string& id, const api::NoiseParams& noise) const;
     store::TextonStore& store() const { return m_textons; }
 
 protected:

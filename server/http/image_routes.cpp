@@ -154,16 +154,12 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
 void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
                         const ImageService::Job& job) {
     // Admission's estimate: a window's pixels times the renders it takes.
-    const auto passes = job.source->passes(job.id, job.noise.map);
-    if (!passes) return send_error(res, to_api_error(passes.error()));
-    // Normals are made on the CPU whatever the backend (the lit view's albedo is rendered).
-    const double cpu_share = job.noise.map.name == core::kLitMap      ? 2.0 / 3.0
-                             : job.noise.map.name == core::kNormalMap ? 1.0
-                                                                      : 0.0;
+    const auto cost = job.source->cost(job.id, job.noise.map);
+    if (!cost) return send_error(res, to_api_error(cost.error()));
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
         [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, *job.source,
-        job.pixels() * passes.value(), job.request.mni, job.quality, cpu_share);
+        job.pixels() * cost.value().passes, job.request.mni, job.quality, cost.value().cpu_share);
 }
 
 ImageRoutes::Handler ImageRoutes::tile(ImageSource& source, const std::string& route_template,
@@ -242,7 +238,7 @@ void ImageRoutes::spectrum(const httplib::Request& req, httplib::Response& res) 
     if (!params) return;
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     serve_cached(
-        req, res, id, ImageService::spectrum_key(id, noise), api::ImageFormat::png,
+        req, res, id, m_textons.spectrum_key(id, noise), api::ImageFormat::png,
         [&](const render::Cancel& cancel) { return m_textons.spectrum(id, noise, cancel); },
         m_textons, 512 * 512, noise.mni);
 }
@@ -258,7 +254,7 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res) {
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
     auto order = m_textons.interpolation_order(id);
     if (!order) return send_error(res, to_api_error(order.error()));
-    auto pixels = m_textons.report_pixels(id);
+    auto pixels = m_textons.report_work_pixels(id);
     if (!pixels) return send_error(res, to_api_error(pixels.error()));
     if (!m_links.within_rate(req, res)) return; // a render every time
     auto slot = m_gate.admit(res, noise_work_s(pixels.value(), noise.mni, order.value()));
@@ -268,11 +264,11 @@ void ImageRoutes::quality(const httplib::Request& req, httplib::Response& res) {
     if (!report) return m_gate.send_work_error(res, report.error(), cancel);
     const auto preset = req.params.find("preset");
     report.value().json["links"] = {
-        {"png",
-         m_links.signed_link(req, "/v1/textons/" + id + "/quality.png" +
-                                      (!m_config.presets.empty() && preset != req.params.end()
-                                           ? "?preset=" + preset->second
-                                           : "?" + api::noise_query(noise, api::kReportRoute)))}};
+        {"png", m_links.signed_link(
+                    req, "/v1/" + std::string(m_textons.collection()) + "/" + id + "/quality.png" +
+                             (!m_config.presets.empty() && preset != req.params.end()
+                                  ? "?preset=" + preset->second
+                                  : "?" + api::noise_query(noise, api::kReportRoute)))}};
     send_json(res, 200, report.value().json, "no-cache");
 }
 
@@ -285,7 +281,7 @@ ImageRoutes::Handler ImageRoutes::report(ImageSource& source) {
         const auto params = m_links.served_query(req, res, "png");
         if (!params) return;
         if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
-        auto pixels = source.report_pixels(id);
+        auto pixels = source.report_work_pixels(id);
         if (!pixels) return send_error(res, to_api_error(pixels.error()));
         serve_cached(
             req, res, id, ImageService::report_key(source, id, noise), api::ImageFormat::png,
@@ -409,7 +405,7 @@ void ImageRoutes::tilejson_of(const ImageSource& source, const httplib::Request&
            probe.noise.map.encoding ? nlohmann::json(probe.noise.map.height_scale) : nullptr},
           {"level_of_zoom", "level = " + std::to_string(api::kMapMaxLevel) +
                                 " - z: zoom z shows 2^(24 - z) texels per pixel; z = 24 is "
-                                "the texton's own resolution"},
+                                "level 0, one texel per pixel"},
           {"native_zoom", native_zoom},
           {"crs", "Leaflet L.CRS.Simple / OpenLayers pixel projection; y grows downwards"},
           {"game_tiles", base + m_links.signed_link(req, prefix + id + "/tiles/{level}/{x}/{y}." +
@@ -421,7 +417,7 @@ void ImageRoutes::tilejson_of(const ImageSource& source, const httplib::Request&
     }
     // The absolute URLs come from the Host header unless --public-url is set.
     if (m_config.public_url.empty()) res.set_header("Vary", "Host");
-    send_json(res, 200, j, "no-cache"); // gone with its texton, at the edge too
+    send_json(res, 200, j, "no-cache"); // gone with its id, at the edge too
 }
 
 } // namespace textond::http

@@ -69,20 +69,26 @@ private:
                                                  api::ImageFormat format, int quality,
                                                  const Produce& produce, double work_s,
                                                  double cpu_share = 0);
+    // "/v1/{collection}/" + route, stored in m_route_names.
+    const char* route_name(const ImageSource& source, const std::string& route);
     void tilejson_of(const ImageSource& source, const httplib::Request& req,
                      httplib::Response& res);
     std::pair<std::string, std::string> tile_suffix(const httplib::Request& req,
                                                     const api::TileRequest& probe) const;
     const ServeConfig& m_config;
-    // The metrics' names of the routes, kept for as long as the requests that point to them.
-    const char* route_name(const ImageSource& source, const std::string& route);
     ImageService& m_images;
     TextonSource& m_textons;
+    // The metrics' names of the routes, kept for as long as the requests that point to them.
     std::deque<std::string> m_route_names;
     ImageCache& m_cache;
     Gate& m_gate;
     Metrics& m_metrics;
     ImageLinks m_links;
 };
+
+// One source's images (app/image_source.h) under /v1/{collection}/: tiles, map tiles (with and
+// without an extension), region, TileJSON, and its report when it has one. The same routes for
+// every kind; defined in routes.cpp, the route table, which calls it once per source.
+void install_image_routes(httplib::Server& http, ImageRoutes& images, ImageSource& source);
 
 } // namespace textond::http

@@ -55,29 +55,28 @@ void TextondServer::install_routes() {
     m_http.Delete(R"(/v1/splats/(.*))", &SplatRoutes::fallback);
 }
 
-// One source's images (image_source.h): the same routes under /v1/{collection}/ for every kind.
-void TextondServer::install_image_routes(ImageSource& source) {
-    ImageRoutes* i = m_image_routes.get();
+void install_image_routes(httplib::Server& http, ImageRoutes& images, ImageSource& source) {
+    ImageRoutes* i = &images;
     using api::parse_map_tile;
     using api::parse_tile;
     const std::string c = "/v1/" + std::string(source.collection()) + "/";
-    m_http.Get(c + R"(([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile(source, "{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile));
-    m_http.Get(c + R"(([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
-               i->tile(source, "{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile));
+    http.Get(c + R"(([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+             i->tile(source, "{id}/tiles/{z}/{x}/{y}.{format}", &parse_tile));
+    http.Get(c + R"(([^/]+)/map/([^/]+)/([^/]+)/([^/.]+)\.([a-z0-9]+))",
+             i->tile(source, "{id}/map/{z}/{x}/{y}.{format}", &parse_map_tile));
     // Extension-less tiles: the format from Accept (AVIF, WebP or PNG), with Vary: Accept.
-    m_http.Get(c + R"(([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile(source, "{id}/tiles/{z}/{x}/{y}", &parse_tile));
-    m_http.Get(c + R"(([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
-               i->tile(source, "{id}/map/{z}/{x}/{y}", &parse_map_tile));
-    m_http.Get(c + R"(([^/]+)/region\.([a-z0-9]+))", i->region(source, "{id}/region.{format}"));
-    m_http.Get(c + R"(([^/]+)/tilejson\.json)", i->tilejson(source));
-    if (source.has_report()) m_http.Get(c + R"(([^/]+)/quality\.png)", i->report(source));
+    http.Get(c + R"(([^/]+)/tiles/([^/]+)/([^/]+)/([^/.]+))",
+             i->tile(source, "{id}/tiles/{z}/{x}/{y}", &parse_tile));
+    http.Get(c + R"(([^/]+)/map/([^/]+)/([^/]+)/([^/.]+))",
+             i->tile(source, "{id}/map/{z}/{x}/{y}", &parse_map_tile));
+    http.Get(c + R"(([^/]+)/region\.([a-z0-9]+))", i->region(source, "{id}/region.{format}"));
+    http.Get(c + R"(([^/]+)/tilejson\.json)", i->tilejson(source));
+    if (source.has_report()) http.Get(c + R"(([^/]+)/quality\.png)", i->report(source));
 }
 
 void TextondServer::install_get_routes() {
     ImageRoutes* i = m_image_routes.get();
-    for (const auto& source : m_sources) install_image_routes(*source);
+    for (const auto& source : m_sources) install_image_routes(m_http, *i, *source);
     // What only a texton has.
     m_http.Get(R"(/v1/textons/([^/]+)/tileable\.([a-z0-9]+))", call(i, &ImageRoutes::tileable));
     m_http.Get(R"(/v1/textons/([^/]+)/spectrum\.png)", call(i, &ImageRoutes::spectrum));

@@ -75,7 +75,6 @@ private:
     // routes.cpp: the route table, in the order cpp-httplib tries it.
     void install_routes();
     void install_get_routes();
-    void install_image_routes(ImageSource& source);
 
     ServeConfig m_config;
     HttpServer m_http;
