@@ -14,7 +14,7 @@ case "$mode" in all | --build | --runtime) ;; *)
 esac
 
 build=(
-    build-essential cmake pkg-config git ca-certificates
+    build-essential cmake pkg-config git ca-certificates ccache
     libfftw3-dev libopenimageio-dev nlohmann-json3-dev libspdlog-dev libcpp-httplib-dev
     libssl-dev libhiredis-dev libosmesa6-dev libegl-dev libwebp-dev libavif-dev libsqlite3-dev
 )

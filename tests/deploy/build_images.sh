@@ -17,6 +17,14 @@ commit=$("$1" --version | sed -nE 's|^build: textond/[^+]*\+([^ ]*) .*|\1|p')
 secret=()
 ca=${BUILD_CA:-${NODE_EXTRA_CA_CERTS:-}}
 [ -n "$ca" ] && [ -s "$ca" ] && secret=(--secret "id=build_ca,src=$ca")
-podman build --quiet --network host --pull=never --format docker "${secret[@]}" \
+# The host build's compiler cache, lent to the image's build (its compiles of the same sources
+# with the same compiler are lookups, not a second build of textond): /ccache in docker/Dockerfile.
+cache=()
+if command -v ccache >/dev/null; then
+    ccache_dir=$(ccache --get-config cache_dir)
+    mkdir -p "$ccache_dir"
+    cache=(--volume "$ccache_dir:/ccache")
+fi
+podman build --quiet --network host --pull=never --format docker "${secret[@]}" "${cache[@]}" \
     --build-arg "TEXTOND_COMMIT=$commit" -f "$root/docker/Dockerfile" -t localhost/textond:local \
     "$root" >/dev/null
