@@ -23,16 +23,19 @@ run: build
 run-edge: build
 	deploy/local/run-edge.sh 8080 -- $(filter-out serve,$(ARGS))
 
-test: build
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
-
-# The inner loop: every test but clang-tidy (label style), the libFuzzer smoke run (fuzz) and the
-# browser test (browser); about 8 minutes on 2 cores. `make test` is the full suite CI runs.
 # One more test than cores: the end-to-end tests wait on servers and processes as much as they
-# compute (2 cores: 268-300 s at -j 3 against 330 s at -j 2, same tests).
-CHECK_JOBS ?= $(shell echo $$(( $$(nproc) + 1 )))
+# compute (2 cores: 268-300 s at -j 3 against 330 s at -j 2, same tests). The longest tests
+# (clang-tidy, the fuzz smoke run, the image) run alone whatever -j says (RUN_SERIAL).
+TEST_JOBS ?= $(shell echo $$(( $$(nproc) + 1 )))
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j $(TEST_JOBS)
+
+# The inner loop: every test but clang-tidy (label style), the libFuzzer smoke run (fuzz), the
+# browser tests (browser) and the container tests; about 7 minutes on 2 cores. `make test` is the
+# full suite CI runs.
 check: build
-	cd $(BUILD) && ctest --output-on-failure -j $(CHECK_JOBS) -LE '^(style|fuzz|browser|container)$$'
+	cd $(BUILD) && ctest --output-on-failure -j $(TEST_JOBS) -LE '^(style|fuzz|browser|container)$$'
 
 bench: build
 	./$(BUILD)/textond bench analyze
