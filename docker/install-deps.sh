@@ -54,13 +54,26 @@ missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -ne 0 ]; then
-    echo "install-deps: installing ${missing[*]}" >&2
+# Build packages older than the version apt offers: the image's build (docker/Dockerfile) gets
+# the newest, and ccache, which hashes every header a compile reads, would miss on each file that
+# includes one that differs (an older libssl-dev here cost the image 22 compiles of server/).
+stale_build_packages() {
+    [ "$mode" != --runtime ] || return 0
+    LANG=C apt-cache policy "${build[@]}" 2>/dev/null | awk '
+        /^[^ ]/ { p = substr($1, 1, length($1) - 1) }
+        $1 == "Installed:" { i = $2 }
+        $1 == "Candidate:" && i != "(none)" && $2 != "(none)" && $2 != i { print p " " i " " $2 }' |
+        while read -r p i c; do if dpkg --compare-versions "$c" gt "$i"; then echo "$p"; fi; done
+}
+mapfile -t stale < <(stale_build_packages)
+if [ ${#missing[@]} -ne 0 ] || [ ${#stale[@]} -ne 0 ]; then
     SUDO=""
     [ "$(id -u)" -ne 0 ] && SUDO="sudo"
     export DEBIAN_FRONTEND=noninteractive
     $SUDO apt-get update -qq
-    $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+    mapfile -t stale < <(stale_build_packages)
+    echo "install-deps: installing ${missing[*]}${stale[*]:+ ${missing[*]:+and }newer ${stale[*]}}" >&2
+    $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" "${stale[@]}" >/dev/null
 fi
 [ "$mode" = --runtime ] && exit 0
 
