@@ -596,7 +596,7 @@ class HostileClients(unittest.TestCase):
         s = Server(data, ["--analysis-workers", "1", "--analysis-queue", "4",
                           "--max-request-cpu-s", "60"], slow={"analysis": 6})
         try:
-            slow = ramp_png(1024, 1024, 32)
+            slow = ramp_png(512, 512, 32)
             done = []
             t = threading.Thread(target=lambda: done.append(s.request(
                 "POST", "/v1/textons?iterations=400&size=64", slow, {"Content-Type": "image/png"},
@@ -604,7 +604,7 @@ class HostileClients(unittest.TestCase):
             t.start()
             wait_until("the first analysis runs",
                        lambda: metric(s, "textond_analysis_running") == 1)
-            queued = ramp_png(1024, 1024, 16)
+            queued = ramp_png(512, 512, 16)
             sock = socket.create_connection(("127.0.0.1", s.port))
             sock.sendall(b"POST /v1/textons?iterations=400&size=64 HTTP/1.1\r\nHost: x\r\n"
                          b"Content-Type: image/png\r\nContent-Length: %d\r\n\r\n" % len(queued)
