@@ -111,10 +111,6 @@ double coherence_of(const SharpnessIndex& si) {
     return si.mean > 0.0 ? 1.0 - si.tv / si.mean : 0.0;
 }
 
-const char* to_string(TextureKind k) {
-    return k == TextureKind::micro ? "micro" : k == TextureKind::macro ? "macro" : "borderline";
-}
-
 TextureKind texture_kind(double index) {
     if (index > kMacroCoherence) return TextureKind::macro;
     return index > kMicroCoherence ? TextureKind::borderline : TextureKind::micro;

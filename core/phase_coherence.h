@@ -7,6 +7,7 @@
 // (phase coherence) make it far smaller. The index is -log10 of the probability that the random
 // phase image has a TV as small.
 #include "core/image.h"
+#include "core/texture_kind.h"
 
 #include <vector>
 
@@ -52,9 +53,6 @@ struct CoherenceScale {
     SharpnessIndex si;
 };
 
-enum class TextureKind { micro, borderline, macro };
-const char* to_string(TextureKind k);
-
 struct PhaseCoherence {
     double index = 0;    // mean coherence over the scales
     SharpnessIndex full; // SI of the exemplar at its own size, for reference
@@ -63,10 +61,11 @@ struct PhaseCoherence {
     bool macro() const { return kind() == TextureKind::macro; }
 };
 
-// The verdict's thresholds, chosen on the fit half of a labelled corpus of 104 textures from
-// Debian packages and reported on the other half (tests/verdict/: fit_verdict.py picked the
-// index among the candidate scores, with a best threshold of 0.0617; the borderline band is that
-// threshold +- 25%; core/README.md "Micro or macro" has the held-out table).
+// The first verdict's thresholds on this index alone, which the shape verdict replaced
+// (core/shape_verdict.h: kShapeWeights, kShapeBand). They still read texton files written
+// before it, whose metadata holds only the index (api/texton_meta.cpp). Chosen on the fit half of
+// the first corpus (tests/verdict/corpus.tsv, 104 textures), best threshold 0.0617, borderline
+// band +- 25%.
 inline constexpr double kMicroCoherence = 0.046; // at most: micro
 inline constexpr double kMacroCoherence = 0.077; // above: macro; between: borderline
 TextureKind texture_kind(double index);

@@ -21,6 +21,7 @@
 // "Micro or macro" says how they and the weights below were chosen, and how often they are right.
 #include "core/image.h"
 #include "core/phase_coherence.h"
+#include "core/texture_kind.h"
 
 #include <cstdint>
 

@@ -54,16 +54,22 @@ missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-# Build packages older than the version apt offers: the image's build (docker/Dockerfile) gets
-# the newest, and ccache, which hashes every header a compile reads, would miss on each file that
-# includes one that differs (an older libssl-dev here cost the image 22 compiles of server/).
+# Build packages and installed headers (every -dev package: those the list pulls in, such as
+# libbrotli-dev through cpp-httplib, count too) older than the version apt offers: the image's
+# build (docker/Dockerfile) gets the newest, and ccache, which hashes every header a compile
+# reads, would miss on each file that includes one that differs (an older libssl-dev, then
+# libbrotli-dev, here cost the image about 20 compiles of server/ each).
 stale_build_packages() {
     [ "$mode" != --runtime ] || return 0
-    LANG=C apt-cache policy "${build[@]}" 2>/dev/null | awk '
+    local dev=()
+    mapfile -t dev < <(dpkg-query -W -f '${db:Status-Abbrev} ${Package}\n' 2>/dev/null |
+        awk '$1 == "ii" && $2 ~ /-dev$/ { print $2 }')
+    LANG=C apt-cache policy "${build[@]}" "${dev[@]}" 2>/dev/null | awk '
         /^[^ ]/ { p = substr($1, 1, length($1) - 1) }
         $1 == "Installed:" { i = $2 }
         $1 == "Candidate:" && i != "(none)" && $2 != "(none)" && $2 != i { print p " " i " " $2 }' |
-        while read -r p i c; do if dpkg --compare-versions "$c" gt "$i"; then echo "$p"; fi; done
+        while read -r p i c; do if dpkg --compare-versions "$c" gt "$i"; then echo "$p"; fi; done |
+        sort -u
 }
 mapfile -t stale < <(stale_build_packages)
 if [ ${#missing[@]} -ne 0 ] || [ ${#stale[@]} -ne 0 ]; then

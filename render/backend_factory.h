@@ -29,12 +29,12 @@ struct BackendOptions {
     // The CPU renders this many tiles at once (one thread each), so its tile throughput is this
     // many times one thread's; 0 = one per core.
     int tile_slots = 0;
-    // GL: concurrent windows gathered into one batch (render/tile_batcher.h): at most this many,
+    // GL: concurrent windows gathered into one batch (render/window_batcher.h): at most this many,
     // waiting at most this long for more once the first is queued.
     int batch_tiles = 64;
     int batch_wait_us = 200;
     int batch_ms = 25; // and at most about this much measured work (at least one window)
-    // GL: batch workers, each with a context of its own (render/tile_batcher.h); 0 = 3 on a
+    // GL: batch workers, each with a context of its own (render/window_batcher.h); 0 = 3 on a
     // GPU, 1 on a software renderer (whose one dispatch already takes every core).
     int gl_lanes = 0;
     // Tests: calibrate on 64x64 tiles and a 480x270 frame (the same code, 1/16 of the work).

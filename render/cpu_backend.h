@@ -18,7 +18,7 @@ public:
     Result<core::Image> render(const PreparedTexton& texton, const NoiseRequest& request,
                                RenderStats* stats = nullptr) override;
     // A texture mix (texton-noise section 7): every Poisson point takes the level texton of the
-    // field at its position, the mean follows the field. CPU only for now.
+    // field at its position, the mean follows the field (GlBackend::render_mix on GL).
     Result<core::Image> render_mix(const PreparedMix& mix, const NoiseRequest& request,
                                    RenderStats* stats = nullptr) override;
 

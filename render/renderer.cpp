@@ -3,7 +3,7 @@
 #include "render/cpu_backend.h"
 #include "render/gl/gl_backend.h"
 #include "render/normal_map.h"
-#include "render/tile_batcher.h"
+#include "render/window_batcher.h"
 
 #include <cmath>
 
@@ -36,7 +36,7 @@ Result<std::unique_ptr<Renderer>> Renderer::make(BackendKind kind, const Backend
         if (!failure.empty()) lanes_note = " (another context failed: " + failure + ")";
         lanes_note = "; GL batches in " + std::to_string(lanes.size()) + " lane" +
                      (lanes.size() == 1 ? "" : "s") + lanes_note;
-        r->m_batcher = std::make_unique<TileBatcher>(
+        r->m_batcher = std::make_unique<WindowBatcher>(
             std::move(lanes), options.batch_tiles, std::chrono::microseconds(options.batch_wait_us),
             options.batch_ms);
     }

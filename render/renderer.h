@@ -18,7 +18,7 @@ namespace textond::render {
 class CpuBackend;
 class PreparedSplat;
 class GlBackend;
-class TileBatcher;
+class WindowBatcher;
 
 class Renderer {
 public:
@@ -82,7 +82,7 @@ private:
     // Every noise window bound for a GL backend (tiles and frames, mixes too) goes through its
     // batcher.
     std::shared_ptr<GlBackend> m_batched;
-    std::unique_ptr<TileBatcher> m_batcher;
+    std::unique_ptr<WindowBatcher> m_batcher;
     Result<core::Image> on(Backend& b, const PreparedTexton& texton, const PreparedMix* mix,
                            const NoiseRequest& request);
     std::string m_reason, m_identity;

@@ -3,9 +3,9 @@
 #include "core/grid_poisson.h"
 #include "core/surface_noise.h"
 #include "render/cancel.h"
+#include "render/embedded_sources.h"
 #include "render/gl/batch_plan.h"
 #include "render/gl/gl_api.h"
-#include "render/gl/glsl_sources.h"
 #include "render/gl/noise_window.h"
 #include "render/image_buffers.h"
 
@@ -136,7 +136,7 @@ void GlBackend::release_slot(Slot& slot) {
 }
 
 GlslSources GlslSources::embedded() {
-    return {glsl::kNoiseLib, glsl::kTextonEval, "", ""};
+    return {embedded::kNoiseLib, embedded::kTextonEval, "", ""};
 }
 
 Result<std::shared_ptr<GlBackend>> GlBackend::create(std::string name,
@@ -175,7 +175,7 @@ Result<bool> GlBackend::init(bool allow_software, const GlslSources& sources) {
         return make_error(ErrorCode::unsupported, m_name + " found only a software renderer (" +
                                                       m_renderer + "), not a GPU");
     const std::string head = "#version 450 core\n";
-    m_noise_source = sources.lib + sources.eval + glsl::kTextonNoiseComp;
+    m_noise_source = sources.lib + sources.eval + embedded::kTextonNoiseComp;
     auto prog = noise_program(Precision::f32);
     if (!prog)
         return make_error(ErrorCode::unsupported,
@@ -602,8 +602,8 @@ Result<std::vector<float>> GlBackend::surface(const PreparedTexton& tex, std::ui
     const gl::GlApi& g = *m_gl;
     if (!m_surface_program) {
         auto prog =
-            link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") + glsl::kNoiseLib +
-                                             glsl::kSurfaceLib + glsl::kSurfaceNoiseComp}});
+            link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") + embedded::kNoiseLib +
+                                             embedded::kSurfaceLib + embedded::kSurfaceNoiseComp}});
         if (!prog) return prog.error();
         m_surface_program = prog.value();
     }
@@ -677,9 +677,10 @@ Result<core::Image> GlBackend::mesh_preview(const PreparedTexton& tex, std::uint
     const gl::GlApi& g = *m_gl;
     if (!m_mesh_program) {
         const std::string head = "#version 450 core\n";
-        auto prog = link(g, {{GL_VERTEX_SHADER, head + glsl::kMeshPreviewVert},
-                             {GL_FRAGMENT_SHADER, head + glsl::kNoiseLib + glsl::kSurfaceLib +
-                                                      glsl::kMeshPreviewFrag}});
+        auto prog =
+            link(g, {{GL_VERTEX_SHADER, head + embedded::kMeshPreviewVert},
+                     {GL_FRAGMENT_SHADER, head + embedded::kNoiseLib + embedded::kSurfaceLib +
+                                              embedded::kMeshPreviewFrag}});
         if (!prog) return prog.error();
         m_mesh_program = prog.value();
     }
@@ -768,8 +769,9 @@ Result<std::vector<std::uint32_t>> GlBackend::probe(const std::vector<std::uint3
     if (!scope.ok) return make_error(ErrorCode::internal, m_name + ": cannot make context current");
     const gl::GlApi& g = *m_gl;
     if (!m_probe_program) {
-        auto prog = link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") +
-                                                     glsl::kNoiseLib + glsl::kSpecProbeComp}});
+        auto prog =
+            link(g, {{GL_COMPUTE_SHADER, std::string("#version 450 core\n") + embedded::kNoiseLib +
+                                             embedded::kSpecProbeComp}});
         if (!prog) return prog.error();
         m_probe_program = prog.value();
     }

@@ -3,7 +3,7 @@
 #include "api/requests.h"
 #include "core/grid_poisson.h"
 #include "core/material_set.h"
-#include "render/gl/glsl_sources.h"
+#include "render/embedded_sources.h"
 #include "render/noise_request.h"
 #include "render/prepared_texton.h"
 #include "server/io/image_io.h"
@@ -216,9 +216,9 @@ Result<std::vector<io::TarEntry>> set_entries(const core::Texton& t, const std::
     if (!prepared) return prepared.error();
     const std::pair<double, double> decode = png16_decode(t.alpha);
     std::vector<io::TarEntry> out = {
-        {dir + "glsl/material_eval.glsl", render::glsl::kMaterialEval},
-        {dir + "glsl/material_noise.frag", render::glsl::kMaterialNoiseFrag},
-        {dir + "hlsl/material_noise.hlsl", render::glsl::kMaterialNoiseHlsl}};
+        {dir + "glsl/material_eval.glsl", render::embedded::kMaterialEval},
+        {dir + "glsl/material_noise.frag", render::embedded::kMaterialNoiseFrag},
+        {dir + "hlsl/material_noise.hlsl", render::embedded::kMaterialNoiseHlsl}};
     nlohmann::json maps = nlohmann::json::array();
     std::string names;
     for (const core::TextonMap& m : t.maps) {
@@ -262,7 +262,7 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
     if (!t.marginals.empty()) {
         auto tables = marginal_tables(t, params);
         if (!tables) return tables.error();
-        marginals = {{dir + "glsl/marginals.glsl", render::glsl::kMarginalsGlsl},
+        marginals = {{dir + "glsl/marginals.glsl", render::embedded::kMarginalsGlsl},
                      {dir + "marginals.exr", std::move(tables.value())}};
     }
     if (!t.maps.empty()) { // a set: its maps and its shaders; a PNG holds at most 4 channels
@@ -278,13 +278,13 @@ Result<std::string> engine_kit_tar(const io::TextonRecord& record, const std::st
         if (!png16) return png16.error();
         all.push_back({dir + "texton16.png", std::move(png16.value())});
     }
-    all.insert(all.end(), {{dir + "glsl/noise_lib.glsl", render::glsl::kNoiseLib},
-                           {dir + "glsl/texton_eval.glsl", render::glsl::kTextonEval},
-                           {dir + "glsl/texton_noise.frag", render::glsl::kTextonNoiseFrag},
-                           {dir + "glsl/texton_noise.comp", render::glsl::kTextonNoiseComp},
-                           {dir + "glsl/fullscreen.vert", render::glsl::kFullscreenVert},
-                           {dir + "hlsl/texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
-                           {dir + "NOISE_SPEC.md", render::glsl::kNoiseSpec}});
+    all.insert(all.end(), {{dir + "glsl/noise_lib.glsl", render::embedded::kNoiseLib},
+                           {dir + "glsl/texton_eval.glsl", render::embedded::kTextonEval},
+                           {dir + "glsl/texton_noise.frag", render::embedded::kTextonNoiseFrag},
+                           {dir + "glsl/texton_noise.comp", render::embedded::kTextonNoiseComp},
+                           {dir + "glsl/fullscreen.vert", render::embedded::kFullscreenVert},
+                           {dir + "hlsl/texton_noise.hlsl", render::embedded::kTextonNoiseHlsl},
+                           {dir + "NOISE_SPEC.md", render::embedded::kNoiseSpec}});
     all.insert(all.end(), marginals.begin(), marginals.end());
     return io::tar_archive(all);
 }

@@ -79,7 +79,7 @@ Result<ImageService::Job> ImageService::tileable(const api::TileableRequest& t) 
     const int a = core::noise::cell_size(meta.value().size);
     const auto cells = [a](int n) { return std::max(1, (n + a / 2) / a); };
     render::NoiseRequest q =
-        noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
+        to_noise_request(0, 0, 0, cells(t.width) * a, cells(t.height) * a, t.noise);
     q.period = {cells(t.width), cells(t.height)};
     return Job{t.id,     "tileable", t.format,   q,       t.width,
                t.height, true,       &m_textons, t.noise, t.quality};

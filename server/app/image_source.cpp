@@ -4,8 +4,8 @@
 
 namespace textond::app {
 
-render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
-                                   const api::NoiseParams& noise) {
+render::NoiseRequest to_noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
+                                      const api::NoiseParams& noise) {
     render::NoiseRequest q;
     q.level = level;
     q.x0 = x0;

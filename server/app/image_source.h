@@ -22,8 +22,8 @@
 namespace textond::app {
 
 // The window of a request on the plane, with its noise's seed, density and marginals.
-render::NoiseRequest noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
-                                   const api::NoiseParams& noise);
+render::NoiseRequest to_noise_request(int level, std::int64_t x0, std::int64_t y0, int w, int h,
+                                      const api::NoiseParams& noise);
 
 class ImageSource {
 public:

@@ -77,7 +77,7 @@ Result<core::Image> SplatSource::report(const std::string& id, const api::NoiseP
         x0 = static_cast<std::int64_t>(std::floor(std::ldexp(im.x0, -level)));
         y0 = static_cast<std::int64_t>(std::floor(std::ldexp(im.y0, -level)));
     }
-    render::NoiseRequest q = noise_request(level, x0, y0, kReportSide, kReportSide, noise);
+    render::NoiseRequest q = to_noise_request(level, x0, y0, kReportSide, kReportSide, noise);
     q.cancel = &cancel;
     auto weights = m_renderer.splat_weights(s, q, Work::frame);
     if (!weights) return weights.error();

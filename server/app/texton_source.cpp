@@ -43,7 +43,7 @@ constexpr int kReportSide = 256; // the quality report's windows, at most
 
 } // namespace
 
-Result<core::Image> render_view(render::Renderer& renderer, const PreparedSet& set,
+Result<core::Image> render_view(render::Renderer& renderer, const PreparedTextonResult& set,
                                 const api::MapChoice& map, const render::NoiseRequest& q,
                                 render::Renderer::Work work, std::string* used) {
     if (map.encoding) { // the height in floats, then its metres as RGB bytes
@@ -148,7 +148,7 @@ Result<QualityReport> TextonSource::quality(const std::string& id, const api::No
     if (!exemplar) return exemplar.error();
     const core::Image& u = exemplar.value();
     const int w = std::min(kReportSide, u.width), h = std::min(kReportSide, u.height);
-    render::NoiseRequest q = noise_request(0, 0, 0, w, h, noise);
+    render::NoiseRequest q = to_noise_request(0, 0, 0, w, h, noise);
     q.cancel = &cancel;
     auto gaussian = window(id, q, Work::frame, "quality");
     if (!gaussian) return gaussian.error();
@@ -177,7 +177,7 @@ Result<core::Image> TextonSource::spectrum(const std::string& id, const api::Noi
     if (!exemplar) return exemplar.error();
     const core::Image& u = exemplar.value();
     const int w = std::min(512, u.width), h = std::min(512, u.height);
-    render::NoiseRequest q = noise_request(0, 0, 0, w, h, noise);
+    render::NoiseRequest q = to_noise_request(0, 0, 0, w, h, noise);
     q.cancel = &cancel;
     auto window_of_noise = window(id, q, Work::frame, "spectrum");
     if (!window_of_noise) return window_of_noise.error();

@@ -9,12 +9,12 @@
 
 namespace textond::app {
 
-using PreparedSet = Result<std::shared_ptr<const render::PreparedTexton>>;
+using PreparedTextonResult = Result<std::shared_ptr<const render::PreparedTexton>>;
 
 // The pixels of a view (api::MapChoice) of a texton or material set: the texton's noise, a set's
 // map, its normals or its lit albedo. `used` names the backend that ran; it stays empty when
 // the request was refused before any did. `textond export` calls it too.
-Result<core::Image> render_view(render::Renderer& renderer, const PreparedSet& set,
+Result<core::Image> render_view(render::Renderer& renderer, const PreparedTextonResult& set,
                                 const api::MapChoice& map, const render::NoiseRequest& q,
                                 render::Renderer::Work work, std::string* used);
 

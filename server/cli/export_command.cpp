@@ -154,7 +154,7 @@ Result<Options> options_from(const Args& a) {
 struct Context {
     const Options& o;
     std::string id;
-    app::PreparedSet set;
+    app::PreparedTextonResult set;
     render::Renderer& renderer;
 };
 
@@ -165,7 +165,8 @@ Result<Encoded> render_tile(const Context& c, TileAddress t) {
     if (auto e = api::parse_map_tile(c.id, std::to_string(t.z), std::to_string(t.x),
                                      std::to_string(t.y), c.o.ext, c.o.query, r))
         return make_error(ErrorCode::invalid_argument, e->message);
-    render::NoiseRequest q = app::noise_request(r.level, r.x0(), r.y0(), r.size, r.size, r.noise);
+    render::NoiseRequest q =
+        app::to_noise_request(r.level, r.x0(), r.y0(), r.size, r.size, r.noise);
     q.precision =
         r.format == api::ImageFormat::png16 ? render::Precision::u16 : render::Precision::u8;
     auto image =

@@ -62,7 +62,8 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --png-compression N      zlib level of PNG images, 0..9 (1: 14% smaller, 8x slower) [0]
 
   --max-upload-mb N        largest request body, MiB (413 above)               [32]
-  --max-pixels N           largest exemplar, pixels, read from the header (413)  [16777216]
+  --max-pixels N           largest image decoded (exemplar, mix mask, splat weights), pixels,
+                           read from the header (413)                          [16777216]
   --formats LIST           upload formats, of png,jpeg,tiff,bmp,openexr (415 otherwise)
                            [png,jpeg,tiff,bmp: EXR is opt-in, see tests/README.md "Fuzzing"]
   --max-region-pixels N    largest region image                                [8388608]

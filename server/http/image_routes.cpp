@@ -187,7 +187,7 @@ ImageRoutes::Handler ImageRoutes::tile(ImageSource& source, const std::string& r
             return send_error(res, *e);
         ImageService::Job job{
             t.id,     "tile",
-            t.format, noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
+            t.format, to_noise_request(t.level, t.x0(), t.y0(), t.size, t.size, t.noise),
             t.size,   t.size,
             false,    &source,
             t.noise,  t.quality};
@@ -207,7 +207,7 @@ ImageRoutes::Handler ImageRoutes::region(ImageSource& source, const std::string&
             return send_error(res, *e);
         ImageService::Job job{
             r.id,     "region",
-            r.format, noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
+            r.format, to_noise_request(r.level, r.x, r.y, r.width, r.height, r.noise),
             r.width,  r.height,
             true,     &source,
             r.noise,  r.quality};

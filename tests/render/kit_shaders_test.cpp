@@ -6,8 +6,8 @@
 // The server's own GLSL is the compute entry (gl_backend_test); without this test, either kit
 // shader could drift from it unnoticed.
 #include "render/cpu_backend.h"
+#include "render/embedded_sources.h"
 #include "render/gl/gl_api.h"
-#include "render/gl/glsl_sources.h"
 #include "render/gl/noise_window.h"
 #include "render/gl/osmesa_backend.h"
 #include "render/normal_map.h"
@@ -133,7 +133,7 @@ std::string shader_log(Gl& gl, GLuint sh) {
 
 // Links the full-screen vertex shader with `frag`; 0 and `error` set on failure.
 GLuint program(Gl& gl, const std::string& frag, std::string& error) {
-    const std::string vert = std::string("#version 450 core\n") + render::glsl::kFullscreenVert;
+    const std::string vert = std::string("#version 450 core\n") + render::embedded::kFullscreenVert;
     GLuint p = gl.f.CreateProgram();
     for (auto [type, src] : {std::pair{GL_VERTEX_SHADER, vert}, {GL_FRAGMENT_SHADER, frag}}) {
         GLuint sh = gl.f.CreateShader(type);
@@ -335,7 +335,7 @@ std::string hlsl_as_glsl(const std::vector<std::pair<std::string, const char*>>&
 }
 
 std::string hlsl_as_glsl(std::string& error) {
-    return hlsl_as_glsl({{"texton_noise.hlsl", render::glsl::kTextonNoiseHlsl}},
+    return hlsl_as_glsl({{"texton_noise.hlsl", render::embedded::kTextonNoiseHlsl}},
                         "texton_noise.hlsl", error);
 }
 
@@ -388,8 +388,8 @@ void check_entry(Gl& gl, const std::string& frag, Entry entry, int order) {
 }
 
 std::string glsl_entry() {
-    return std::string("#version 450 core\n") + render::glsl::kNoiseLib +
-           render::glsl::kTextonEval + render::glsl::kTextonNoiseFrag;
+    return std::string("#version 450 core\n") + render::embedded::kNoiseLib +
+           render::embedded::kTextonEval + render::embedded::kTextonNoiseFrag;
 }
 
 TEST(KitShaders, GlslFragmentEntryAgreesWithCpu) {
@@ -405,8 +405,8 @@ TEST(KitShaders, MarginalsGlslAgreesWithCpu) {
     auto gl = Gl::open();
     if (!gl) GTEST_SKIP() << "no OSMesa";
     const std::string frag = std::string("#version 450 core\n#define TEXTOND_MARGINALS\n") +
-                             render::glsl::kNoiseLib + render::glsl::kTextonEval +
-                             render::glsl::kMarginalsGlsl + render::glsl::kTextonNoiseFrag;
+                             render::embedded::kNoiseLib + render::embedded::kTextonEval +
+                             render::embedded::kMarginalsGlsl + render::embedded::kTextonNoiseFrag;
     render::CpuBackend cpu;
     for (const char* name : {"etr_pebbles04.png", "skimage_brick.png"}) {
         const auto tex = analysed_texton(name, 64);
@@ -624,9 +624,9 @@ void check_set_entry(Gl& gl, const std::string& frag, Entry entry, int order) {
 }
 
 std::string set_glsl_entry() {
-    return std::string("#version 450 core\n") + render::glsl::kNoiseLib +
-           render::glsl::kTextonEval + render::glsl::kMaterialEval +
-           render::glsl::kMaterialNoiseFrag;
+    return std::string("#version 450 core\n") + render::embedded::kNoiseLib +
+           render::embedded::kTextonEval + render::embedded::kMaterialEval +
+           render::embedded::kMaterialNoiseFrag;
 }
 
 TEST(KitShaders, MaterialSetGlslAgreesWithCpu) {
@@ -643,8 +643,8 @@ TEST(KitShaders, MaterialSetHlslAgreesWithCpu) {
     if (!gl) GTEST_SKIP() << "no OSMesa";
     std::string error;
     const std::string frag =
-        hlsl_as_glsl({{"texton_noise.hlsl", render::glsl::kTextonNoiseHlsl},
-                      {"material_noise.hlsl", render::glsl::kMaterialNoiseHlsl}},
+        hlsl_as_glsl({{"texton_noise.hlsl", render::embedded::kTextonNoiseHlsl},
+                      {"material_noise.hlsl", render::embedded::kMaterialNoiseHlsl}},
                      "material_noise.hlsl", error);
     ASSERT_FALSE(frag.empty()) << error;
     for (int order : {1, 3}) check_set_entry(*gl, frag, Entry::hlsl, order);

@@ -85,7 +85,7 @@ struct Parts {
     app::ImageService::Job job(const std::string& id, int w, int h, int out_w, int out_h) {
         app::ImageService::Job j;
         j.id = id;
-        j.request = app::noise_request(0, 512, -256, w, h, {});
+        j.request = app::to_noise_request(0, 512, -256, w, h, {});
         j.out_width = out_w;
         j.out_height = out_h;
         j.source = flats.get();

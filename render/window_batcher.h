@@ -26,14 +26,14 @@
 
 namespace textond::render {
 
-class TileBatcher {
+class WindowBatcher {
 public:
     // `lanes`: at least one; all of one kind (their windows are prepared by the first).
-    TileBatcher(std::vector<std::shared_ptr<GlBackend>> lanes, int max_tiles,
-                std::chrono::microseconds max_wait, double max_ms = 25);
-    ~TileBatcher(); // finishes what is queued, then stops the workers
-    TileBatcher(const TileBatcher&) = delete;
-    TileBatcher& operator=(const TileBatcher&) = delete;
+    WindowBatcher(std::vector<std::shared_ptr<GlBackend>> lanes, int max_tiles,
+                  std::chrono::microseconds max_wait, double max_ms = 25);
+    ~WindowBatcher(); // finishes what is queued, then stops the workers
+    WindowBatcher(const WindowBatcher&) = delete;
+    WindowBatcher& operator=(const WindowBatcher&) = delete;
 
     // `mix` null: texton noise of `texton`; else the mix (level 0 is `texton`).
     Result<core::Image> render(const PreparedTexton& texton, const PreparedMix* mix,

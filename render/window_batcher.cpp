@@ -1,4 +1,4 @@
-#include "render/tile_batcher.h"
+#include "render/window_batcher.h"
 
 #include "render/gl/noise_window.h"
 
@@ -9,14 +9,14 @@
 
 namespace textond::render {
 
-TileBatcher::TileBatcher(std::vector<std::shared_ptr<GlBackend>> lanes, int max_tiles,
-                         std::chrono::microseconds max_wait, double max_ms)
+WindowBatcher::WindowBatcher(std::vector<std::shared_ptr<GlBackend>> lanes, int max_tiles,
+                             std::chrono::microseconds max_wait, double max_ms)
     : m_lanes(std::move(lanes)), m_max_tiles(std::max(1, max_tiles)),
       m_max_wait(std::max(std::chrono::microseconds(0), max_wait)), m_max_ms(max_ms) {
     for (const auto& lane : m_lanes) m_workers.emplace_back([this, &lane] { run(*lane); });
 }
 
-TileBatcher::~TileBatcher() {
+WindowBatcher::~WindowBatcher() {
     {
         std::lock_guard<std::mutex> lock(m_mutex);
         m_stop = true;
@@ -25,8 +25,8 @@ TileBatcher::~TileBatcher() {
     for (std::thread& w : m_workers) w.join();
 }
 
-Result<core::Image> TileBatcher::render(const PreparedTexton& texton, const PreparedMix* mix,
-                                        const NoiseRequest& request) {
+Result<core::Image> WindowBatcher::render(const PreparedTexton& texton, const PreparedMix* mix,
+                                          const NoiseRequest& request) {
     auto work = m_lanes.front()->prepare(texton, mix, request); // on the caller's thread
     if (!work) return work.error();
     Job job{std::move(work.value())};
@@ -40,7 +40,7 @@ Result<core::Image> TileBatcher::render(const PreparedTexton& texton, const Prep
     return std::move(job.work.image);
 }
 
-void TileBatcher::run(GlBackend& gl) {
+void WindowBatcher::run(GlBackend& gl) {
     auto pixels_of = [](const Job& job) {
         return static_cast<double>(job.work.window->width) * job.work.window->height;
     };
@@ -90,12 +90,12 @@ void TileBatcher::run(GlBackend& gl) {
     }
 }
 
-std::uint64_t TileBatcher::batches() const {
+std::uint64_t WindowBatcher::batches() const {
     std::lock_guard<std::mutex> lock(m_mutex);
     return m_batches;
 }
 
-std::uint64_t TileBatcher::windows() const {
+std::uint64_t WindowBatcher::windows() const {
     std::lock_guard<std::mutex> lock(m_mutex);
     return m_windows;
 }

@@ -1,7 +1,7 @@
 #pragma once
 // The shaders of render/glsl/ and render/hlsl/ and render/NOISE_SPEC.md, embedded at build time
 // (see render/CMakeLists.txt).
-namespace textond::render::glsl {
+namespace textond::render::embedded {
 extern const char* const kNoiseLib;
 extern const char* const kFullscreenVert;
 extern const char* const kTextonNoiseFrag;
@@ -18,4 +18,4 @@ extern const char* const kMeshPreviewFrag;
 extern const char* const kMaterialEval;      // a material set's maps and height gradient (kit)
 extern const char* const kMaterialNoiseFrag; // its fragment entry (three attachments)
 extern const char* const kMaterialNoiseHlsl; // its HLSL, which includes kTextonNoiseHlsl
-} // namespace textond::render::glsl
+} // namespace textond::render::embedded
