@@ -78,7 +78,7 @@ if [ ${#missing[@]} -ne 0 ] || [ ${#stale[@]} -ne 0 ]; then
     export DEBIAN_FRONTEND=noninteractive
     $SUDO apt-get update -qq
     mapfile -t stale < <(stale_build_packages)
-    echo "install-deps: installing ${missing[*]}${stale[*]:+ ${missing[*]:+and }newer ${stale[*]}}" >&2
+    echo "install-deps: installing${missing[*]:+ ${missing[*]}}${stale[*]:+ ${missing[*]:+and }newer ${stale[*]}}" >&2
     $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" "${stale[@]}" >/dev/null
 fi
 [ "$mode" = --runtime ] && exit 0
