@@ -3,6 +3,7 @@
 #include "api/noise_fields.h"
 #include "core/grid_poisson.h"
 #include "core/periodic_resample.h"
+#include "render/image_buffers.h"
 #include "render/normal_map.h"
 #include "server/app/build_id.h"
 #include "server/io/image_io.h"
@@ -34,14 +35,24 @@ io::Encoding encoding_of(api::ImageFormat f) {
 
 } // namespace
 
-Result<std::string> encode_image(const core::Image& image, api::ImageFormat format, int quality,
+Result<std::string> encode_image(core::Image&& image, api::ImageFormat format, int quality,
                                  const std::string& id, int png_compression) {
-    if (format == api::ImageFormat::webp) return io::encode_webp(image, quality);
-    if (format == api::ImageFormat::avif)
-        return io::encode_avif(image, quality > 0 ? quality : io::kDefaultAvifQuality);
-    return io::encode_image_memory(
+    if (format == api::ImageFormat::webp || format == api::ImageFormat::avif) {
+        // The encoders read 8-bit RGB only: the floats (12 bytes a pixel) go before libaom's
+        // frame buffers (about 34 bytes a pixel) come (deploy/README.md "Memory bound").
+        auto rgb = io::to_rgb8(image);
+        render::recycle_image(std::move(image));
+        if (!rgb) return rgb.error();
+        if (format == api::ImageFormat::webp)
+            return io::encode_webp(std::move(rgb.value()), quality);
+        return io::encode_avif(std::move(rgb.value()),
+                               quality > 0 ? quality : io::kDefaultAvifQuality);
+    }
+    auto bytes = io::encode_image_memory(
         image, encoding_of(format),
         {{"textond:noise", render::kNoiseVersion}, {"textond:texton", id}}, png_compression);
+    render::recycle_image(std::move(image)); // the pixels go before the bytes are cached
+    return bytes;
 }
 
 ImageService::ImageService(TextonSource& textons, render::Renderer& renderer, int png_compression)
@@ -107,9 +118,9 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
     return out;
 }
 
-Result<std::string> ImageService::encode(const core::Image& image, api::ImageFormat format,
-                                         int quality, const std::string& id) const {
-    return encode_image(image, format, quality, id, m_png_compression);
+Result<std::string> ImageService::encode(core::Image&& image, api::ImageFormat format, int quality,
+                                         const std::string& id) const {
+    return encode_image(std::move(image), format, quality, id, m_png_compression);
 }
 
 } // namespace textond::app

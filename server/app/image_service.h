@@ -18,8 +18,9 @@
 namespace textond::app {
 
 // An image's bytes in an API format, tagged (PNG, EXR) with the noise version and the id: what
-// every image endpoint and `textond export` write.
-Result<std::string> encode_image(const core::Image& image, api::ImageFormat format, int quality,
+// every image endpoint and `textond export` write. The pixels are released (recycled) as soon as
+// the encoder no longer needs them, before it has finished.
+Result<std::string> encode_image(core::Image&& image, api::ImageFormat format, int quality,
                                  const std::string& id, int png_compression);
 
 class ImageService {
@@ -51,8 +52,9 @@ public:
 
     // The job's pixels, in the caller's slot.
     Result<core::Image> render(const Job& job, const render::Cancel& cancel);
-    // The image's bytes in `format`, tagged with the noise version and the id.
-    Result<std::string> encode(const core::Image& image, api::ImageFormat format, int quality,
+    // The image's bytes in `format`, tagged with the noise version and the id; the pixels are
+    // recycled as encode_image says.
+    Result<std::string> encode(core::Image&& image, api::ImageFormat format, int quality,
                                const std::string& id) const;
 
 private:

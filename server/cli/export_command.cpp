@@ -172,7 +172,8 @@ Result<Encoded> render_tile(const Context& c, TileAddress t) {
     auto image =
         app::render_view(c.renderer, c.set, r.noise.map, q, render::Renderer::Work::tile, nullptr);
     if (!image) return image.error();
-    auto bytes = app::encode_image(image.value(), r.format, r.quality, c.id, c.o.png_compression);
+    auto bytes =
+        app::encode_image(std::move(image.value()), r.format, r.quality, c.id, c.o.png_compression);
     if (!bytes) return bytes.error();
     return Encoded{t, std::move(bytes.value())};
 }

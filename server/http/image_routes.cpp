@@ -3,7 +3,6 @@
 #include "server/http/image_routes.h"
 
 #include "api/noise_fields.h"
-#include "render/image_buffers.h"
 #include "render/prepared_texton.h"
 #include "server/app/engine_kit.h"
 #include "server/app/work_cost.h"
@@ -137,9 +136,8 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
     }
     const auto t2 = Clock::now();
     m_metrics.stage("render", seconds(t1, t2));
-    auto bytes = m_images.encode(image.value(), format, quality, id);
+    auto bytes = m_images.encode(std::move(image.value()), format, quality, id);
     m_metrics.stage("encode", seconds(t2, Clock::now()));
-    render::recycle_image(std::move(image.value())); // the pixels go before the bytes are cached
     if (!bytes) {
         send_error(res, to_api_error(bytes.error()));
         return nullptr;

@@ -45,11 +45,26 @@ std::optional<Error> check_input(const core::Image& u) {
 
 } // namespace
 
-Result<std::string> encode_webp(const core::Image& image, int quality) {
+Result<Rgb8> to_rgb8(const core::Image& image) {
     if (auto e = check_input(image)) return *e;
+    return Rgb8{image.width, image.height, rgb8(image)};
+}
+
+Result<std::string> encode_webp(const core::Image& image, int quality) {
+    auto rgb = to_rgb8(image);
+    if (!rgb) return rgb.error();
+    return encode_webp(std::move(rgb.value()), quality);
+}
+
+Result<std::string> encode_avif(const core::Image& image, int quality) {
+    auto rgb = to_rgb8(image);
+    if (!rgb) return rgb.error();
+    return encode_avif(std::move(rgb.value()), quality);
+}
+
+Result<std::string> encode_webp(Rgb8 rgb, int quality) {
     if (quality < 0 || quality > 100)
         return make_error(ErrorCode::invalid_argument, "WebP quality must be in [1, 100]");
-    std::vector<std::uint8_t> rgb = rgb8(image);
     WebPConfig config;
     if (!WebPConfigInit(&config))
         return make_error(ErrorCode::internal, "libwebp: version mismatch");
@@ -65,8 +80,8 @@ Result<std::string> encode_webp(const core::Image& image, int quality) {
     WebPPicture pic;
     if (!WebPPictureInit(&pic)) return make_error(ErrorCode::internal, "libwebp: version mismatch");
     pic.use_argb = quality == 0 ? 1 : 0;
-    pic.width = image.width;
-    pic.height = image.height;
+    pic.width = rgb.width;
+    pic.height = rgb.height;
     WebPMemoryWriter writer;
     WebPMemoryWriterInit(&writer);
     pic.writer = WebPMemoryWrite;
@@ -74,31 +89,33 @@ Result<std::string> encode_webp(const core::Image& image, int quality) {
     std::unique_ptr<WebPPicture, void (*)(WebPPicture*)> owned_pic(&pic, WebPPictureFree);
     std::unique_ptr<WebPMemoryWriter, void (*)(WebPMemoryWriter*)> owned_out(&writer,
                                                                              WebPMemoryWriterClear);
-    if (!WebPPictureImportRGB(&pic, rgb.data(), image.width * 3) || !WebPEncode(&config, &pic))
+    const bool imported = WebPPictureImportRGB(&pic, rgb.pixels.data(), rgb.width * 3) != 0;
+    std::vector<std::uint8_t>().swap(rgb.pixels); // the picture holds its own copy
+    if (!imported || !WebPEncode(&config, &pic))
         return make_error(ErrorCode::internal,
                           "libwebp could not encode the image (error " +
                               std::to_string(static_cast<int>(pic.error_code)) + ")");
     return std::string(reinterpret_cast<const char*>(writer.mem), writer.size);
 }
 
-Result<std::string> encode_avif(const core::Image& image, int quality) {
-    if (auto e = check_input(image)) return *e;
+Result<std::string> encode_avif(Rgb8 rgb, int quality) {
     if (quality < 1 || quality > 100)
         return make_error(ErrorCode::invalid_argument, "AVIF quality must be in [1, 100]");
-    std::vector<std::uint8_t> rgb = rgb8(image);
     // 4:4:4: texture tiles have colour detail at the pixel scale that 4:2:0 would blur.
     std::unique_ptr<avifImage, void (*)(avifImage*)> img(
-        avifImageCreate(static_cast<std::uint32_t>(image.width),
-                        static_cast<std::uint32_t>(image.height), 8, AVIF_PIXEL_FORMAT_YUV444),
+        avifImageCreate(static_cast<std::uint32_t>(rgb.width),
+                        static_cast<std::uint32_t>(rgb.height), 8, AVIF_PIXEL_FORMAT_YUV444),
         avifImageDestroy);
     if (!img) return make_error(ErrorCode::internal, "libavif: out of memory");
     avifRGBImage view;
     avifRGBImageSetDefaults(&view, img.get());
     view.format = AVIF_RGB_FORMAT_RGB;
     view.depth = 8;
-    view.pixels = rgb.data();
-    view.rowBytes = static_cast<std::uint32_t>(image.width) * 3;
-    if (avifImageRGBToYUV(img.get(), &view) != AVIF_RESULT_OK)
+    view.pixels = rgb.pixels.data();
+    view.rowBytes = static_cast<std::uint32_t>(rgb.width) * 3;
+    const bool converted = avifImageRGBToYUV(img.get(), &view) == AVIF_RESULT_OK;
+    std::vector<std::uint8_t>().swap(rgb.pixels); // before libaom's frame buffers come
+    if (!converted)
         return make_error(ErrorCode::internal, "libavif could not convert the image to YUV");
     std::unique_ptr<avifEncoder, void (*)(avifEncoder*)> enc(avifEncoderCreate(),
                                                              avifEncoderDestroy);

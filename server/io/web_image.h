@@ -6,15 +6,27 @@
 #include "core/image.h"
 #include "core/result.h"
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace textond::io {
 
 inline constexpr int kDefaultAvifQuality = 80; // AVIF is lossy only
 
+// Interleaved 8-bit RGB, all that the encoders read: a caller may free the float image once it
+// has this (a quarter of its bytes), and each encoder frees it once the codec holds its own copy.
+struct Rgb8 {
+    int width = 0, height = 0;
+    std::vector<std::uint8_t> pixels;
+};
+Result<Rgb8> to_rgb8(const core::Image& image);
+
 // `quality` in [1, 100]; 0: lossless.
+Result<std::string> encode_webp(Rgb8 rgb, int quality);
 Result<std::string> encode_webp(const core::Image& image, int quality);
 // `quality` in [1, 100] (100: the finest quantiser, not lossless).
+Result<std::string> encode_avif(Rgb8 rgb, int quality);
 Result<std::string> encode_avif(const core::Image& image, int quality);
 
 } // namespace textond::io
