@@ -26,6 +26,7 @@ import random
 import re
 import struct
 import subprocess
+import zipfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -114,28 +115,33 @@ def sheets(corpus, textond):
 def image_size(path):
     """(width, height) of a PNG or JPEG from its header, or None."""
     with open(path, "rb") as f:
-        head = f.read(32)
-        if head[:8] == b"\x89PNG\r\n\x1a\n":
-            return struct.unpack(">II", head[16:24])
-        if head[:2] != b"\xff\xd8":
-            return None
-        f.seek(2)
-        while True:
+        return stream_size(f)
+
+
+def stream_size(f):
+    """(width, height) of the PNG or JPEG an open binary file holds, or None."""
+    head = f.read(32)
+    if head[:8] == b"\x89PNG\r\n\x1a\n":
+        return struct.unpack(">II", head[16:24])
+    if head[:2] != b"\xff\xd8":
+        return None
+    f.seek(2)
+    while True:
+        b = f.read(1)
+        while b and b != b"\xff":
             b = f.read(1)
-            while b and b != b"\xff":
-                b = f.read(1)
-            while b == b"\xff":
-                b = f.read(1)
-            if not b:
-                return None
-            marker = b[0]
-            if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:
-                continue
-            length = struct.unpack(">H", f.read(2))[0]
-            if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-                h, w = struct.unpack(">HH", f.read(5)[1:5])
-                return w, h
-            f.seek(length - 2, 1)
+        while b == b"\xff":
+            b = f.read(1)
+        if not b:
+            return None
+        marker = b[0]
+        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:
+            continue
+        length = struct.unpack(">H", f.read(2))[0]
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            h, w = struct.unpack(">HH", f.read(5)[1:5])
+            return w, h
+        f.seek(length - 2, 1)
 
 
 def copyright_stanzas(pkg_dir, package):
@@ -182,35 +188,50 @@ def draw(corpus):
             keyword = re.compile(d["keyword"]) if d.get("keyword") else None
             skip = re.compile(d["skip"]) if d.get("skip") else None
             under = d.get("under", {}).get(package, "")
+            skip_dirs = re.compile(d["skip_dirs"], re.I) if d.get("skip_dirs") else None
             files, seen = [], set()
-            for dirpath, dirs, names in os.walk(pkg_dir):
-                dirs.sort()
-                for n in sorted(names):
-                    low = n.lower()
-                    if not low.endswith((".png", ".jpg", ".jpeg")):
-                        continue
-                    if keyword and not keyword.search(low) or skip and skip.search(low):
-                        continue
-                    full = os.path.join(dirpath, n)
-                    rel = full[len(pkg_dir):]
-                    if under not in rel:
-                        continue
-                    size = image_size(full)
-                    if not size or min(size) < 256:
-                        continue
-                    # A file seen before, under any name, or drawn by an earlier draw is skipped.
-                    digest = hashlib.sha256(open(full, "rb").read()).hexdigest()
-                    if digest in seen or (package, rel) in taken:
-                        seen.add(digest)
-                        continue
+
+            def consider(rel, name, opener):
+                low = name.lower()
+                if not low.endswith((".png", ".jpg", ".jpeg")):
+                    return
+                if keyword and not keyword.search(low) or skip and skip.search(low):
+                    return
+                if under not in rel or skip_dirs and skip_dirs.search(rel):
+                    return
+                with opener() as f:
+                    size = stream_size(f)
+                if not size or min(size) < 256:
+                    return
+                # A file seen before, under any name, or drawn by an earlier draw is skipped.
+                with opener() as f:
+                    digest = hashlib.sha256(f.read()).hexdigest()
+                if digest in seen or (package, rel) in taken:
                     seen.add(digest)
-                    files.append((rel, size))
+                    return
+                seen.add(digest)
+                files.append((rel, size))
+
+            # Members of a zip archive (a jar, a game's data.zip) are named ARCHIVE:MEMBER.
+            archive = d.get("archives", {}).get(package)
+            if archive:
+                with zipfile.ZipFile(os.path.join(pkg_dir, archive.lstrip("/"))) as z:
+                    for m in sorted(z.namelist()):
+                        consider(f"{archive}:{m}", os.path.basename(m),
+                                 lambda m=m: z.open(m))
+            else:
+                for dirpath, dirs, names in os.walk(pkg_dir):
+                    dirs.sort()
+                    for n in sorted(names):
+                        full = os.path.join(dirpath, n)
+                        consider(full[len(pkg_dir):], n, lambda full=full: open(full, "rb"))
             files.sort()
             pick = sorted(random.Random(d["seed"]).sample(files, min(d["per_package"],
                                                                      len(files))))
             for rel, (w, h) in pick:
                 taken.add((package, rel))
-                print(f"{d['name']}\t{package}\t{version}\t{rel}\t{licence_of(stanzas, rel)}"
+                licence = licence_of(stanzas, rel.partition(":")[0])
+                print(f"{d['name']}\t{package}\t{version}\t{rel}\t{licence}"
                       f"\t{w}x{h}")
 
 
