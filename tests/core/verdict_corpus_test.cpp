@@ -1,6 +1,7 @@
-// The micro/macro verdict (core/shape_verdict.h) on its two labelled corpora (tests/verdict/ and
-// tests/verdict/shapes/): the shapes corpus's held-out half, the fit set as fitted, the shared
-// photos, and random-phase textures. Labels and splits were fixed before any score.
+// The micro/macro verdict (core/shape_verdict.h) on its three labelled corpora (tests/verdict/,
+// tests/verdict/shapes/ and tests/verdict/third/): the held-out halves of the shapes and third
+// corpora, the fit set as fitted, and random-phase textures. Labels and splits were fixed before
+// any score.
 #include "core/shape_verdict.h"
 #include "core/spectral_synthesis.h"
 #include "server/io/image_io.h"
@@ -9,6 +10,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <sstream>
 #include <string>
@@ -22,10 +24,10 @@ namespace {
 // whole corpus in every test process took four times 45 s of CPU.
 struct Labelled {
     std::string name, label, half, path;
-    bool shapes = false; // of the shapes corpus
+    std::string corpus; // first | shapes | third
 };
 
-std::vector<Labelled> read_corpus(const std::string& dir, bool shapes) {
+std::vector<Labelled> read_corpus(const std::string& dir, const std::string& corpus) {
     std::vector<Labelled> out;
     std::ifstream tsv(dir + "/corpus.tsv");
     std::string line;
@@ -37,7 +39,7 @@ std::vector<Labelled> read_corpus(const std::string& dir, bool shapes) {
         std::getline(f, l.label, '\t');
         std::getline(f, l.half, '\t');
         l.path = dir + "/corpus/" + l.name + ".jpg";
-        l.shapes = shapes;
+        l.corpus = corpus;
         out.push_back(std::move(l));
     }
     return out;
@@ -45,9 +47,10 @@ std::vector<Labelled> read_corpus(const std::string& dir, bool shapes) {
 
 const std::vector<Labelled>& corpus() {
     static const std::vector<Labelled> all = [] {
-        auto out = read_corpus(TEXTOND_VERDICT_CORPUS, false);
-        for (auto& l : read_corpus(std::string(TEXTOND_VERDICT_CORPUS) + "/shapes", true))
-            out.push_back(std::move(l));
+        auto out = read_corpus(TEXTOND_VERDICT_CORPUS, "first");
+        for (const char* c : {"shapes", "third"})
+            for (auto& l : read_corpus(std::string(TEXTOND_VERDICT_CORPUS) + "/" + c, c))
+                out.push_back(std::move(l));
         return out;
     }();
     return all;
@@ -61,18 +64,18 @@ core::Image image_of(const Labelled& l) {
 
 struct Tally {
     int micro = 0, micro_right = 0, macro = 0, macro_right = 0, macro_called_micro = 0;
+    std::string wrong; // "name (label -> kind)", for the README's table
 };
 
-// The fit set: the whole first corpus and the shapes corpus's fit half; the held-out set: the
-// shapes corpus's held-out half (tests/verdict/fit_verdict.py).
-Tally tally(bool held_out) {
+// The labelled micro and macro photos `in` selects, each scored.
+Tally tally(const std::function<bool(const Labelled&)>& in) {
     Tally t;
     for (const Labelled& l : corpus()) {
-        const bool in_held_out = l.shapes && l.half == "held-out";
-        if (in_held_out != held_out || l.label == "borderline") continue;
+        if (!in(l) || l.label == "borderline") continue;
         const core::Image u = image_of(l);
         if (u.empty()) continue;
         const std::string kind = core::to_string(core::shape_verdict(u, 2).kind());
+        if (kind != l.label) t.wrong += " " + l.name + " (" + l.label + " -> " + kind + ")";
         if (l.label == "micro") {
             ++t.micro;
             t.micro_right += kind == "micro";
@@ -83,6 +86,12 @@ Tally tally(bool held_out) {
         }
     }
     return t;
+}
+
+// The fit set the verdict was chosen on: the whole first corpus and the shapes corpus's fit half
+// (tests/verdict/fit_verdict.py).
+bool in_fit_set(const Labelled& l) {
+    return l.corpus == "first" || (l.corpus == "shapes" && l.half == "fit");
 }
 
 // P(X >= k) for X ~ Binomial(n, p).
@@ -97,8 +106,11 @@ double binomial_tail(int n, int k, double p) {
 } // namespace
 
 TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
-    std::map<std::string, int> shapes, first;
-    for (const Labelled& l : corpus()) ++(l.shapes ? shapes : first)[l.label + " " + l.half];
+    std::map<std::string, std::map<std::string, int>> count;
+    for (const Labelled& l : corpus()) ++count[l.corpus][l.label + " " + l.half];
+    auto& first = count["first"];
+    auto& shapes = count["shapes"];
+    auto& third = count["third"];
     EXPECT_EQ(first["macro fit"] + first["macro held-out"], 40);
     EXPECT_EQ(first["micro fit"] + first["micro held-out"], 51);
     EXPECT_EQ(shapes["macro fit"], 51);
@@ -106,6 +118,19 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
     EXPECT_EQ(shapes["micro fit"], 44);
     EXPECT_EQ(shapes["micro held-out"], 44);
     EXPECT_EQ(shapes["borderline fit"] + shapes["borderline held-out"], 32);
+    EXPECT_EQ(third["macro fit"], 60);
+    EXPECT_EQ(third["macro held-out"], 60);
+    EXPECT_EQ(third["micro fit"], 24);
+    EXPECT_EQ(third["micro held-out"], 23);
+    EXPECT_EQ(third["borderline fit"] + third["borderline held-out"], 32);
+}
+
+void report(const char* what, const Tally& t) {
+    const int n = t.micro + t.macro, right = t.micro_right + t.macro_right;
+    std::printf("%s: micro %d of %d right, macro %d of %d, %d macro called micro; "
+                "P(>= %d of %d | p = 1/2) = %.2g\n  wrong:%s\n",
+                what, t.micro_right, t.micro, t.macro_right, t.macro, t.macro_called_micro, right,
+                n, binomial_tail(n, right, 0.5), t.wrong.c_str());
 }
 
 // The shapes corpus's held-out half, scored once after the choice (core/README.md "Micro or
@@ -114,28 +139,40 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
 // the macro one (90%: 45 of 50) and "no macro called micro" are missed, and these floors keep
 // what was reached.
 TEST(VerdictCorpus, HeldOutHalfOfTheShapesCorpus) {
-    const Tally t = tally(true);
-    const int n = t.micro + t.macro, right = t.micro_right + t.macro_right;
-    const double p = binomial_tail(n, right, 0.5);
-    std::printf("held-out: micro %d of %d right, macro %d of %d, %d macro called micro; "
-                "P(>= %d of %d | p = 1/2) = %.2g\n",
-                t.micro_right, t.micro, t.macro_right, t.macro, t.macro_called_micro, right, n, p);
-    EXPECT_LT(p, 1e-3);
+    const Tally t =
+        tally([](const Labelled& l) { return l.corpus == "shapes" && l.half == "held-out"; });
+    report("shapes held-out", t);
+    EXPECT_LT(binomial_tail(t.micro + t.macro, t.micro_right + t.macro_right, 0.5), 1e-3);
     EXPECT_GE(10 * t.micro_right, 9 * t.micro);
     EXPECT_GE(t.macro_right, 43);
     EXPECT_LE(t.macro_called_micro, 4);
 }
 
+// The third corpus's held-out half, drawn and labelled after the verdict was chosen, so no
+// choice has touched it: scored once (core/README.md "Micro or macro"; its fit half, not
+// fitted on, gave 22 of 24 micro and 52 of 60 macro, 6 macro called micro).
+TEST(VerdictCorpus, HeldOutHalfOfTheThirdCorpus) {
+    const Tally t =
+        tally([](const Labelled& l) { return l.corpus == "third" && l.half == "held-out"; });
+    report("third held-out", t);
+    EXPECT_LT(binomial_tail(t.micro + t.macro, t.micro_right + t.macro_right, 0.5), 1e-3);
+    // What was reached: 20 of 23 micro (the 90% target is missed by one texture), 58 of 60
+    // macro (met), 2 macro called micro (the target of none is missed).
+    EXPECT_GE(t.micro_right, 20);
+    EXPECT_GE(t.macro_right, 58);
+    EXPECT_LE(t.macro_called_micro, 2);
+}
+
 // The fit set is sorted as the fit found it (fit_verdict.py: 90 of 95 micro and 82 of 91 macro
 // right): moving a weight or the band breaks this.
 TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
-    const Tally t = tally(false);
+    const Tally t = tally(in_fit_set);
     EXPECT_GE(t.micro_right, 90) << "of " << t.micro;
     EXPECT_GE(t.macro_right, 82) << "of " << t.macro;
 }
 
 // A Gaussian texture has no shapes to lose: the random-phase syntheses of every macro texture of
-// both corpora (RPN, and ADSN with a seed the null does not use) are called micro.
+// the three corpora (RPN, and ADSN with a seed the null does not use) are called micro.
 TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
     int n = 0;
     for (const Labelled& l : corpus()) {
@@ -149,5 +186,5 @@ TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
             ++n;
         }
     }
-    EXPECT_GE(n, 2 * 140);
+    EXPECT_GE(n, 2 * 260);
 }

@@ -5,7 +5,7 @@
   tests/verdict/make_corpus.py sheets  [--corpus DIR] [TEXTOND]  # exemplar | ADSN, label
   tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
 
-DIR is tests/verdict (the first corpus) or tests/verdict/shapes (the second); its corpus.tsv
+DIR is tests/verdict (the first corpus), tests/verdict/shapes or tests/verdict/third; its corpus.tsv
 names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and licence, and its
 label (DIR/LABELLING.md says how labels were given) and half of the split. A crop is the source
 scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved as JPEG
