@@ -20,15 +20,66 @@ double omega(int k, int n) {
     return 2.0 * kPi * (k <= n / 2 ? k : k - n) / static_cast<double>(n);
 }
 
-// Inverse of spec times the transfer function h(wx, wy) (spec is left intact).
-template <typename H>
-std::vector<float> filtered(const Spectrum& spec, const RealFft2d& fft, int threads, H h) {
-    const int w = spec.width(), hgt = spec.height();
-    Spectrum out(w, hgt);
+// A transfer function sampled on a half spectrum's bins: the same for the exemplar and every
+// null sample, so it is evaluated once a verdict (its exp and sin were most of the verdict's
+// time).
+using Transfer = std::vector<cfloat>;
+
+template <typename H> Transfer sampled(int w, int hgt, H h) {
+    const int cw = w / 2 + 1;
+    Transfer t(static_cast<std::size_t>(cw) * hgt);
     for (int i = 0; i < hgt; ++i) {
         const double wy = omega(i, hgt);
-        for (int j = 0; j < spec.cwidth(); ++j) out.row(i)[j] = spec.row(i)[j] * h(omega(j, w), wy);
+        for (int j = 0; j < cw; ++j) t[static_cast<std::size_t>(i) * cw + j] = h(omega(j, w), wy);
     }
+    return t;
+}
+
+double gaussian(double wx, double wy, double sigma) {
+    return std::exp(-0.5 * sigma * sigma * (wx * wx + wy * wy));
+}
+
+// The filters every statistic applies, for one image size.
+struct Filters {
+    Transfer grad_x, grad_y;     // central differences at sigma 1
+    Transfer smooth;             // Gaussian, sigma 2 (the structure tensor's window)
+    std::vector<Transfer> lines; // derivative across, Gaussian along, kLineOrientations of them
+    Transfer speck;              // difference of Gaussians, sigma 1 and 2
+
+    Filters(int w, int h) {
+        auto grad = [&](bool along_x) {
+            return sampled(w, h, [&](double wx, double wy) {
+                const double g = gaussian(wx, wy, 1.0);
+                return cfloat(0.0f, static_cast<float>(g * std::sin(along_x ? wx : wy)));
+            });
+        };
+        grad_x = grad(true);
+        grad_y = grad(false);
+        smooth = sampled(w, h, [](double wx, double wy) {
+            return cfloat(static_cast<float>(gaussian(wx, wy, 2.0)), 0.0f);
+        });
+        for (int k = 0; k < kLineOrientations; ++k) {
+            const double th = kPi * k / kLineOrientations, c = std::cos(th), s = std::sin(th);
+            lines.push_back(sampled(w, h, [&](double wx, double wy) {
+                const double across = wx * c + wy * s, along = -wx * s + wy * c;
+                const double g = std::exp(-0.5 * (across * across + 16.0 * along * along));
+                return cfloat(0.0f, static_cast<float>(across * g));
+            }));
+        }
+        speck = sampled(w, h, [](double wx, double wy) {
+            return cfloat(static_cast<float>(gaussian(wx, wy, 1.0) - gaussian(wx, wy, 2.0)), 0.0f);
+        });
+    }
+};
+
+// Inverse of spec times the transfer function t (spec is left intact).
+std::vector<float> filtered(const Spectrum& spec, const RealFft2d& fft, int threads,
+                            const Transfer& t) {
+    const int w = spec.width(), hgt = spec.height(), cw = spec.cwidth();
+    Spectrum out(w, hgt);
+    for (int i = 0; i < hgt; ++i)
+        for (int j = 0; j < cw; ++j)
+            out.row(i)[j] = spec.row(i)[j] * t[static_cast<std::size_t>(i) * cw + j];
     std::vector<float> v(static_cast<std::size_t>(w) * hgt);
     fft.inverse(out, v.data(), threads);
     const float inv = 1.0f / static_cast<float>(v.size());
@@ -36,18 +87,12 @@ std::vector<float> filtered(const Spectrum& spec, const RealFft2d& fft, int thre
     return v;
 }
 
-double gaussian(double wx, double wy, double sigma) {
-    return std::exp(-0.5 * sigma * sigma * (wx * wx + wy * wy));
-}
-
 // A field smoothed by a Gaussian of sd sigma (periodic).
-std::vector<float> smoothed(const std::vector<float>& f, const RealFft2d& fft, double sigma,
-                            int threads) {
+std::vector<float> smoothed(const std::vector<float>& f, const RealFft2d& fft,
+                            const Transfer& gaussian, int threads) {
     Spectrum s(fft.width(), fft.height());
     fft.forward(f.data(), s, threads);
-    return filtered(s, fft, threads, [&](double wx, double wy) {
-        return cfloat(static_cast<float>(gaussian(wx, wy, sigma)), 0.0f);
-    });
+    return filtered(s, fft, threads, gaussian);
 }
 
 double log_kurtosis_ratio(const std::vector<float>& b) {
@@ -66,22 +111,19 @@ double log_kurtosis_ratio(const std::vector<float>& b) {
 }
 
 // Structure tensor anisotropy: gradient (central differences) at sigma 1, tensor at sigma 2.
-double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, int threads) {
-    auto grad = [&](bool along_x) {
-        return filtered(spec, fft, threads, [&](double wx, double wy) {
-            const double g = gaussian(wx, wy, 1.0);
-            return cfloat(0.0f, static_cast<float>(g * std::sin(along_x ? wx : wy)));
-        });
-    };
-    const std::vector<float> gx = grad(true), gy = grad(false);
+double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, const Filters& f,
+                         int threads) {
+    const std::vector<float> gx = filtered(spec, fft, threads, f.grad_x),
+                             gy = filtered(spec, fft, threads, f.grad_y);
     std::vector<float> xx(gx.size()), yy(gx.size()), xy(gx.size());
     for (std::size_t i = 0; i < gx.size(); ++i) {
         xx[i] = gx[i] * gx[i];
         yy[i] = gy[i] * gy[i];
         xy[i] = gx[i] * gy[i];
     }
-    const auto jxx = smoothed(xx, fft, 2.0, threads), jyy = smoothed(yy, fft, 2.0, threads),
-               jxy = smoothed(xy, fft, 2.0, threads);
+    const auto jxx = smoothed(xx, fft, f.smooth, threads),
+               jyy = smoothed(yy, fft, f.smooth, threads),
+               jxy = smoothed(xy, fft, f.smooth, threads);
     double anisotropy = 0, trace = 0;
     for (std::size_t i = 0; i < jxx.size(); ++i) {
         const double d = jxx[i] - jyy[i];
@@ -92,24 +134,15 @@ double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, int threads
 }
 
 // The largest line-filter kurtosis over the orientations (derivative across, Gaussian along).
-double line_kurtosis(const Spectrum& spec, const RealFft2d& fft, int threads) {
+double line_kurtosis(const Spectrum& spec, const RealFft2d& fft, const Filters& f, int threads) {
     double best = -1e300;
-    for (int k = 0; k < kLineOrientations; ++k) {
-        const double th = kPi * k / kLineOrientations, c = std::cos(th), s = std::sin(th);
-        const auto r = filtered(spec, fft, threads, [&](double wx, double wy) {
-            const double across = wx * c + wy * s, along = -wx * s + wy * c;
-            const double g = std::exp(-0.5 * (across * across + 16.0 * along * along));
-            return cfloat(0.0f, static_cast<float>(across * g));
-        });
-        best = std::max(best, log_kurtosis_ratio(r));
-    }
+    for (const Transfer& t : f.lines)
+        best = std::max(best, log_kurtosis_ratio(filtered(spec, fft, threads, t)));
     return best;
 }
 
-double speck_kurtosis(const Spectrum& spec, const RealFft2d& fft, int threads) {
-    return log_kurtosis_ratio(filtered(spec, fft, threads, [](double wx, double wy) {
-        return cfloat(static_cast<float>(gaussian(wx, wy, 1.0) - gaussian(wx, wy, 2.0)), 0.0f);
-    }));
+double speck_kurtosis(const Spectrum& spec, const RealFft2d& fft, const Filters& f, int threads) {
+    return log_kurtosis_ratio(filtered(spec, fft, threads, f.speck));
 }
 
 double tv_coherence(const Image& grey) {
@@ -119,12 +152,12 @@ double tv_coherence(const Image& grey) {
 }
 
 ShapeStatistics statistics_of(const Image& grey, const Spectrum& spec, const RealFft2d& fft,
-                              int threads) {
+                              const Filters& f, int threads) {
     ShapeStatistics s;
-    s.tensor = tensor_anisotropy(spec, fft, threads);
+    s.tensor = tensor_anisotropy(spec, fft, f, threads);
     s.tv = tv_coherence(grey);
-    s.lines = line_kurtosis(spec, fft, threads);
-    s.specks = speck_kurtosis(spec, fft, threads);
+    s.lines = line_kurtosis(spec, fft, f, threads);
+    s.specks = speck_kurtosis(spec, fft, f, threads);
     return s;
 }
 
@@ -158,7 +191,8 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
     Spectrum spec(grey.width, grey.height);
     fft->forward(grey.data.data(), spec, threads);
     spec.row(0)[0] = 0; // the mean: no statistic sees it
-    out.exemplar = statistics_of(grey, spec, *fft, threads);
+    const Filters filters(grey.width, grey.height);
+    out.exemplar = statistics_of(grey, spec, *fft, filters, threads);
 
     // ADSN (TIP 2011, Theorem 2): the exemplar's spectrum times white noise's, over sqrt(|Omega|).
     const double n = static_cast<double>(grey.plane_size());
@@ -175,7 +209,7 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
         Spectrum copy = z;
         fft->inverse(copy, sample.data.data(), threads);
         for (float& v : sample.data) v /= static_cast<float>(n);
-        null.push_back(statistics_of(sample, z, *fft, threads));
+        null.push_back(statistics_of(sample, z, *fft, filters, threads));
     }
     for (double ShapeStatistics::*field : {&ShapeStatistics::tensor, &ShapeStatistics::tv,
                                            &ShapeStatistics::lines, &ShapeStatistics::specks}) {
