@@ -98,7 +98,8 @@ public:
     static constexpr std::size_t kListPageBytes = std::size_t{8} << 20;
     Result<std::uint64_t> count();
     // Up: Redis answers PING, and no write was refused in the last minute (a full or read-only
-    // Redis answers PING and still loses uploads). What /readyz and textond_shared_store_up say.
+    // Redis answers PING and still loses uploads). /readyz and textond_shared_store_up say it
+    // together with memory_warning().
     Result<bool> up();
 
     // Splats and mixes: an object of `kind` ("splat", "mix") is the files of
@@ -118,8 +119,8 @@ public:
                        const std::string& signature);
     Result<Presence> object_presence(const std::string& kind, const std::string& id);
     Result<bool> remove_object(const std::string& kind, const std::string& id);
-    // Room left under Redis's maxmemory (INFO memory), for the readiness probe: an error when it
-    // is full or evicts (a policy other than noeviction loses textons).
+    // Room left under Redis's maxmemory (INFO memory), for the readiness probe and the up metric:
+    // an error when it is full or evicts (a policy other than noeviction loses textons).
     std::optional<std::string> memory_warning();
 
 private:

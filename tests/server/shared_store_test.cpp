@@ -327,6 +327,24 @@ TEST(SharedStore, AFullRedisIsReportedAndADamagedEntryIsRepaired) {
     EXPECT_NE(again->body.find("refuses writes"), std::string::npos) << again->body;
 }
 
+// An evicting Redis would drop textons: readiness says degraded and the metric is 0 before any
+// write fails, and both recover when the policy is set back.
+TEST(SharedStore, AnEvictingRedisIsReportedBeforeAWriteFails) {
+    RedisProcess redis(fresh_dir("shared-ev-redis"));
+    ServerProcess a(fresh_dir("shared-ev-1"), replica_args(redis));
+    EXPECT_EQ(metric(a, "textond_shared_store_up"), 1.0);
+    redis.cli({"CONFIG", "SET", "maxmemory-policy", "allkeys-lru"});
+    const json ready = json::parse(get(a, "/readyz")->body);
+    EXPECT_TRUE(ready.at("degraded").get<bool>()) << ready.dump();
+    EXPECT_NE(ready.at("shared_store").at("error").get<std::string>().find("evicts"),
+              std::string::npos)
+        << ready.dump();
+    EXPECT_EQ(metric(a, "textond_shared_store_up"), 0.0);
+    redis.cli({"CONFIG", "SET", "maxmemory-policy", "noeviction"});
+    EXPECT_FALSE(json::parse(get(a, "/readyz")->body).at("degraded").get<bool>());
+    EXPECT_EQ(metric(a, "textond_shared_store_up"), 1.0);
+}
+
 // A value larger than any texton's (100 MB in `file`) is refused unread: b's memory does not grow
 // by it on each request, and the store stays up for every other texton.
 TEST(SharedStore, AHugeValueInRedisIsRefusedUnreadAndTheStoreStaysUp) {
