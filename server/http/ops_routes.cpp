@@ -62,17 +62,10 @@ void OpsRoutes::readyz(Req, Res res) {
     nlohmann::json shared = nullptr;
     bool degraded = false;
     if (store::RedisStore* r = m_store.shared()) {
-        auto up = r->up();
-        degraded = !up;
-        shared = {{"url", r->describe()}, {"up", up.ok()}};
-        if (!up) shared["error"] = up.error().message;
-        // A full (or evicting) Redis is seen before a write fails, by its own figures, so that a
-        // replica that has not written yet reports it too.
-        if (up)
-            if (auto full = r->memory_warning()) {
-                degraded = true;
-                shared["error"] = *full;
-            }
+        const auto health = r->health();
+        degraded = health.problem.has_value();
+        shared = {{"url", r->describe()}, {"up", health.up}};
+        if (health.problem) shared["error"] = *health.problem;
     }
     nlohmann::json calibration = nlohmann::json::array();
     for (const auto& c : m_renderer.calibration())

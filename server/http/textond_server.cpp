@@ -169,15 +169,12 @@ void TextondServer::add_gauges() {
             count([pool] { return pool->running(); }));
     TextonStore* store = m_store.get();
     if (store->shared())
-        // The same condition as /readyz's "degraded" (ops_routes.cpp), so that an alert on the
-        // metric and a look at the readiness agree: a full or evicting Redis counts as down.
+        // RedisStore::health, as /readyz reads it: an alert on the metric and a look at the
+        // readiness agree, and a full or evicting Redis counts as down.
         m.gauge("textond_shared_store_up",
                 "1 when the shared store answers PING, took its last minute's writes and has "
                 "room (not nearly full, not evicting): 0 exactly when /readyz says degraded.",
-                [store] {
-                    auto* redis = store->shared();
-                    return redis->up() && !redis->memory_warning() ? 1.0 : 0.0;
-                });
+                [store] { return store->shared()->health().problem ? 0.0 : 1.0; });
     m.gauge("textond_store_textons", "Textons held in the local store (or cache).",
             count([store] { return store->local().count(); }));
     m.gauge("textond_store_bytes", "Bytes of texton files in the store.",

@@ -758,6 +758,14 @@ Result<bool> RedisStore::remove_object(const std::string& kind, const std::strin
     return r.value()->integer() == 1;
 }
 
+RedisStore::Health RedisStore::health() {
+    auto up = this->up();
+    // A full (or evicting) Redis is seen before a write fails, by its own figures, so that a
+    // replica that has not written yet reports it too.
+    if (!up) return {false, up.error().message};
+    return {true, memory_warning()};
+}
+
 std::optional<std::string> RedisStore::memory_warning() {
     auto r = command({"INFO", "memory"});
     if (!r) return r.error().message;

@@ -98,8 +98,7 @@ public:
     static constexpr std::size_t kListPageBytes = std::size_t{8} << 20;
     Result<std::uint64_t> count();
     // Up: Redis answers PING, and no write was refused in the last minute (a full or read-only
-    // Redis answers PING and still loses uploads). /readyz and textond_shared_store_up say it
-    // together with memory_warning().
+    // Redis answers PING and still loses uploads).
     Result<bool> up();
 
     // Splats and mixes: an object of `kind` ("splat", "mix") is the files of
@@ -119,9 +118,16 @@ public:
                        const std::string& signature);
     Result<Presence> object_presence(const std::string& kind, const std::string& id);
     Result<bool> remove_object(const std::string& kind, const std::string& id);
-    // Room left under Redis's maxmemory (INFO memory), for the readiness probe and the up metric:
-    // an error when it is full or evicts (a policy other than noeviction loses textons).
+    // Room left under Redis's maxmemory (INFO memory): an error when it is full or evicts (a
+    // policy other than noeviction loses textons).
     std::optional<std::string> memory_warning();
+    // What /readyz and textond_shared_store_up both say: `up` as up() says, and the problem (up's
+    // error, else memory_warning's) that makes a replica degraded.
+    struct Health {
+        bool up = false;
+        std::optional<std::string> problem;
+    };
+    Health health();
 
 private:
     struct Reply;
