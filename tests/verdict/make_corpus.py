@@ -5,7 +5,7 @@
   tests/verdict/make_corpus.py sheets  [--corpus DIR] [TEXTOND]  # exemplar | ADSN, label
   tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
 
-DIR is tests/verdict (the first corpus), tests/verdict/shapes or tests/verdict/third; its corpus.tsv
+DIR is tests/verdict (the first corpus), tests/verdict/shapes, third or fourth; its corpus.tsv
 names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and licence, and its
 label (DIR/LABELLING.md says how labels were given) and half of the split. A crop is the source
 scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved as JPEG
@@ -113,16 +113,19 @@ def sheets(corpus, textond):
 
 
 def image_size(path):
-    """(width, height) of a PNG or JPEG from its header, or None."""
+    """(width, height) of a PNG, JPEG or DDS from its header, or None."""
     with open(path, "rb") as f:
         return stream_size(f)
 
 
 def stream_size(f):
-    """(width, height) of the PNG or JPEG an open binary file holds, or None."""
+    """(width, height) of the PNG, JPEG or DDS an open binary file holds, or None."""
     head = f.read(32)
     if head[:8] == b"\x89PNG\r\n\x1a\n":
         return struct.unpack(">II", head[16:24])
+    if head[:4] == b"DDS ":
+        h, w = struct.unpack("<II", head[12:20])
+        return w, h
     if head[:2] != b"\xff\xd8":
         return None
     f.seek(2)
@@ -193,7 +196,7 @@ def draw(corpus):
 
             def consider(rel, name, opener):
                 low = name.lower()
-                if not low.endswith((".png", ".jpg", ".jpeg")):
+                if not low.endswith((".png", ".jpg", ".jpeg", ".dds")):
                     return
                 if keyword and not keyword.search(low) or skip and skip.search(low):
                     return
