@@ -1,14 +1,30 @@
 #!/usr/bin/env python3
 """Chooses the micro/macro verdict (core/shape_verdict.h) and the RME threshold of the page's
-wording on the fit halves, and reports them on the held-out half. Reads verdict_features' table.
+wording on the fit halves, and reports them on the held-out halves. Reads verdict_features' table.
 
-  build/release/tests/verdict_features tests/verdict tests/verdict/shapes > features.tsv
+  build/release/tests/verdict_features tests/verdict tests/verdict/shapes tests/verdict/third \
+      tests/verdict/fourth > features.tsv
   tests/verdict/fit_verdict.py features.tsv              # the choice, on the fit set
-  tests/verdict/fit_verdict.py features.tsv --held-out   # and the held-out half's table
+  tests/verdict/fit_verdict.py features.tsv --held-out   # and the held-out halves' tables
 
 The fit set: the whole first corpus (tests/verdict: its held-out half has been seen) and the fit
-half of the shapes corpus (tests/verdict/shapes); borderline textures are not scored. The
-held-out set: the shapes corpus's held-out half, scored once after the choice.
+half of the shapes corpus (tests/verdict/shapes); borderline textures are not scored. Held out,
+each scored once after the choice: the shapes corpus's other half; then the third corpus
+(tests/verdict/third), drawn after that score; then the fourth (tests/verdict/fourth), drawn
+after the third's held-out half was scored, and scored once the refit study below, on the first
+three corpora, had kept the verdict unchanged.
+
+  build/release/tests/verdict_candidates CORPUS... > candidates.tsv
+  build/release/tests/verdict_candidates SHARED > shared.tsv   # the nine shared photos
+  tests/verdict/fit_verdict.py - --candidates candidates.tsv shared.tsv
+
+The refit study (core/README.md "Micro or macro"): forward selection over verdict_candidates'
+17 statistics on every texture of the corpora given (a statistic joins while it adds at least
+0.005 of cross-validated balanced accuracy), then each refit, with a band keeping 90% or 92% of
+each class (band_of), compared with the unchanged verdict on those textures and on the nine
+shared photos (a target: they keep their kinds). Run on the first three corpora before the
+fourth was scored, and on all four after. SHARED is a directory holding corpus.tsv (name,
+label, half) and corpus/NAME.jpg, a link to each photo.
 
 1. Candidate sets of statistics (each one's excess over its ADSN null), nested in the order the
    statistics separate the fit set alone; each scored by balanced accuracy under 5-fold
@@ -30,6 +46,9 @@ import random
 import sys
 
 STATS = ("tensor", "tv", "lines", "specks")
+# core/shape_verdict.h, as chosen by main() below: bias, then STATS's weights; the band.
+KSHAPE_WEIGHTS = (-3.961463, 30.263934, 42.790682, 3.830087, -8.386317)
+KSHAPE_BAND = 0.25
 
 
 def load(path):
@@ -37,6 +56,7 @@ def load(path):
         rows = list(csv.DictReader(f, delimiter="\t"))
     for r in rows:
         r["shapes"] = r["corpus"].rstrip("/").endswith("shapes")
+        r["first"] = r["corpus"].rstrip("/").endswith("verdict")
         r["x"] = [float(r[s]) - float(r[s + "_null"]) for s in STATS]
         r["y"] = 1.0 if r["label"] == "macro" else 0.0
     return rows
@@ -49,8 +69,62 @@ def standardise(xs):
     return mu, sd
 
 
-def logistic(xs, ys, lam=0.01, steps=6000, rate=0.5):
-    """Balanced-class logistic regression by gradient descent on standardised inputs."""
+def solve(a, b):
+    """x with a x = b (Gaussian elimination, partial pivoting; a is small and positive definite)."""
+    n = len(b)
+    m = [row[:] + [v] for row, v in zip(a, b)]
+    for c in range(n):
+        p = max(range(c, n), key=lambda r: abs(m[r][c]))
+        m[c], m[p] = m[p], m[c]
+        for r in range(c + 1, n):
+            f = m[r][c] / m[c][c]
+            for k in range(c, n + 1):
+                m[r][k] -= f * m[c][k]
+    x = [0.0] * n
+    for c in range(n - 1, -1, -1):
+        x[c] = (m[c][n] - sum(m[c][k] * x[k] for k in range(c + 1, n))) / m[c][c]
+    return x
+
+
+def logistic(xs, ys, lam=0.01, steps=30):
+    """Balanced-class logistic regression on standardised inputs, L2 penalty lam on the weights
+    (not the bias), by Newton's method: the minimiser of sum c_i loss_i + lam |w|^2 / 2."""
+    mu, sd = standardise(xs)
+    zs = [[1.0] + [(x[i] - mu[i]) / sd[i] for i in range(len(mu))] for x in xs]
+    pos = sum(ys) / len(ys)
+    wt = [0.5 / pos if y else 0.5 / (1 - pos) for y in ys]
+    d = len(mu) + 1
+    beta = [0.0] * d
+    for _ in range(steps):
+        grad = [0.0] * d
+        hess = [[0.0] * d for _ in range(d)]
+        for z, y, c in zip(zs, ys, wt):
+            t = sum(bi * zi for bi, zi in zip(beta, z))
+            p = 1.0 / (1.0 + math.exp(-max(-50.0, min(50.0, t))))
+            g, h = (p - y) * c, max(p * (1 - p), 1e-12) * c
+            for i in range(d):
+                grad[i] += g * z[i]
+                hi = h * z[i]
+                for k in range(i + 1):
+                    hess[i][k] += hi * z[k]
+        for i in range(d):
+            for k in range(i):
+                hess[k][i] = hess[i][k]
+        for i in range(1, d):
+            grad[i] += lam * beta[i]
+            hess[i][i] += lam
+        step = solve(hess, grad)
+        beta = [bi - si for bi, si in zip(beta, step)]
+        if max(abs(si) for si in step) < 1e-9:
+            break
+    # Raw units: score = bias + sum raw_i x_i.
+    raw = [wi / s for wi, s in zip(beta[1:], sd)]
+    return beta[0] - sum(r * m for r, m in zip(raw, mu)), raw
+
+
+def logistic_gd(xs, ys, lam=0.01, steps=6000, rate=0.5):
+    """The same regression by 6000 steps of gradient descent: how kShapeWeights was fitted (the
+    weights agree with Newton's to about 0.3%; this reproduces the shipped ones to the digit)."""
     mu, sd = standardise(xs)
     zs = [[(x[i] - mu[i]) / sd[i] for i in range(len(mu))] for x in xs]
     pos = sum(ys) / len(ys)
@@ -87,7 +161,7 @@ def project(x, cols):
     return [x[i] for i in cols]
 
 
-def cross_validated(rows, cols, lam=0.01):
+def cross_validated(rows, cols, lam=0.01, fit=logistic):
     accs = []
     for shuffle in range(3):
         order = rows[:]
@@ -95,7 +169,7 @@ def cross_validated(rows, cols, lam=0.01):
         for k in range(5):
             test = order[k::5]
             train = [r for i, r in enumerate(order) if i % 5 != k]
-            m = logistic([project(r["x"], cols) for r in train], [r["y"] for r in train], lam)
+            m = fit([project(r["x"], cols) for r in train], [r["y"] for r in train], lam)
             accs.append(balanced(test, lambda r: score(m, project(r["x"], cols))))
     return sum(accs) / len(accs)
 
@@ -123,10 +197,92 @@ def confusion(rows, verdict):
         print(f"| {label} | {counts['micro']} | {counts['borderline']} | {counts['macro']} | {right} |")
 
 
+def band_of(scores_micro, scores_macro, keep):
+    """The band [lo, hi] in steps of 0.05: lo the lowest score at or below which `keep` of the
+    micro scores lie, hi the highest above which `keep` of the macro ones lie; classes that
+    overlap more than that get a single threshold half-way."""
+    def share(xs, f):
+        return sum(f(x) for x in xs) / len(xs)
+    lo = -20.0
+    while share(scores_micro, lambda x: x <= lo) < keep:
+        lo += 0.05
+    hi = 20.0
+    while share(scores_macro, lambda x: x > hi) < keep:
+        hi -= 0.05
+    return (lo, hi) if lo <= hi else ((lo + hi) / 2, (lo + hi) / 2)
+
+
+def refit_study(path, shared_path):
+    """Forward selection over verdict_candidates' statistics on every texture of its table, and
+    each refit against the unchanged verdict (kShapeWeights) and the nine shared photos."""
+    def read(p):
+        with open(p) as f:
+            rs = list(csv.DictReader(f, delimiter="\t"))
+        for r in rs:
+            r["y"] = 1.0 if r["label"] == "macro" else 0.0
+        return rs
+    fit = [r for r in read(path) if r["label"] != "borderline"]
+    shared = read(shared_path)
+    names = [c for c in fit[0] if c not in ("corpus", "name", "label", "half", "y")]
+    for r in fit + shared:
+        r["x"] = [float(r[c]) for c in names]
+    print(f"## Candidate statistics, alone ({len(fit)} fit textures: balanced accuracy at the best "
+          "threshold)\n")
+    for i, n in enumerate(names):
+        print(f"- {n}: {best_threshold(fit, lambda r: r['x'][i])[0]:.3f}")
+    print("\n## Forward selection (5-fold cross-validated balanced accuracy; joins at +0.005)\n")
+    chosen, best = [], 0.0
+    while len(chosen) < len(names):
+        trials = sorted(((cross_validated(fit, chosen + [i]), i) for i in range(len(names))
+                         if i not in chosen), reverse=True)
+        acc, i = trials[0]
+        runners = ", ".join(f"{names[j]} {a:.3f}" for a, j in trials[1:4])
+        if acc < best + 0.005:
+            print(f"- + {names[i]}: {acc:.3f}, does not join (next: {runners})")
+            break
+        print(f"- + {names[i]}: {acc:.3f} (next: {runners})")
+        chosen.append(i)
+        best = acc
+
+    def verdicts(model, lo, hi, rows):
+        s = [score(model, project(r["x"], cols)) for r in rows]
+        return ["micro" if v <= lo else "macro" if v > hi else "borderline" for v in s]
+
+    def summary(what, ks):
+        micro = [k for r, k in zip(fit, ks) if r["label"] == "micro"]
+        macro = [k for r, k in zip(fit, ks) if r["label"] == "macro"]
+        print(f"- {what}: micro {micro.count('micro')} of {len(micro)} right, macro "
+              f"{macro.count('macro')} of {len(macro)}, {macro.count('micro')} macro called "
+              "micro; shared photos called otherwise than their kind: "
+              f"{[r['name'] for r, k in zip(shared, sh) if k != r['label']]}")
+
+    print("\n## Each on the whole fit set and the shared photos\n")
+    cols = [names.index(s) for s in STATS]
+    unchanged = (KSHAPE_WEIGHTS[0], list(KSHAPE_WEIGHTS[1:]))
+    sh = verdicts(unchanged, -KSHAPE_BAND, KSHAPE_BAND, shared)
+    summary("the verdict unchanged (kShapeWeights, fitted on the first corpus and half the "
+            "shapes corpus)", verdicts(unchanged, -KSHAPE_BAND, KSHAPE_BAND, fit))
+    for label, cols in (("refit, its statistics", [names.index(s) for s in STATS]),
+                        ("refit, the chosen statistics", chosen)):
+        m = logistic([project(r["x"], cols) for r in fit], [r["y"] for r in fit])
+        s_micro = [score(m, project(r["x"], cols)) for r in fit if r["label"] == "micro"]
+        s_macro = [score(m, project(r["x"], cols)) for r in fit if r["label"] == "macro"]
+        for keep in (0.9, 0.92):
+            lo, hi = band_of(s_micro, s_macro, keep)
+            sh = verdicts(m, lo, hi, shared)
+            summary(f"{label} ({', '.join(names[i] for i in cols)}; cross-validated "
+                    f"{cross_validated(fit, cols):.3f}), band [{lo:.2f}, {hi:.2f}] keeping "
+                    f"{keep:.0%}", verdicts(m, lo, hi, fit))
+
+
 def main():
+    if "--candidates" in sys.argv:
+        i = sys.argv.index("--candidates")
+        refit_study(sys.argv[i + 1], sys.argv[i + 2])
+        return
     rows = load(sys.argv[1])
-    fit = [r for r in rows if (not r["shapes"] or r["half"] == "fit") and r["label"] != "borderline"]
-    held = [r for r in rows if r["shapes"] and r["half"] == "held-out"]
+    fit = [r for r in rows if (r["first"] or r["shapes"] and r["half"] == "fit")
+           and r["label"] != "borderline"]
 
     print("## 1. Statistics, alone (fit set: threshold, balanced accuracy)\n")
     alone = []
@@ -137,7 +293,7 @@ def main():
     order = [i for _, i in sorted(alone, reverse=True)]
     print("\n## Nested sets (5-fold cross-validated balanced accuracy on the fit set)\n")
     sets = [order[:k] for k in range(1, len(order) + 1)]
-    cv = [(cross_validated(fit, cols), cols) for cols in sets]
+    cv = [(cross_validated(fit, cols, fit=logistic_gd), cols) for cols in sets]
     for acc, cols in cv:
         print(f"- {', '.join(STATS[i] for i in cols)}: {acc:.3f}")
     top = max(a for a, _ in cv)
@@ -145,11 +301,11 @@ def main():
     print("\nIts L2 penalty, by the same cross-validation:")
     penalties = []
     for lam in (1.0, 0.1, 0.01):
-        acc = cross_validated(fit, chosen, lam)
+        acc = cross_validated(fit, chosen, lam, fit=logistic_gd)
         penalties.append((acc, lam))
         print(f"- {lam}: {acc:.3f}")
     lam = max(penalties)[1]
-    m = logistic([project(r["x"], chosen) for r in fit], [r["y"] for r in fit], lam)
+    m = logistic_gd([project(r["x"], chosen) for r in fit], [r["y"] for r in fit], lam)
     weights = dict.fromkeys(STATS, 0.0)
     for i, w in zip(chosen, m[1]):
         weights[STATS[i]] = w
@@ -182,21 +338,23 @@ def main():
               f"macro called micro {called}")
 
     print("\n## Fit set (as fitted)\n")
-    confusion([r for r in rows if not r["shapes"] or r["half"] == "fit"],
+    confusion([r for r in rows if r["first"] or r["shapes"] and r["half"] == "fit"],
               lambda r: kind(s_of(r), band))
     if "--held-out" not in sys.argv:
         return
-    print("\n## Held-out half of the shapes corpus\n")
-    confusion(held, lambda r: kind(s_of(r), band))
-    print(f"\nRME above {rme_t:.4f} on the held-out half: "
-          f"{sum(float(r['rme']) > rme_t for r in held if r['label'] == 'micro')} of "
-          f"{sum(r['label'] == 'micro' for r in held)} micro, "
-          f"{sum(float(r['rme']) > rme_t for r in held if r['label'] == 'macro')} of "
-          f"{sum(r['label'] == 'macro' for r in held)} macro")
-    print("\nHeld-out macro called micro:",
-          [r["name"] for r in held if r["label"] == "macro" and kind(s_of(r), band) == "micro"])
-    print("Held-out micro called macro:",
-          [r["name"] for r in held if r["label"] == "micro" and kind(s_of(r), band) == "macro"])
+    for corpus, half in (("shapes", "held-out"), ("third", "held-out"), ("third", "fit"),
+                         ("fourth", "held-out"), ("fourth", "fit")):
+        part = [r for r in rows if r["corpus"].rstrip("/").endswith(corpus) and r["half"] == half]
+        print(f"\n## The {corpus} corpus, its {half} half\n")
+        confusion(part, lambda r: kind(s_of(r), band))
+        for label in ("micro", "macro"):
+            print(f"RME above {rme_t:.4f}: "
+                  f"{sum(float(r['rme']) > rme_t for r in part if r['label'] == label)} of "
+                  f"{sum(r['label'] == label for r in part)} {label}")
+        for label, k in (("macro", "micro"), ("micro", "macro"), ("macro", "borderline"),
+                         ("micro", "borderline")):
+            print(f"{label} called {k}:", [r["name"] for r in part
+                                          if r["label"] == label and kind(s_of(r), band) == k])
 
 
 if __name__ == "__main__":
