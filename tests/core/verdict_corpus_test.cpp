@@ -1,7 +1,6 @@
-// The micro/macro verdict (core/shape_verdict.h) on its three labelled corpora (tests/verdict/,
-// tests/verdict/shapes/ and tests/verdict/third/): the held-out halves of the shapes and third
-// corpora, the fit set as fitted, and random-phase textures. Labels and splits were fixed before
-// any score.
+// The micro/macro verdict (core/shape_verdict.h) on its four labelled corpora (tests/verdict/,
+// and its shapes/, third/ and fourth/): the held-out halves of the last three, the fit set as
+// fitted, and random-phase textures. Labels and splits were fixed before any score.
 #include "core/shape_verdict.h"
 #include "core/spectral_synthesis.h"
 #include "server/io/image_io.h"
@@ -24,7 +23,7 @@ namespace {
 // whole corpus in every test process took four times 45 s of CPU.
 struct Labelled {
     std::string name, label, half, path;
-    std::string corpus; // first | shapes | third
+    std::string corpus; // first | shapes | third | fourth
 };
 
 std::vector<Labelled> read_corpus(const std::string& dir, const std::string& corpus) {
@@ -48,7 +47,7 @@ std::vector<Labelled> read_corpus(const std::string& dir, const std::string& cor
 const std::vector<Labelled>& corpus() {
     static const std::vector<Labelled> all = [] {
         auto out = read_corpus(TEXTOND_VERDICT_CORPUS, "first");
-        for (const char* c : {"shapes", "third"})
+        for (const char* c : {"shapes", "third", "fourth"})
             for (auto& l : read_corpus(std::string(TEXTOND_VERDICT_CORPUS) + "/" + c, c))
                 out.push_back(std::move(l));
         return out;
@@ -111,6 +110,7 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
     auto& first = count["first"];
     auto& shapes = count["shapes"];
     auto& third = count["third"];
+    auto& fourth = count["fourth"];
     EXPECT_EQ(first["macro fit"] + first["macro held-out"], 40);
     EXPECT_EQ(first["micro fit"] + first["micro held-out"], 51);
     EXPECT_EQ(shapes["macro fit"], 51);
@@ -123,6 +123,11 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
     EXPECT_EQ(third["micro fit"], 24);
     EXPECT_EQ(third["micro held-out"], 23);
     EXPECT_EQ(third["borderline fit"] + third["borderline held-out"], 32);
+    EXPECT_EQ(fourth["macro fit"], 26);
+    EXPECT_EQ(fourth["macro held-out"], 25);
+    EXPECT_EQ(fourth["micro fit"], 48);
+    EXPECT_EQ(fourth["micro held-out"], 48);
+    EXPECT_EQ(fourth["borderline fit"] + fourth["borderline held-out"], 24);
 }
 
 void report(const char* what, const Tally& t) {
@@ -163,6 +168,23 @@ TEST(VerdictCorpus, HeldOutHalfOfTheThirdCorpus) {
     EXPECT_LE(t.macro_called_micro, 2);
 }
 
+// The fourth corpus's held-out half, drawn and labelled after the third's held-out half was
+// scored, and scored once after the refit study on the first three corpora kept the verdict
+// unchanged (core/README.md "Micro or macro"). Better than a coin, but its structured textures
+// are where the verdict fails: dense small shapes (cobbles, mosaic tiles, pebbles, crack
+// networks) read as micro. Floors of what was reached: 46 of 48 micro (the 90% target is met),
+// 14 of 25 macro (the 90% target is missed by 9 textures), 9 macro called micro (the target is
+// none). Its fit half gave 46 of 48 micro and 13 of 26 macro, 10 macro called micro.
+TEST(VerdictCorpus, HeldOutHalfOfTheFourthCorpus) {
+    const Tally t =
+        tally([](const Labelled& l) { return l.corpus == "fourth" && l.half == "held-out"; });
+    report("fourth held-out", t);
+    EXPECT_LT(binomial_tail(t.micro + t.macro, t.micro_right + t.macro_right, 0.5), 1e-3);
+    EXPECT_GE(t.micro_right, 46);
+    EXPECT_GE(t.macro_right, 14);
+    EXPECT_LE(t.macro_called_micro, 9);
+}
+
 // The fit set is sorted as the fit found it (fit_verdict.py: 90 of 95 micro and 82 of 91 macro
 // right): moving a weight or the band breaks this.
 TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
@@ -171,20 +193,23 @@ TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
     EXPECT_GE(t.macro_right, 82) << "of " << t.macro;
 }
 
-// A Gaussian texture has no shapes to lose: the random-phase syntheses of every macro texture of
-// the three corpora (RPN, and ADSN with a seed the null does not use) are called micro.
+// A Gaussian texture has no shapes to lose: a random-phase synthesis of every macro texture of
+// the four corpora is called micro, RPN and ADSN (with a seed the null does not use) in turn.
+// One synthesis a texture, not both: the fourth corpus's 51 macro textures fit in the time both
+// took for the first three's 261.
 TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
-    int n = 0;
+    int n = 0, rpn = 0;
     for (const Labelled& l : corpus()) {
         if (l.label != "macro") continue;
         const core::Image u = image_of(l);
         if (u.empty()) continue;
-        for (auto method : {core::SpectralMethod::rpn, core::SpectralMethod::adsn}) {
-            const auto v =
-                core::shape_verdict(core::synthesize_from_exemplar(u, method, 256, 256, 11), 2);
-            EXPECT_EQ(v.kind(), core::TextureKind::micro) << l.name << " " << v.score;
-            ++n;
-        }
+        const auto method = n % 2 ? core::SpectralMethod::adsn : core::SpectralMethod::rpn;
+        rpn += method == core::SpectralMethod::rpn;
+        const auto v =
+            core::shape_verdict(core::synthesize_from_exemplar(u, method, 256, 256, 11), 2);
+        EXPECT_EQ(v.kind(), core::TextureKind::micro) << l.name << " " << v.score;
+        ++n;
     }
-    EXPECT_GE(n, 2 * 260);
+    EXPECT_EQ(n, 40 + 101 + 120 + 51);
+    EXPECT_EQ(rpn, (n + 1) / 2);
 }
