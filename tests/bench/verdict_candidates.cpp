@@ -1,12 +1,13 @@
-// Candidate statistics for the micro/macro verdict: the four the verdict read before the third
-// corpus (tensor, tv, lines, specks) and 13 more, at a second scale (_s2: filters twice as wide),
-// of other moments (|skewness| of the speck bands, kurtosis of the gradient's magnitude and of
-// the bands' local energy, the correlation of that energy across scales) and other windows
-// (tensor_wide: the tensor integrated at sigma 8; tv_fine and tv_coarse: box reductions by 2 and
-// 8). Each is measured on the exemplar and on 8 ADSN syntheses of its model (the verdict's own
-// null, same seeds) and printed as its excess over their mean, one row a texture.
-// tests/verdict/fit_verdict.py --candidates chooses among them on the fit set alone (core/README
-// "Micro or macro" says which were considered and which were kept).
+// Candidate statistics for the micro/macro verdict: the four the verdict reads (tensor, tv,
+// lines, specks) and 15 more. At a second scale (_s2: filters twice as wide); of other moments
+// (|skewness| of the speck bands, kurtosis of the gradient's magnitude and of the bands' local
+// energy, the correlation of that energy across scales); over other windows (tensor_wide: the
+// tensor integrated at sigma 8; tv_fine and tv_coarse: box reductions by 2 and 8); and, added
+// after the fourth corpus was scored, at the finest scale (tensor_fine: gradient at sigma 0.5,
+// integrated at sigma 1; tv_full: no reduction). Each is measured on the exemplar and on 8 ADSN
+// syntheses of its model (the verdict's own null, same seeds) and printed as its excess over
+// their mean, one row a texture. tests/verdict/fit_verdict.py --candidates chooses among them
+// (core/README.md "Micro or macro" says what was chosen, and why the verdict kept its own).
 //   verdict_candidates CORPUS_DIR...
 #include "core/fft2d.h"
 #include "core/periodic_component.h"
@@ -110,14 +111,14 @@ double correlation(const std::vector<float>& a, const std::vector<float>& b) {
     return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
 }
 
-const char* const kNames[] = {"tensor",     "tv",         "lines",    "specks",     "tensor_s2",
-                              "tv_fine",    "tv_coarse",  "lines_s2", "specks_s2",  "skew",
-                              "skew_s2",    "envcorr",    "envkurt",  "envkurt_s2", "gradkurt",
-                              "lines_mean", "tensor_wide"};
+const char* const kNames[] = {"tensor",     "tv",          "lines",       "specks",     "tensor_s2",
+                              "tv_fine",    "tv_coarse",   "lines_s2",    "specks_s2",  "skew",
+                              "skew_s2",    "envcorr",     "envkurt",     "envkurt_s2", "gradkurt",
+                              "lines_mean", "tensor_wide", "tensor_fine", "tv_full"};
 constexpr int kCount = sizeof(kNames) / sizeof(kNames[0]);
 
 struct Filters {
-    Transfer gx1, gy1, gx2, gy2, g2, g4, g8, dog1, dog2;
+    Transfer gx1, gy1, gx2, gy2, gxh, gyh, g1, g2, g4, g8, dog1, dog2;
     std::vector<Transfer> lines2, lines1;
     Filters(int w, int h) {
         auto grad = [&](bool along_x, double s) {
@@ -134,6 +135,9 @@ struct Filters {
         gx1 = grad(true, 1);
         gy1 = grad(false, 1);
         gx2 = grad(true, 2);
+        gxh = grad(true, 0.5);
+        gyh = grad(false, 0.5);
+        g1 = gauss(1);
         gy2 = grad(false, 2);
         g2 = gauss(2);
         g4 = gauss(4);
@@ -226,6 +230,8 @@ std::vector<double> candidates(const core::Image& grey, const core::Spectrum& sp
     for (const auto& t : f.lines1) mean += moments(filtered(spec, fft, t)).log_kurt / 4.0;
     c[11] = mean;
     c[12] = anisotropy(gx1, gy1, fft, f.g8);
+    c[13] = anisotropy(filtered(spec, fft, f.gxh), filtered(spec, fft, f.gyh), fft, f.g1);
+    c[14] = tv_at(grey, 1);
     return all;
 }
 
