@@ -1,12 +1,13 @@
 // Candidate statistics for the micro/macro verdict: the four the verdict reads (tensor, tv,
-// lines, specks) and 15 more. At a second scale (_s2: filters twice as wide); of other moments
+// lines, specks) and 17 more. At a second scale (_s2: filters twice as wide); of other moments
 // (|skewness| of the speck bands, kurtosis of the gradient's magnitude and of the bands' local
 // energy, the correlation of that energy across scales); over other windows (tensor_wide: the
 // tensor integrated at sigma 8; tv_fine and tv_coarse: box reductions by 2 and 8); and, added
 // after the fourth corpus was scored, at the finest scale (tensor_fine: gradient at sigma 0.5,
-// integrated at sigma 1; tv_full: no reduction). Each is measured on the exemplar and on 8 ADSN
-// syntheses of its model (the verdict's own null, same seeds) and printed as its excess over
-// their mean, one row a texture. tests/verdict/fit_verdict.py --candidates chooses among them
+// integrated at sigma 1; tv_full: no reduction; ridge and ridge_fine: the Hessian's anisotropy
+// at sigma 1 and 0.5, 1 on thin lines and 0 on round blobs). Each is measured on the exemplar and
+// on 8 ADSN syntheses of its model (the verdict's own null, same seeds) and printed as its excess
+// over their mean, one row a texture. tests/verdict/fit_verdict.py --candidates chooses among them
 // (core/README.md "Micro or macro" says what was chosen, and why the verdict kept its own).
 //   verdict_candidates CORPUS_DIR...
 #include "core/fft2d.h"
@@ -111,14 +112,15 @@ double correlation(const std::vector<float>& a, const std::vector<float>& b) {
     return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
 }
 
-const char* const kNames[] = {"tensor",     "tv",          "lines",       "specks",     "tensor_s2",
-                              "tv_fine",    "tv_coarse",   "lines_s2",    "specks_s2",  "skew",
-                              "skew_s2",    "envcorr",     "envkurt",     "envkurt_s2", "gradkurt",
-                              "lines_mean", "tensor_wide", "tensor_fine", "tv_full"};
+const char* const kNames[] = {
+    "tensor",   "tv",         "lines",       "specks",      "tensor_s2", "tv_fine", "tv_coarse",
+    "lines_s2", "specks_s2",  "skew",        "skew_s2",     "envcorr",   "envkurt", "envkurt_s2",
+    "gradkurt", "lines_mean", "tensor_wide", "tensor_fine", "tv_full",   "ridge",   "ridge_fine"};
 constexpr int kCount = sizeof(kNames) / sizeof(kNames[0]);
 
 struct Filters {
     Transfer gx1, gy1, gx2, gy2, gxh, gyh, g1, g2, g4, g8, dog1, dog2;
+    Transfer hxx1, hyy1, hxy1, hxxh, hyyh, hxyh; // Hessian at sigma 1 and 0.5
     std::vector<Transfer> lines2, lines1;
     Filters(int w, int h) {
         auto grad = [&](bool along_x, double s) {
@@ -138,6 +140,18 @@ struct Filters {
         gxh = grad(true, 0.5);
         gyh = grad(false, 0.5);
         g1 = gauss(1);
+        auto hess = [&](int a, int b, double sg) {
+            return sampled(w, h, [=](double wx, double wy) {
+                const double fa = a == 0 ? wx : wy, fb = b == 0 ? wx : wy;
+                return cfloat(static_cast<float>(-fa * fb * gaussian(wx, wy, sg)), 0.0f);
+            });
+        };
+        hxx1 = hess(0, 0, 1);
+        hyy1 = hess(1, 1, 1);
+        hxy1 = hess(0, 1, 1);
+        hxxh = hess(0, 0, 0.5);
+        hyyh = hess(1, 1, 0.5);
+        hxyh = hess(0, 1, 0.5);
         gy2 = grad(false, 2);
         g2 = gauss(2);
         g4 = gauss(4);
@@ -180,6 +194,21 @@ double anisotropy(const std::vector<float>& gx, const std::vector<float>& gy,
         tr += double(jxx[i]) + jyy[i];
     }
     return tr > 0 ? an / tr : 0.0;
+}
+
+// Hessian anisotropy: sum |l1 - l2| / sum (|l1| + |l2|); 1 on thin lines, 0 on round blobs.
+double ridge(const core::Spectrum& spec, const core::RealFft2d& fft, const Transfer& xx,
+             const Transfer& yy, const Transfer& xy) {
+    const auto a = filtered(spec, fft, xx), b = filtered(spec, fft, yy),
+               c = filtered(spec, fft, xy);
+    double num = 0, den = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const double d = std::sqrt((a[i] - b[i]) * double(a[i] - b[i]) + 4.0 * c[i] * double(c[i]));
+        const double tr = std::abs(double(a[i]) + b[i]);
+        num += d;
+        den += std::max(tr, d);
+    }
+    return den > 0 ? num / den : 0.0;
 }
 
 double tv_at(const core::Image& grey, int f) {
@@ -232,6 +261,8 @@ std::vector<double> candidates(const core::Image& grey, const core::Spectrum& sp
     c[12] = anisotropy(gx1, gy1, fft, f.g8);
     c[13] = anisotropy(filtered(spec, fft, f.gxh), filtered(spec, fft, f.gyh), fft, f.g1);
     c[14] = tv_at(grey, 1);
+    c[15] = ridge(spec, fft, f.hxx1, f.hyy1, f.hxy1);
+    c[16] = ridge(spec, fft, f.hxxh, f.hyyh, f.hxyh);
     return all;
 }
 
