@@ -5,9 +5,10 @@
 // tensor integrated at sigma 8; tv_fine and tv_coarse: box reductions by 2 and 8); and, added
 // after the fourth corpus was scored, at the finest scale (tensor_fine: gradient at sigma 0.5,
 // integrated at sigma 1; tv_full: no reduction; ridge and ridge_fine: the Hessian's anisotropy
-// at sigma 1 and 0.5, 1 on thin lines and 0 on round blobs). Each is measured on the exemplar and
-// on 8 ADSN syntheses of its model (the verdict's own null, same seeds) and printed as its excess
-// over their mean, one row a texture. tests/verdict/fit_verdict.py --candidates chooses among them
+// at sigma 1 and 0.5, 1 on thin lines and saddles, 0 on round blobs). Each is measured on the
+// exemplar and on 8 ADSN syntheses of its model (the verdict's own null, same seeds) and printed
+// as its excess over their mean, one row a texture; a crop that does not decode is named on
+// stderr and the exit status is 1. tests/verdict/fit_verdict.py --candidates chooses among them
 // (core/README.md "Micro or macro" says what was chosen, and why the verdict kept its own).
 //   verdict_candidates CORPUS_DIR...
 #include "core/fft2d.h"
@@ -196,7 +197,8 @@ double anisotropy(const std::vector<float>& gx, const std::vector<float>& gy,
     return tr > 0 ? an / tr : 0.0;
 }
 
-// Hessian anisotropy: sum |l1 - l2| / sum (|l1| + |l2|); 1 on thin lines, 0 on round blobs.
+// Hessian anisotropy: sum |l1 - l2| / sum (|l1| + |l2|); 1 on thin lines and saddles, 0 on
+// round blobs.
 double ridge(const core::Spectrum& spec, const core::RealFft2d& fft, const Transfer& xx,
              const Transfer& yy, const Transfer& xy) {
     const auto a = filtered(spec, fft, xx), b = filtered(spec, fft, yy),
@@ -333,7 +335,10 @@ int main(int argc, char** argv) {
             for (std::size_t i; (i = next++) < rows.size();) {
                 Row& r = rows[i];
                 auto u = io::decode_image_file(r.dir + "/corpus/" + r.name + ".jpg");
-                if (!u) continue;
+                if (!u) {
+                    r.line = "!" + u.error().message; // reported below: the study would be short
+                    continue;
+                }
                 std::ostringstream o;
                 o << r.dir << '\t' << r.name << '\t' << r.label << '\t' << r.half;
                 char buf[32];
@@ -348,7 +353,15 @@ int main(int argc, char** argv) {
     std::printf("corpus\tname\tlabel\thalf");
     for (const char* n : kNames) std::printf("\t%s", n);
     std::printf("\n");
-    for (const Row& r : rows)
-        if (!r.line.empty()) std::printf("%s\n", r.line.c_str());
-    return 0;
+    int failed = 0;
+    for (const Row& r : rows) {
+        if (r.line.empty() || r.line[0] == '!') {
+            std::fprintf(stderr, "%s/corpus/%s.jpg: %s\n", r.dir.c_str(), r.name.c_str(),
+                         r.line.empty() ? "not measured" : r.line.c_str() + 1);
+            ++failed;
+        } else {
+            std::printf("%s\n", r.line.c_str());
+        }
+    }
+    return failed ? 1 : 0;
 }

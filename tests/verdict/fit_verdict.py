@@ -15,6 +15,10 @@ after the third's held-out half was scored, and scored once the refit study belo
 three corpora, had kept the verdict unchanged.
 
   build/release/tests/verdict_candidates CORPUS... > candidates.tsv
+  mkdir -p SHARED/corpus && (printf 'name\tlabel\thalf\n'; for f in ../shared/data/exemplars/*.png
+    do n=$(basename "$f" .png); ln -sf "$(realpath "$f")" SHARED/corpus/"$n".jpg
+    case $n in skimage_brick|etr_pave02) k=macro;; *) k=micro;; esac
+    printf '%s\t%s\tshared\n' "$n" "$k"; done) > SHARED/corpus.tsv
   build/release/tests/verdict_candidates SHARED > shared.tsv   # the nine shared photos
   tests/verdict/fit_verdict.py - --candidates candidates.tsv shared.tsv
 
@@ -24,7 +28,8 @@ The refit study (core/README.md "Micro or macro"): forward selection over verdic
 each class (band_of), compared with the unchanged verdict on those textures and on the nine
 shared photos (a target: they keep their kinds). Run on the first three corpora before the
 fourth was scored, and on all four after. SHARED is a directory holding corpus.tsv (name,
-label, half) and corpus/NAME.jpg, a link to each photo.
+label, half) and corpus/NAME.jpg, a link to each photo (the decoder reads a PNG by its
+content), as the commands above make it; the kinds are ../shared/data/exemplars/README.md's.
 
 1. Candidate sets of statistics (each one's excess over its ADSN null), nested in the order the
    statistics separate the fit set alone; each scored by balanced accuracy under 5-fold
@@ -42,13 +47,22 @@ label, half) and corpus/NAME.jpg, a link to each photo.
 """
 import csv
 import math
+import os
 import random
+import re
 import sys
 
 STATS = ("tensor", "tv", "lines", "specks")
-# core/shape_verdict.h, as chosen by main() below: bias, then STATS's weights; the band.
-KSHAPE_WEIGHTS = (-3.961463, 30.263934, 42.790682, 3.830087, -8.386317)
-KSHAPE_BAND = 0.25
+HEADER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "core",
+                      "shape_verdict.h")
+
+
+def shipped():
+    """kShapeWeights (bias, then STATS's weights) and kShapeBand as core/shape_verdict.h has them."""
+    text = open(HEADER).read()
+    weights = re.search(r"kShapeWeights\{([^}]*)\}", text).group(1)
+    band = re.search(r"kShapeBand = ([0-9.]+);", text).group(1)
+    return [float(v) for v in weights.split(",")], float(band)
 
 
 def load(path):
@@ -198,17 +212,17 @@ def confusion(rows, verdict):
 
 
 def band_of(scores_micro, scores_macro, keep):
-    """The band [lo, hi] in steps of 0.05: lo the lowest score at or below which `keep` of the
-    micro scores lie, hi the highest above which `keep` of the macro ones lie; classes that
-    overlap more than that get a single threshold half-way."""
-    def share(xs, f):
-        return sum(f(x) for x in xs) / len(xs)
-    lo = -20.0
-    while share(scores_micro, lambda x: x <= lo) < keep:
-        lo += 0.05
-    hi = 20.0
-    while share(scores_macro, lambda x: x > hi) < keep:
-        hi -= 0.05
+    """The band (lo, hi) on a 0.05 grid: lo the lowest grid point at or below which at least
+    `keep` of the micro scores lie, hi the highest above which at least `keep` of the macro ones
+    lie. Where the classes overlap more than that (hi < lo) there is no band: one threshold
+    half-way, which keeps less than `keep` of one class (the study prints what it keeps)."""
+    assert scores_micro and scores_macro and 0 < keep <= 1
+    assert all(math.isfinite(v) for v in scores_micro + scores_macro)
+    micro, macro = sorted(scores_micro), sorted(scores_macro)
+    lo = math.ceil(micro[math.ceil(keep * len(micro)) - 1] / 0.05 - 1e-9) * 0.05
+    hi = math.floor(macro[len(macro) - math.ceil(keep * len(macro))] / 0.05 + 1e-9) * 0.05
+    if hi == macro[len(macro) - math.ceil(keep * len(macro))]:
+        hi -= 0.05  # macro is strictly above hi
     return (lo, hi) if lo <= hi else ((lo + hi) / 2, (lo + hi) / 2)
 
 
@@ -244,35 +258,39 @@ def refit_study(path, shared_path):
         chosen.append(i)
         best = acc
 
-    def verdicts(model, lo, hi, rows):
+    def verdicts(model, cols, lo, hi, rows):
         s = [score(model, project(r["x"], cols)) for r in rows]
         return ["micro" if v <= lo else "macro" if v > hi else "borderline" for v in s]
 
-    def summary(what, ks):
-        micro = [k for r, k in zip(fit, ks) if r["label"] == "micro"]
-        macro = [k for r, k in zip(fit, ks) if r["label"] == "macro"]
-        print(f"- {what}: micro {micro.count('micro')} of {len(micro)} right, macro "
-              f"{macro.count('macro')} of {len(macro)}, {macro.count('micro')} macro called "
-              "micro; shared photos called otherwise than their kind: "
-              f"{[r['name'] for r, k in zip(shared, sh) if k != r['label']]}")
+    def summary(what, on_fit, on_shared):
+        micro = [k for r, k in zip(fit, on_fit) if r["label"] == "micro"]
+        macro = [k for r, k in zip(fit, on_fit) if r["label"] == "macro"]
+        off = [f"{r['name']} ({k})" for r, k in zip(shared, on_shared) if k != r["label"]]
+        print(f"- {what}: micro {micro.count('micro')} of {len(micro)} right "
+              f"({micro.count('micro') / len(micro):.1%}), macro {macro.count('macro')} of "
+              f"{len(macro)} ({macro.count('macro') / len(macro):.1%}), "
+              f"{macro.count('micro')} macro called micro; shared photos called otherwise "
+              f"than their kind: {off}")
 
-    print("\n## Each on the whole fit set and the shared photos\n")
-    cols = [names.index(s) for s in STATS]
-    unchanged = (KSHAPE_WEIGHTS[0], list(KSHAPE_WEIGHTS[1:]))
-    sh = verdicts(unchanged, -KSHAPE_BAND, KSHAPE_BAND, shared)
+    print("\n## Each on the whole fit set (in sample for the refits) and the shared photos\n")
+    weights, band = shipped()
+    unchanged, cols = (weights[0], weights[1:]), [names.index(s) for s in STATS]
     summary("the verdict unchanged (kShapeWeights, fitted on the first corpus and half the "
-            "shapes corpus)", verdicts(unchanged, -KSHAPE_BAND, KSHAPE_BAND, fit))
+            "shapes corpus)", verdicts(unchanged, cols, -band, band, fit),
+            verdicts(unchanged, cols, -band, band, shared))
     for label, cols in (("refit, its statistics", [names.index(s) for s in STATS]),
                         ("refit, the chosen statistics", chosen)):
         m = logistic([project(r["x"], cols) for r in fit], [r["y"] for r in fit])
         s_micro = [score(m, project(r["x"], cols)) for r in fit if r["label"] == "micro"]
         s_macro = [score(m, project(r["x"], cols)) for r in fit if r["label"] == "macro"]
+        cv = cross_validated(fit, cols)
         for keep in (0.9, 0.92):
             lo, hi = band_of(s_micro, s_macro, keep)
-            sh = verdicts(m, lo, hi, shared)
-            summary(f"{label} ({', '.join(names[i] for i in cols)}; cross-validated "
-                    f"{cross_validated(fit, cols):.3f}), band [{lo:.2f}, {hi:.2f}] keeping "
-                    f"{keep:.0%}", verdicts(m, lo, hi, fit))
+            cut = (f"band [{lo:.2f}, {hi:.2f}]" if lo < hi else
+                   f"one threshold {lo:.2f} (no band keeps {keep:.0%} of each)")
+            summary(f"{label} ({', '.join(names[i] for i in cols)}; cross-validated {cv:.3f}), "
+                    f"aimed at {keep:.0%}: {cut}", verdicts(m, cols, lo, hi, fit),
+                    verdicts(m, cols, lo, hi, shared))
 
 
 def main():
@@ -325,6 +343,11 @@ def main():
     if min(rates(band)) < 0.9:
         print("no band keeps 90% of each fit class right; band 0")
     print(f"kShapeBand = {band}")
+    weights_h, band_h = shipped()
+    same = (all(abs(a - b) < 5e-7 for a, b in zip(weights_h, [m[0]] + [weights[s] for s in STATS]))
+            and band_h == band)
+    print("core/shape_verdict.h holds " + ("these" if same else "OTHER constants: "
+                                            + str((weights_h, band_h))))
 
     micro_rme = sorted(float(r["rme"]) for r in fit if r["label"] == "micro")
     rme_t = micro_rme[round(0.95 * (len(micro_rme) - 1))]

@@ -4,6 +4,7 @@
   tests/verdict/make_corpus.py crops   [--corpus DIR] [TEXTOND]  # download, extract, crop
   tests/verdict/make_corpus.py sheets  [--corpus DIR] [TEXTOND]  # exemplar | ADSN, label
   tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
+  tests/verdict/make_corpus.py tints   [--corpus DIR]            # pairs of crops, one a tint
 
 DIR is tests/verdict (the first corpus), tests/verdict/shapes, third or fourth; its corpus.tsv
 names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and licence, and its
@@ -11,7 +12,9 @@ label (DIR/LABELLING.md says how labels were given) and half of the split. A cro
 scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved as JPEG
 quality 92; the verdict is computed on these crops. `draw` prints the candidates a corpus was
 picked from (DIR/draws.json: packages, seeds, keyword filter), one TSV row each, with the
-licence its package's debian/copyright gives the file. Needs apt-get, dpkg-deb, unzip and
+licence its package's debian/copyright gives the file. `tints` prints every pair of the corpus's
+crops whose 48 x 48 grey levels correlate above 0.9, the rule by which the fourth corpus dropped
+the same image in another tint (none are left in it). Needs apt-get, dpkg-deb, unzip and
 oiiotool (openimageio-tools); downloads 1-2 GB into build/verdict/.
 """
 import argparse
@@ -21,11 +24,13 @@ import fnmatch
 import glob
 import hashlib
 import json
+import math
 import os
 import random
 import re
 import struct
 import subprocess
+import tempfile
 import zipfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -238,15 +243,46 @@ def draw(corpus):
                       f"\t{w}x{h}")
 
 
+def grey48(path):
+    """The crop's grey level at 48 x 48, centred and scaled to unit variance."""
+    with tempfile.TemporaryDirectory() as tmp:
+        pgm = os.path.join(tmp, "grey.pgm")
+        subprocess.run(["oiiotool", path, "--ch", "0", "--resize", "48x48", "-d", "uint8", "-o",
+                        pgm], capture_output=True, check=True)
+        with open(pgm, "rb") as f:
+            px = list(f.read().split(b"\n", 3)[3])
+    mean = sum(px) / len(px)
+    sd = math.sqrt(sum((v - mean) ** 2 for v in px) / len(px)) or 1.0
+    return [(v - mean) / sd for v in px]
+
+
+def tints(corpus):
+    names = [r["name"] for r in rows(corpus)]
+    with cf.ThreadPoolExecutor(os.cpu_count()) as ex:
+        grey = dict(zip(names, ex.map(
+            lambda n: grey48(os.path.join(corpus, "corpus", n + ".jpg")), names)))
+    found = 0
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            c = sum(x * y for x, y in zip(grey[a], grey[b])) / len(grey[a])
+            if c > 0.9:
+                print(f"{c:.3f}\t{a}\t{b}")
+                found += 1
+    print(f"{found} pairs above 0.9 among {len(names)} crops")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("what", choices=["crops", "sheets", "draw"])
+    ap.add_argument("what", choices=["crops", "sheets", "draw", "tints"])
     ap.add_argument("textond", nargs="?", default=os.path.join(ROOT, "build/release/textond"))
     ap.add_argument("--corpus", default=HERE)
     a = ap.parse_args()
     corpus = os.path.abspath(a.corpus)
     if a.what == "draw":
         draw(corpus)
+        return
+    if a.what == "tints":
+        tints(corpus)
         return
     if a.what == "crops":
         os.makedirs(os.path.join(corpus, "corpus"), exist_ok=True)
