@@ -6,13 +6,14 @@
   tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
   tests/verdict/make_corpus.py tints   [--corpus DIR]            # pairs of crops, one a tint
 
-DIR is tests/verdict (the first corpus), tests/verdict/shapes, third or fourth; its corpus.tsv
+DIR is tests/verdict (the first corpus), tests/verdict/shapes, third, fourth or fifth; its corpus.tsv
 names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and licence, and its
 label (DIR/LABELLING.md says how labels were given) and half of the split. A crop is the source
 scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved as JPEG
 quality 92; the verdict is computed on these crops. `draw` prints the candidates a corpus was
-picked from (DIR/draws.json: packages, seeds, keyword filter), one TSV row each, with the
-licence its package's debian/copyright gives the file. `tints` prints every pair of the corpus's
+picked from (DIR/draws.json: packages, seeds, keyword filter, and "after": corpora whose
+candidates are never drawn again), one TSV row each, with the licence its package's
+debian/copyright gives the file. `tints` prints every pair of the corpus's
 crops whose 48 x 48 grey levels correlate above 0.9, the rule by which the fourth corpus dropped
 the same image in another tint (none are left in it). Needs apt-get, dpkg-deb, unzip and
 oiiotool (openimageio-tools); downloads 1-2 GB into build/verdict/.
@@ -185,9 +186,20 @@ def licence_of(stanzas, install_path):
 
 def draw(corpus):
     """The candidates of each seeded draw in DIR/draws.json, one TSV row each."""
-    spec = json.load(open(os.path.join(corpus, "draws.json")))
     print("draw\tpackage\tversion\tpath\tlicence\tsource_size")
+    for row in candidates(corpus):
+        print("\t".join(row))
+
+
+def candidates(corpus):
+    """(draw, package, version, path, licence, WxH) of each file the seeded draws pick. A file
+    an earlier corpus's draws picked (draws.json "after": their directories) is never picked
+    again, kept there or not."""
+    spec = json.load(open(os.path.join(corpus, "draws.json")))
     taken = set()
+    for earlier in spec.get("after", []):
+        taken |= {(r[1], r[3]) for r in candidates(os.path.join(corpus, earlier))}
+    out = []
     for d in spec["draws"]:
         for package in d["packages"]:
             version = spec["versions"][package]
@@ -239,8 +251,8 @@ def draw(corpus):
             for rel, (w, h) in pick:
                 taken.add((package, rel))
                 licence = licence_of(stanzas, rel.partition(":")[0])
-                print(f"{d['name']}\t{package}\t{version}\t{rel}\t{licence}"
-                      f"\t{w}x{h}")
+                out.append((d["name"], package, version, rel, licence, f"{w}x{h}"))
+    return out
 
 
 def grey48(path):
