@@ -4,7 +4,7 @@
   tests/verdict/make_corpus.py crops   [--corpus DIR] [TEXTOND]  # download, extract, crop
   tests/verdict/make_corpus.py sheets  [--corpus DIR] [TEXTOND]  # exemplar | ADSN, label
   tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
-  tests/verdict/make_corpus.py tints   [--corpus DIR]            # pairs of crops, one a tint
+  tests/verdict/make_corpus.py tints   [--corpus DIR] [--against DIR]  # pairs: one a tint
 
 DIR is tests/verdict (the first corpus), tests/verdict/shapes, third, fourth or fifth; its corpus.tsv
 names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and licence, and its
@@ -14,8 +14,9 @@ quality 92; the verdict is computed on these crops. `draw` prints the candidates
 picked from (DIR/draws.json: packages, seeds, keyword filter, and "after": corpora whose
 candidates are never drawn again), one TSV row each, with the licence its package's
 debian/copyright gives the file. `tints` prints every pair of the corpus's
-crops whose 48 x 48 grey levels correlate above 0.9, the rule by which the fourth corpus dropped
-the same image in another tint (none are left in it). Needs apt-get, dpkg-deb, unzip and
+crops whose 48 x 48 grey levels correlate above 0.9, the rule by which the fourth and fifth
+corpora dropped the same image in another tint (none are left in either), and with --against
+the pairs with another corpus's crops (none between the fifth and the fourth). Needs apt-get, dpkg-deb, unzip and
 oiiotool (openimageio-tools); downloads 1-2 GB into build/verdict/.
 """
 import argparse
@@ -268,19 +269,27 @@ def grey48(path):
     return [(v - mean) / sd for v in px]
 
 
-def tints(corpus):
-    names = [r["name"] for r in rows(corpus)]
-    with cf.ThreadPoolExecutor(os.cpu_count()) as ex:
-        grey = dict(zip(names, ex.map(
-            lambda n: grey48(os.path.join(corpus, "corpus", n + ".jpg")), names)))
+def tints(corpus, against=()):
+    """Pairs of crops above 0.9 within the corpus, and with each corpus in `against`."""
+    def greys(d):
+        names = [r["name"] for r in rows(d)]
+        with cf.ThreadPoolExecutor(os.cpu_count()) as ex:
+            return dict(zip(names, ex.map(
+                lambda n: grey48(os.path.join(d, "corpus", n + ".jpg")), names)))
+    grey = greys(corpus)
+    names = list(grey)
+    pairs = [(a, b, grey[b]) for i, a in enumerate(names) for b in names[i + 1:]]
+    for other in against:
+        theirs = greys(other)
+        pairs += [(a, os.path.basename(other.rstrip("/")) + "/" + b, v)
+                  for a in names for b, v in theirs.items()]
     found = 0
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            c = sum(x * y for x, y in zip(grey[a], grey[b])) / len(grey[a])
-            if c > 0.9:
-                print(f"{c:.3f}\t{a}\t{b}")
-                found += 1
-    print(f"{found} pairs above 0.9 among {len(names)} crops")
+    for a, b, v in pairs:
+        c = sum(x * y for x, y in zip(grey[a], v)) / len(v)
+        if c > 0.9:
+            print(f"{c:.3f}\t{a}\t{b}")
+            found += 1
+    print(f"{found} pairs above 0.9 ({len(names)} crops, against {len(against)} corpora)")
 
 
 def main():
@@ -288,13 +297,15 @@ def main():
     ap.add_argument("what", choices=["crops", "sheets", "draw", "tints"])
     ap.add_argument("textond", nargs="?", default=os.path.join(ROOT, "build/release/textond"))
     ap.add_argument("--corpus", default=HERE)
+    ap.add_argument("--against", action="append", default=[],
+                    help="tints: another corpus directory to compare with (repeatable)")
     a = ap.parse_args()
     corpus = os.path.abspath(a.corpus)
     if a.what == "draw":
         draw(corpus)
         return
     if a.what == "tints":
-        tints(corpus)
+        tints(corpus, [os.path.abspath(d) for d in a.against])
         return
     if a.what == "crops":
         os.makedirs(os.path.join(corpus, "corpus"), exist_ok=True)
