@@ -6,17 +6,17 @@
   tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
   tests/verdict/make_corpus.py tints   [--corpus DIR] [--against DIR]  # pairs: one a tint
 
-DIR is tests/verdict (the first corpus), tests/verdict/shapes, third, fourth or fifth; its corpus.tsv
-names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and licence, and its
-label (DIR/LABELLING.md says how labels were given) and half of the split. A crop is the source
+DIR is tests/verdict (the first corpus), tests/verdict/shapes, third, fourth or fifth; its
+corpus.tsv names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and
+licence, and its label (DIR/LABELLING.md says how labels were given) and half of the split. A crop is the source
 scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved as JPEG
 quality 92; the verdict is computed on these crops. `draw` prints the candidates a corpus was
 picked from (DIR/draws.json: packages, seeds, keyword filter, and "after": corpora whose
 candidates are never drawn again), one TSV row each, with the licence its package's
-debian/copyright gives the file. `tints` prints every pair of the corpus's
-crops whose 48 x 48 grey levels correlate above 0.9, the rule by which the fourth and fifth
-corpora dropped the same image in another tint (none are left in either), and with --against
-the pairs with another corpus's crops (none between the fifth and the fourth). Needs apt-get, dpkg-deb, unzip and
+debian/copyright gives the file. `tints` prints every pair of the corpus's crops whose 48 x 48
+grey levels correlate above 0.9, the rule by which the fourth and fifth corpora dropped the same
+image in another tint (none are left in either), and with --against the pairs with another
+corpus's crops (none between the fifth and the fourth). Needs apt-get, dpkg-deb, unzip and
 oiiotool (openimageio-tools); downloads 1-2 GB into build/verdict/.
 """
 import argparse
@@ -117,12 +117,6 @@ def sheets(corpus, textond):
         subprocess.run(["oiiotool", *part, "--mosaic:pad=8", f"4x{(len(part) + 3) // 4}",
                         "--quality", "85", "-o", out], check=True)
         print(out)
-
-
-def image_size(path):
-    """(width, height) of a PNG, JPEG or DDS from its header, or None."""
-    with open(path, "rb") as f:
-        return stream_size(f)
 
 
 def stream_size(f):
