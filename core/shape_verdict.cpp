@@ -3,6 +3,7 @@
 #include "core/fft2d.h"
 #include "core/periodic_component.h"
 #include "core/random.h"
+#include "core/spectral_filter.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,31 +16,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kLineOrientations = 4;
 
-// Angular frequency (radians a pixel) of row i or column j of a half spectrum.
-double omega(int k, int n) {
-    return 2.0 * kPi * (k <= n / 2 ? k : k - n) / static_cast<double>(n);
-}
-
-// A transfer function sampled on a half spectrum's bins: the same for the exemplar and every
-// null sample, so it is evaluated once a verdict (its exp and sin were most of the verdict's
-// time).
-using Transfer = std::vector<cfloat>;
-
-template <typename H> Transfer sampled(int w, int hgt, H h) {
-    const int cw = w / 2 + 1;
-    Transfer t(static_cast<std::size_t>(cw) * hgt);
-    for (int i = 0; i < hgt; ++i) {
-        const double wy = omega(i, hgt);
-        for (int j = 0; j < cw; ++j) t[static_cast<std::size_t>(i) * cw + j] = h(omega(j, w), wy);
-    }
-    return t;
-}
-
-double gaussian(double wx, double wy, double sigma) {
-    return std::exp(-0.5 * sigma * sigma * (wx * wx + wy * wy));
-}
-
-// The filters every statistic applies, for one image size.
+// The filters every statistic applies, for one image size: the same for the exemplar and every
+// null sample, so each is sampled once a verdict (their exp and sin were most of its time).
 struct Filters {
     Transfer grad_x, grad_y;     // central differences at sigma 1
     Transfer smooth;             // Gaussian, sigma 2 (the structure tensor's window)
@@ -48,52 +26,31 @@ struct Filters {
 
     Filters(int w, int h) {
         auto grad = [&](bool along_x) {
-            return sampled(w, h, [&](double wx, double wy) {
-                const double g = gaussian(wx, wy, 1.0);
+            return sampled_transfer(w, h, [&](double wx, double wy) {
+                const double g = gaussian_response(wx, wy, 1.0);
                 return cfloat(0.0f, static_cast<float>(g * std::sin(along_x ? wx : wy)));
             });
         };
         grad_x = grad(true);
         grad_y = grad(false);
-        smooth = sampled(w, h, [](double wx, double wy) {
-            return cfloat(static_cast<float>(gaussian(wx, wy, 2.0)), 0.0f);
+        smooth = sampled_transfer(w, h, [](double wx, double wy) {
+            return cfloat(static_cast<float>(gaussian_response(wx, wy, 2.0)), 0.0f);
         });
         for (int k = 0; k < kLineOrientations; ++k) {
             const double th = kPi * k / kLineOrientations, c = std::cos(th), s = std::sin(th);
-            lines.push_back(sampled(w, h, [&](double wx, double wy) {
+            lines.push_back(sampled_transfer(w, h, [&](double wx, double wy) {
                 const double across = wx * c + wy * s, along = -wx * s + wy * c;
                 const double g = std::exp(-0.5 * (across * across + 16.0 * along * along));
                 return cfloat(0.0f, static_cast<float>(across * g));
             }));
         }
-        speck = sampled(w, h, [](double wx, double wy) {
-            return cfloat(static_cast<float>(gaussian(wx, wy, 1.0) - gaussian(wx, wy, 2.0)), 0.0f);
+        speck = sampled_transfer(w, h, [](double wx, double wy) {
+            return cfloat(
+                static_cast<float>(gaussian_response(wx, wy, 1.0) - gaussian_response(wx, wy, 2.0)),
+                0.0f);
         });
     }
 };
-
-// Inverse of spec times the transfer function t (spec is left intact).
-std::vector<float> filtered(const Spectrum& spec, const RealFft2d& fft, int threads,
-                            const Transfer& t) {
-    const int w = spec.width(), hgt = spec.height(), cw = spec.cwidth();
-    Spectrum out(w, hgt);
-    for (int i = 0; i < hgt; ++i)
-        for (int j = 0; j < cw; ++j)
-            out.row(i)[j] = spec.row(i)[j] * t[static_cast<std::size_t>(i) * cw + j];
-    std::vector<float> v(static_cast<std::size_t>(w) * hgt);
-    fft.inverse(out, v.data(), threads);
-    const float inv = 1.0f / static_cast<float>(v.size());
-    for (float& x : v) x *= inv;
-    return v;
-}
-
-// A field smoothed by a Gaussian of sd sigma (periodic).
-std::vector<float> smoothed(const std::vector<float>& f, const RealFft2d& fft,
-                            const Transfer& gaussian, int threads) {
-    Spectrum s(fft.width(), fft.height());
-    fft.forward(f.data(), s, threads);
-    return filtered(s, fft, threads, gaussian);
-}
 
 double log_kurtosis_ratio(const std::vector<float>& b) {
     double m1 = 0;
@@ -121,9 +78,9 @@ double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, const Filte
         yy[i] = gy[i] * gy[i];
         xy[i] = gx[i] * gy[i];
     }
-    const auto jxx = smoothed(xx, fft, f.smooth, threads),
-               jyy = smoothed(yy, fft, f.smooth, threads),
-               jxy = smoothed(xy, fft, f.smooth, threads);
+    const auto jxx = filtered(xx, fft, threads, f.smooth),
+               jyy = filtered(yy, fft, threads, f.smooth),
+               jxy = filtered(xy, fft, threads, f.smooth);
     double anisotropy = 0, trace = 0;
     for (std::size_t i = 0; i < jxx.size(); ++i) {
         const double d = jxx[i] - jyy[i];

@@ -1,0 +1,37 @@
+#include "core/spectral_filter.h"
+
+#include <cmath>
+
+namespace textond::core {
+
+double angular_frequency(int k, int n) {
+    constexpr double kPi = 3.14159265358979323846;
+    return 2.0 * kPi * (k <= n / 2 ? k : k - n) / static_cast<double>(n);
+}
+
+double gaussian_response(double wx, double wy, double sigma) {
+    return std::exp(-0.5 * sigma * sigma * (wx * wx + wy * wy));
+}
+
+std::vector<float> filtered(const Spectrum& spec, const RealFft2d& fft, int threads,
+                            const Transfer& t) {
+    const int w = spec.width(), hgt = spec.height(), cw = spec.cwidth();
+    Spectrum out(w, hgt);
+    for (int i = 0; i < hgt; ++i)
+        for (int j = 0; j < cw; ++j)
+            out.row(i)[j] = spec.row(i)[j] * t[static_cast<std::size_t>(i) * cw + j];
+    std::vector<float> v(static_cast<std::size_t>(w) * hgt);
+    fft.inverse(out, v.data(), threads);
+    const float inv = 1.0f / static_cast<float>(v.size());
+    for (float& x : v) x *= inv;
+    return v;
+}
+
+std::vector<float> filtered(const std::vector<float>& field, const RealFft2d& fft, int threads,
+                            const Transfer& t) {
+    Spectrum s(fft.width(), fft.height());
+    fft.forward(field.data(), s, threads);
+    return filtered(s, fft, threads, t);
+}
+
+} // namespace textond::core
