@@ -70,24 +70,9 @@ double log_kurtosis_ratio(const std::vector<float>& b) {
 // Structure tensor anisotropy: gradient (central differences) at sigma 1, tensor at sigma 2.
 double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, const Filters& f,
                          int threads) {
-    const std::vector<float> gx = filtered(spec, fft, threads, f.grad_x),
-                             gy = filtered(spec, fft, threads, f.grad_y);
-    std::vector<float> xx(gx.size()), yy(gx.size()), xy(gx.size());
-    for (std::size_t i = 0; i < gx.size(); ++i) {
-        xx[i] = gx[i] * gx[i];
-        yy[i] = gy[i] * gy[i];
-        xy[i] = gx[i] * gy[i];
-    }
-    const auto jxx = filtered(xx, fft, threads, f.smooth),
-               jyy = filtered(yy, fft, threads, f.smooth),
-               jxy = filtered(xy, fft, threads, f.smooth);
-    double anisotropy = 0, trace = 0;
-    for (std::size_t i = 0; i < jxx.size(); ++i) {
-        const double d = jxx[i] - jyy[i];
-        anisotropy += std::sqrt(d * d + 4.0 * double(jxy[i]) * jxy[i]);
-        trace += double(jxx[i]) + jyy[i];
-    }
-    return trace > 0 ? anisotropy / trace : 0.0;
+    return structure_tensor_anisotropy(filtered(spec, fft, threads, f.grad_x),
+                                       filtered(spec, fft, threads, f.grad_y), fft, threads,
+                                       f.smooth);
 }
 
 // The largest line-filter kurtosis over the orientations (derivative across, Gaussian along).

@@ -34,4 +34,23 @@ std::vector<float> filtered(const std::vector<float>& field, const RealFft2d& ff
     return filtered(s, fft, threads, t);
 }
 
+double structure_tensor_anisotropy(const std::vector<float>& gx, const std::vector<float>& gy,
+                                   const RealFft2d& fft, int threads, const Transfer& window) {
+    std::vector<float> xx(gx.size()), yy(gx.size()), xy(gx.size());
+    for (std::size_t i = 0; i < gx.size(); ++i) {
+        xx[i] = gx[i] * gx[i];
+        yy[i] = gy[i] * gy[i];
+        xy[i] = gx[i] * gy[i];
+    }
+    const auto jxx = filtered(xx, fft, threads, window), jyy = filtered(yy, fft, threads, window),
+               jxy = filtered(xy, fft, threads, window);
+    double anisotropy = 0, trace = 0;
+    for (std::size_t i = 0; i < jxx.size(); ++i) {
+        const double d = jxx[i] - jyy[i];
+        anisotropy += std::sqrt(d * d + 4.0 * double(jxy[i]) * jxy[i]);
+        trace += double(jxx[i]) + jyy[i];
+    }
+    return trace > 0 ? anisotropy / trace : 0.0;
+}
+
 } // namespace textond::core

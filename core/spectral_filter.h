@@ -37,4 +37,9 @@ std::vector<float> filtered(const Spectrum& spec, const RealFft2d& fft, int thre
 std::vector<float> filtered(const std::vector<float>& field, const RealFft2d& fft, int threads,
                             const Transfer& t);
 
+// Anisotropy of the structure tensor of the gradient (gx, gy), integrated over `window` (a
+// Gaussian's transfer): sum sqrt((Jxx - Jyy)^2 + 4 Jxy^2) / sum (Jxx + Jyy), 0 for a flat field.
+double structure_tensor_anisotropy(const std::vector<float>& gx, const std::vector<float>& gy,
+                                   const RealFft2d& fft, int threads, const Transfer& window);
+
 } // namespace textond::core
