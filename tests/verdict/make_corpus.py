@@ -5,6 +5,7 @@
   tests/verdict/make_corpus.py sheets  [--corpus DIR] [TEXTOND]  # exemplar | ADSN, label
   tests/verdict/make_corpus.py draw    [--corpus DIR]            # the seeded candidate draws
   tests/verdict/make_corpus.py tints   [--corpus DIR] [--against DIR]  # pairs: one a tint
+  tests/verdict/make_corpus.py native  [--corpus DIR]            # sources as the service sees them
 
 DIR is tests/verdict (the first corpus), tests/verdict/shapes, third, fourth or fifth; its
 corpus.tsv names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and
@@ -16,7 +17,10 @@ candidates are never drawn again), one TSV row each, with the licence its packag
 debian/copyright gives the file. `tints` prints every pair of the corpus's crops whose 48 x 48
 grey levels correlate above 0.9, the rule by which the fourth and fifth corpora dropped the same
 image in another tint (none are left in either), and with --against the pairs with another
-corpus's crops (none between the fifth and the fourth). Needs apt-get, dpkg-deb, unzip and
+corpus's crops (none between the fifth and the fourth). `native` writes each source as the
+service analyses it (its centred 1024 x 1024 window when larger, core/working_window.h) to
+build/verdict/native/NAME_OF_DIR/corpus/NAME.png with a corpus.tsv, for the verdict's two
+scales (build/release/tests/verdict_scales, fit_verdict.py --scales). Needs apt-get, dpkg-deb, unzip and
 oiiotool (openimageio-tools); downloads 1-2 GB into build/verdict/.
 """
 import argparse
@@ -30,15 +34,18 @@ import math
 import os
 import random
 import re
+import shutil
 import struct
 import subprocess
 import tempfile
+import threading
 import zipfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 WORK = os.path.join(ROOT, "build", "verdict")
 FONT = "/usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf"
+UNZIP = threading.Lock()
 
 
 def rows(corpus):
@@ -47,15 +54,27 @@ def rows(corpus):
 
 
 def package_dir(package, version=None):
-    """The package's files under build/verdict/PACKAGE, downloading it on first use."""
+    """The package's files under build/verdict/PACKAGE, downloading it on first use. Extracted
+    beside and renamed, so that an interrupted run leaves no half of a package behind; callers
+    that run in parallel fetch each package first (fetch_packages)."""
     pkg_dir = os.path.join(WORK, package)
     if not os.path.isdir(pkg_dir):
         os.makedirs(WORK, exist_ok=True)
         spec = f"{package}={version}" if version else package
         subprocess.run(["apt-get", "download", spec], cwd=WORK, check=True)
         deb = glob.glob(os.path.join(WORK, f"{package}_*.deb"))[0]
-        subprocess.run(["dpkg-deb", "-x", deb, pkg_dir], check=True)
+        tmp = tempfile.mkdtemp(dir=WORK)
+        try:
+            subprocess.run(["dpkg-deb", "-x", deb, tmp], check=True)
+            os.rename(tmp, pkg_dir)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
     return pkg_dir
+
+
+def fetch_packages(rs):
+    for package, version in sorted({(r["package"], r["version"]) for r in rs}):
+        package_dir(package, version)
 
 
 def source_file(row):
@@ -65,9 +84,10 @@ def source_file(row):
     if not member:
         return os.path.join(pkg_dir, archive.lstrip("/"))
     out = os.path.join(pkg_dir, "pk3")
-    if not os.path.exists(os.path.join(out, member)):
-        subprocess.run(["unzip", "-q", "-o", os.path.join(pkg_dir, archive.lstrip("/")), member,
-                        "-d", out], check=True)
+    with UNZIP:  # two unzips creating one folder at once fail
+        if not os.path.exists(os.path.join(out, member)):
+            subprocess.run(["unzip", "-q", "-o", os.path.join(pkg_dir, archive.lstrip("/")), member,
+                            "-d", out], check=True)
     return os.path.join(out, member)
 
 
@@ -83,6 +103,22 @@ def crop(row, corpus):
         args += ["--resize:filter=box", f"{nw}x{nh}"]
     args += ["--cut", f"256x256+{(nw - 256) // 2}+{(nh - 256) // 2}", "--quality", "92", "-o",
              os.path.join(corpus, "corpus", row["name"] + ".jpg")]
+    subprocess.run(args, check=True, capture_output=True)
+
+
+def native(row, out):
+    """The source as the service analyses it: its centred 1024 x 1024 window when larger."""
+    src = source_file(row)
+    w, h = (int(v) for v in row["source_size"].split("x"))
+    info = subprocess.run(["oiiotool", "--info", src], capture_output=True, text=True).stdout
+    ch = "R,G,B" if (", 3 channel" in info or ", 4 channel" in info) else "0"
+    args = ["oiiotool", src, "--ch", ch]
+    if w > 1024 or h > 1024:
+        cw, chh = min(w, 1024), min(h, 1024)
+        args += ["--cut", f"{cw}x{chh}+{(w - cw) // 2}+{(h - chh) // 2}"]
+    # Metadata off: libpng refuses some JPEGs' colour profiles.
+    args += ["--eraseattrib", ".*", "-d", "uint8", "-o",
+             os.path.join(out, "corpus", row["name"] + ".png")]
     subprocess.run(args, check=True, capture_output=True)
 
 
@@ -288,7 +324,7 @@ def tints(corpus, against=()):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("what", choices=["crops", "sheets", "draw", "tints"])
+    ap.add_argument("what", choices=["crops", "sheets", "draw", "tints", "native"])
     ap.add_argument("textond", nargs="?", default=os.path.join(ROOT, "build/release/textond"))
     ap.add_argument("--corpus", default=HERE)
     ap.add_argument("--against", action="append", default=[],
@@ -301,8 +337,20 @@ def main():
     if a.what == "tints":
         tints(corpus, [os.path.abspath(d) for d in a.against])
         return
+    if a.what == "native":
+        out = os.path.join(WORK, "native", os.path.basename(corpus))
+        os.makedirs(os.path.join(out, "corpus"), exist_ok=True)
+        rs = rows(corpus)
+        fetch_packages(rs)
+        with cf.ThreadPoolExecutor(os.cpu_count()) as ex:
+            list(ex.map(lambda r: native(r, out), rs))
+        with open(os.path.join(out, "corpus.tsv"), "w") as f:
+            f.write("name\tlabel\thalf\n")
+            f.writelines(f"{r['name']}\t{r['label']}\t{r['half']}\n" for r in rs)
+        return
     if a.what == "crops":
         os.makedirs(os.path.join(corpus, "corpus"), exist_ok=True)
+        fetch_packages(rows(corpus))
         with cf.ThreadPoolExecutor(os.cpu_count()) as ex:
             list(ex.map(lambda r: crop(r, corpus), rows(corpus)))
     sheets(corpus, a.textond)
