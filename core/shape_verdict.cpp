@@ -4,9 +4,11 @@
 #include "core/periodic_component.h"
 #include "core/random.h"
 #include "core/spectral_filter.h"
+#include "core/working_window.h"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 namespace textond::core {
@@ -108,33 +110,20 @@ double weighted(const ShapeStatistics& e) {
     return w.bias + w.tensor * e.tensor + w.tv * e.tv + w.lines * e.lines + w.specks * e.specks;
 }
 
-} // namespace
-
-TextureKind shape_kind(double score) {
-    if (score > kShapeBand) return TextureKind::macro;
-    return score > -kShapeBand ? TextureKind::borderline : TextureKind::micro;
-}
-
-TextureKind ShapeVerdict::kind() const {
-    return shape_kind(score);
-}
-
-ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int samples) {
-    ShapeVerdict out;
-    samples = std::max(samples, 1);
-    out.factor = std::max(1, std::min(u.width, u.height) / 256);
-    const Image grey = periodic_component(grey_level(box_reduce(u, out.factor)), threads);
+// The verdict of one measured image: its statistics, their excess over its ADSN null, the score.
+// `filters` are sampled for its size, once for both scales.
+void measure(const Image& grey, const std::optional<Filters>& filters, int threads,
+             std::uint64_t seed, int samples, ShapeVerdict& out) {
     out.width = grey.width;
     out.height = grey.height;
     out.score = weighted(out.excess); // no excess: a Gaussian texture's score
-    if (grey.width < 16 || grey.height < 16) return out;
+    if (grey.width < 16 || grey.height < 16) return;
 
     const auto fft = RealFft2d::get(grey.width, grey.height);
     Spectrum spec(grey.width, grey.height);
     fft->forward(grey.data.data(), spec, threads);
     spec.row(0)[0] = 0; // the mean: no statistic sees it
-    const Filters filters(grey.width, grey.height);
-    out.exemplar = statistics_of(grey, spec, *fft, filters, threads);
+    out.exemplar = statistics_of(grey, spec, *fft, *filters, threads);
 
     // ADSN (TIP 2011, Theorem 2): the exemplar's spectrum times white noise's, over sqrt(|Omega|).
     const double n = static_cast<double>(grey.plane_size());
@@ -151,7 +140,7 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
         Spectrum copy = z;
         fft->inverse(copy, sample.data.data(), threads);
         for (float& v : sample.data) v /= static_cast<float>(n);
-        null.push_back(statistics_of(sample, z, *fft, filters, threads));
+        null.push_back(statistics_of(sample, z, *fft, *filters, threads));
     }
     for (double ShapeStatistics::*field : {&ShapeStatistics::tensor, &ShapeStatistics::tv,
                                            &ShapeStatistics::lines, &ShapeStatistics::specks}) {
@@ -166,6 +155,42 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
     // Values past float's range (an EXR of 1e20s) overflow the tensor: no measurement, as for a
     // tiny image, rather than a NaN that no JSON reader takes back.
     if (!std::isfinite(out.score)) out.score = weighted(ShapeStatistics{});
+}
+
+} // namespace
+
+TextureKind shape_kind(double score) {
+    if (score > kShapeBand) return TextureKind::macro;
+    return score > -kShapeBand ? TextureKind::borderline : TextureKind::micro;
+}
+
+TextureKind ShapeVerdict::kind() const {
+    return shape_kind(score);
+}
+
+ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int samples) {
+    samples = std::max(samples, 1);
+    ShapeVerdict out;
+    out.factor = std::max(1, std::min(u.width, u.height) / 256);
+    const Image whole = periodic_component(grey_level(box_reduce(u, out.factor)), threads);
+    std::optional<Filters> filters;
+    if (whole.width >= 16 && whole.height >= 16) filters.emplace(whole.width, whole.height);
+    measure(whole, filters, threads, seed, samples, out);
+    out.scales.push_back({out.factor, out.score});
+    if (out.factor == 1) return out;
+    // The centred part of the same size at full resolution: shapes a few pixels across, which
+    // the reduction blurs into specks. Photographed grain is as sharp there, so this scale must
+    // clear kFineScaleOffset more (core/README.md "Micro or macro", "Two scales").
+    ShapeVerdict fine;
+    fine.factor = 1;
+    measure(periodic_component(grey_level(centred_part(u, out.width, out.height)), threads),
+            filters, threads, seed, samples, fine);
+    out.scales.push_back({1, fine.score});
+    fine.score -= kFineScaleOffset;
+    if (fine.score > out.score) {
+        fine.scales = std::move(out.scales);
+        return fine;
+    }
     return out;
 }
 

@@ -11,7 +11,10 @@ bool is_windowed(int width, int height, int side) {
 
 Image working_window(const Image& u, int side) {
     if (!is_windowed(u.width, u.height, side)) return {};
-    const int w = std::min(u.width, side), h = std::min(u.height, side);
+    return centred_part(u, std::min(u.width, side), std::min(u.height, side));
+}
+
+Image centred_part(const Image& u, int w, int h) {
     const int x0 = (u.width - w) / 2, y0 = (u.height - h) / 2;
     Image out(w, h, u.channels);
     for (int c = 0; c < u.channels; ++c)

@@ -15,6 +15,9 @@ inline constexpr int kWorkingSide = 1024;
 // Whether an exemplar of this size is analysed through a window (`side` 0: never).
 bool is_windowed(int width, int height, int side = kWorkingSide);
 
+// The centred w x h part of u (w <= u.width, h <= u.height).
+Image centred_part(const Image& u, int w, int h);
+
 // The centred window of at most `side` x `side` pixels; empty when u fits (or `side` is 0), so
 // that callers use u itself without a copy.
 Image working_window(const Image& u, int side = kWorkingSide);

@@ -1,13 +1,15 @@
 // Candidate statistics for the micro/macro verdict: the four the verdict reads (tensor, tv,
-// lines, specks) and 17 more. At a second scale (_s2: filters twice as wide); of other moments
+// lines, specks) and 21 more. At a second scale (_s2: filters twice as wide); of other moments
 // (|skewness| of the speck bands, kurtosis of the gradient's magnitude and of the bands' local
 // energy, the correlation of that energy across scales); over other windows (tensor_wide: the
 // tensor integrated at sigma 8; tv_fine and tv_coarse: box reductions by 2 and 8); and, added
 // after the fourth corpus was scored, at the finest scale (tensor_fine: gradient at sigma 0.5,
 // integrated at sigma 1; tv_full: no reduction; ridge and ridge_fine: the Hessian's anisotropy
-// at sigma 1 and 0.5, 1 on thin lines and saddles, 0 on round blobs). Each is measured on the
-// exemplar and on 8 ADSN syntheses of its model (the verdict's own null, same seeds) and printed
-// as its excess over their mean, one row a texture; a crop that does not decode is named on
+// at sigma 1 and 0.5, 1 on thin lines and saddles, 0 on round blobs); and with the verdict's
+// second scale, the cross-scale phase (phase, phase_s2 an octave lower; phase_line and
+// phase_edge, its imaginary and real parts). Each is measured on the exemplar and on 8 ADSN
+// syntheses of its model (the verdict's own null, same seeds) and printed as its excess over
+// their mean, one row a texture; a crop that does not decode is named on
 // stderr and the exit status is 1. tests/verdict/fit_verdict.py --candidates chooses among them
 // (core/README.md "Micro or macro" says what was chosen, and why the verdict kept its own).
 //   verdict_candidates CORPUS_DIR...
@@ -19,8 +21,10 @@
 #include "server/io/image_io.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -78,14 +82,37 @@ double correlation(const std::vector<float>& a, const std::vector<float>& b) {
 const char* const kNames[] = {
     "tensor",   "tv",         "lines",       "specks",      "tensor_s2", "tv_fine", "tv_coarse",
     "lines_s2", "specks_s2",  "skew",        "skew_s2",     "envcorr",   "envkurt", "envkurt_s2",
-    "gradkurt", "lines_mean", "tensor_wide", "tensor_fine", "tv_full",   "ridge",   "ridge_fine"};
+    "gradkurt", "lines_mean", "tensor_wide", "tensor_fine", "tv_full",   "ridge",   "ridge_fine",
+    "phase",    "phase_s2",   "phase_line",  "phase_edge"};
 constexpr int kCount = sizeof(kNames) / sizeof(kNames[0]);
 
 struct Filters {
     Transfer gx1, gy1, gx2, gy2, gxh, gyh, g1, g2, g4, g8, dog1, dog2;
     Transfer hxx1, hyy1, hxy1, hxxh, hyyh, hxyh; // Hessian at sigma 1 and 0.5
     std::vector<Transfer> lines2, lines1;
+    // Complex oriented band-pass pairs (even, odd) at centre frequencies pi/2, pi/4, pi/8.
+    std::vector<Transfer> even[3], odd[3];
     Filters(int w, int h) {
+        for (int sc = 0; sc < 3; ++sc) {
+            const double w0 = kPi / (2 << sc);
+            for (int k = 0; k < 4; ++k) {
+                const double th = kPi * k / 4, c = std::cos(th), s = std::sin(th);
+                auto band = [=](double wx, double wy) {
+                    const double r = std::hypot(wx, wy);
+                    if (r <= 0) return 0.0;
+                    const double l = std::log(r / w0) / std::log(2.0);
+                    const double cosang = (wx * c + wy * s) / r;
+                    return std::exp(-0.5 * l * l / 0.36) * cosang * cosang;
+                };
+                even[sc].push_back(core::sampled_transfer(w, h, [=](double wx, double wy) {
+                    return cfloat(static_cast<float>(band(wx, wy)), 0.0f);
+                }));
+                odd[sc].push_back(core::sampled_transfer(w, h, [=](double wx, double wy) {
+                    const double sg = (wx * c + wy * s) >= 0 ? 1.0 : -1.0;
+                    return cfloat(0.0f, static_cast<float>(-sg * band(wx, wy)));
+                }));
+            }
+        }
         auto grad = [&](bool along_x, double s) {
             return core::sampled_transfer(w, h, [=](double wx, double wy) {
                 return cfloat(0.0f, static_cast<float>(core::gaussian_response(wx, wy, s) *
@@ -160,6 +187,38 @@ double ridge(const core::Spectrum& spec, const core::RealFft2d& fft, const Trans
     return den > 0 ? num / den : 0.0;
 }
 
+// Cross-scale phase (Portilla and Simoncelli, IJCV 2000, Section 3.2): the fine band's
+// correlation with the coarse band's phase doubled, |E[c_f conj(c_c^2 / |c_c|)]| over
+// sqrt(E|c_f|^2 E|c_c|^2), mean over orientations. 0 in expectation for any Gaussian field (odd
+// in u); edges and lines align the phases. Returns {|.|, |imag|, |real|}.
+std::array<double, 3> cross_phase(const core::Spectrum& spec, const core::RealFft2d& fft,
+                                  const Filters& f, int fine) {
+    std::array<double, 3> out{0, 0, 0};
+    for (int k = 0; k < 4; ++k) {
+        const auto ef = core::filtered(spec, fft, 1, f.even[fine][k]),
+                   of = core::filtered(spec, fft, 1, f.odd[fine][k]),
+                   ec = core::filtered(spec, fft, 1, f.even[fine + 1][k]),
+                   oc = core::filtered(spec, fft, 1, f.odd[fine + 1][k]);
+        double re = 0, im = 0, pf = 0, pc = 0;
+        for (std::size_t i = 0; i < ef.size(); ++i) {
+            const std::complex<double> cf(ef[i], of[i]), cc(ec[i], oc[i]);
+            const double m = std::abs(cc);
+            pf += std::norm(cf);
+            pc += m * m;
+            if (m <= 0) continue;
+            const std::complex<double> x = cf * std::conj(cc * cc / m);
+            re += x.real();
+            im += x.imag();
+        }
+        const double den = std::sqrt(pf * pc);
+        if (den <= 0) continue;
+        out[0] += std::hypot(re, im) / den / 4;
+        out[1] += std::abs(im) / den / 4;
+        out[2] += std::abs(re) / den / 4;
+    }
+    return out;
+}
+
 double tv_at(const core::Image& grey, int f) {
     if (grey.width < 2 * f || grey.height < 2 * f) return 0.0;
     return core::coherence_of(core::sharpness_index(core::box_reduce(grey, f), 1, true));
@@ -214,6 +273,11 @@ std::vector<double> candidates(const core::Image& grey, const core::Spectrum& sp
     c[14] = tv_at(grey, 1);
     c[15] = ridge(spec, fft, f.hxx1, f.hyy1, f.hxy1);
     c[16] = ridge(spec, fft, f.hxxh, f.hyyh, f.hxyh);
+    const auto p0 = cross_phase(spec, fft, f, 0), p1 = cross_phase(spec, fft, f, 1);
+    c[17] = p0[0];
+    c[18] = p1[0];
+    c[19] = p0[1];
+    c[20] = p0[2];
     return all;
 }
 

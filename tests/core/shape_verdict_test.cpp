@@ -1,6 +1,7 @@
 // The micro/macro verdict (core/shape_verdict.h): a Gaussian texture has no excess over its ADSN
 // null, the verdict is the same on any thread count, the shared photos keep the kinds of
-// ../shared/data/exemplars/README.md, and drawn shapes are macro; with the diagnosis of why the
+// ../shared/data/exemplars/README.md, drawn shapes are macro at one scale or the other and their
+// random-phase syntheses micro at both; with the diagnosis of why the
 // phase coherence index called a repeated motif micro (core/README.md "Micro or macro").
 #include "core/phase_coherence.h"
 #include "core/random.h"
@@ -62,11 +63,22 @@ TEST(ShapeVerdict, SameOnAnyThreadCountAndSeeded) {
     EXPECT_EQ(one.score, two.score);
     EXPECT_NE(core::shape_verdict(u, 2, /*seed=*/1).score, two.score); // the null is drawn
     EXPECT_EQ(one.factor, 1);
-    EXPECT_EQ(core::shape_verdict(load_exemplar("skimage_brick.png"), 2).factor, 2); // 512
+    EXPECT_EQ(one.scales.size(), 1u); // 256: one scale
+    // 512: the whole by 2, and its centred 256 x 256 at full resolution.
+    const core::ShapeVerdict brick = core::shape_verdict(load_exemplar("skimage_brick.png"), 2);
+    ASSERT_EQ(brick.scales.size(), 2u);
+    EXPECT_EQ(brick.scales[0].factor, 2);
+    EXPECT_EQ(brick.scales[1].factor, 1);
+    EXPECT_EQ(brick.width, 256);
+    const double best =
+        std::max(brick.scales[0].score, brick.scales[1].score - core::kFineScaleOffset);
+    EXPECT_EQ(brick.score, best);
+    EXPECT_EQ(brick.factor, best == brick.scales[0].score ? 2 : 1);
 }
 
 // The nine shared photos keep their kinds (README: brick and pave are macro, the rest micro;
-// measured scores: brick +15.2, pave +8.7; grass -0.27 is the closest to the band).
+// measured scores: brick +19.4 at full resolution, pave +8.6; grass -0.27 is the closest to the
+// band, its full resolution -0.61 after the offset).
 TEST(ShapeVerdict, TheSharedPhotosKeepTheirKinds) {
     for (const char* name :
          {"skimage_gravel.png", "etr_floor01.png", "etr_pebbles04.png", "skimage_grass.png",
@@ -95,17 +107,45 @@ TEST(ShapeVerdict, DiagnosisARepeatedMotifFoldsAwayInThePhaseCoherenceScales) {
 }
 
 // Drawn shapes the phase coherence index called micro or macro by accident of the scales: bricks
-// (index -0.016, micro) and a print of period 64 are macro; white noise is micro. A print of period
-// 32 at 1024 pixels is still called micro (core/README.md: its dots are 4 pixels wide at the
-// measured scale, where the statistics read them as specks).
+// (index -0.016, micro) and prints of period 64 and 32 are macro; white noise is micro. The print
+// of period 32 at 1024 pixels is read at full resolution: reduced by 4, its dots are 4 pixels wide
+// and the whole scores about -21 (specks); its centred 256 x 256 part scores about +26.
 TEST(ShapeVerdict, DrawnShapesAreMacroAndNoiseIsMicro) {
     EXPECT_EQ(core::phase_coherence(drawn(1024, bricks), 2).kind(), core::TextureKind::micro);
     EXPECT_EQ(core::shape_verdict(drawn(1024, bricks), 2).kind(), core::TextureKind::macro);
     EXPECT_EQ(core::shape_verdict(drawn(1024, spots64), 2).kind(), core::TextureKind::macro);
+    const core::ShapeVerdict print = core::shape_verdict(drawn(1024, spots32), 2);
+    EXPECT_EQ(print.kind(), core::TextureKind::macro);
+    ASSERT_EQ(print.scales.size(), 2u);
+    EXPECT_EQ(print.scales[0].factor, 4);
+    EXPECT_LT(print.scales[0].score, -core::kShapeBand); // the reduced whole alone: micro
+    EXPECT_EQ(print.factor, 1);
     core::Rng rng(9);
     core::Image noise(512, 512, 1);
     for (float& v : noise.data) v = static_cast<float>(rng.normal());
     EXPECT_EQ(core::shape_verdict(noise, 2).kind(), core::TextureKind::micro);
+}
+
+// A random-phase synthesis keeps a texture's spectrum and loses its shapes: the full resolution
+// sees none in the prints' and the bricks' syntheses at 1024 x 1024 (each scores below the band
+// before the offset is taken), and the verdict calls them micro. One exception, at the reduced
+// whole and so as before the second scale: the ADSN synthesis of the period-32 print scores about
+// +3 there (its RPN synthesis -6.6). Reduced by 4, the print is a lattice of period 8 with a few
+// harmonics; the synthesis draws their amplitudes once, and the verdict's null a second time.
+TEST(ShapeVerdict, RandomPhaseSynthesesOfDrawnShapesAreMicroAtFullResolution) {
+    for (auto f : {spots32, spots64, bricks}) {
+        const core::Image u = drawn(1024, f);
+        for (auto method : {core::SpectralMethod::rpn, core::SpectralMethod::adsn}) {
+            const core::ShapeVerdict v = core::shape_verdict(
+                core::synthesize_from_exemplar(u, method, u.width, u.height, 3), 2);
+            ASSERT_EQ(v.scales.size(), 2u);
+            EXPECT_LT(v.scales[1].score, -core::kShapeBand) << v.scales[1].score;
+            if (f == spots32 && method == core::SpectralMethod::adsn)
+                EXPECT_GT(v.scales[0].score, core::kShapeBand); // the exception above
+            else
+                EXPECT_EQ(v.kind(), core::TextureKind::micro) << v.scales[0].score;
+        }
+    }
 }
 
 TEST(ShapeVerdict, FlatAndTinyImagesAreMicro) {

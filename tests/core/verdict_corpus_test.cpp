@@ -1,6 +1,7 @@
-// The micro/macro verdict (core/shape_verdict.h) on its four labelled corpora (tests/verdict/,
-// and its shapes/, third/ and fourth/): the held-out halves of the last three, the fit set as
-// fitted, and random-phase textures. Labels and splits were fixed before any score.
+// The micro/macro verdict (core/shape_verdict.h) on its five labelled corpora (tests/verdict/,
+// and its shapes/, third/, fourth/ and fifth/): the held-out halves of the shapes, third and
+// fourth corpora and the fifth whole, the fit set as fitted, and random-phase textures. Labels and
+// splits were fixed before any score.
 #include "core/shape_verdict.h"
 #include "core/spectral_synthesis.h"
 #include "server/io/image_io.h"
@@ -47,7 +48,7 @@ std::vector<Labelled> read_corpus(const std::string& dir, const std::string& cor
 const std::vector<Labelled>& corpus() {
     static const std::vector<Labelled> all = [] {
         auto out = read_corpus(TEXTOND_VERDICT_CORPUS, "first");
-        for (const char* c : {"shapes", "third", "fourth"})
+        for (const char* c : {"shapes", "third", "fourth", "fifth"})
             for (auto& l : read_corpus(std::string(TEXTOND_VERDICT_CORPUS) + "/" + c, c))
                 out.push_back(std::move(l));
         return out;
@@ -128,11 +129,8 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
     EXPECT_EQ(fourth["micro fit"], 48);
     EXPECT_EQ(fourth["micro held-out"], 48);
     EXPECT_EQ(fourth["borderline fit"] + fourth["borderline held-out"], 24);
-    // The fifth corpus, labelled and held out whole for the next choice: counted, never scored
-    // here (corpus() leaves it out, so no test computes its verdict).
-    std::map<std::string, int> fifth;
-    for (const Labelled& l : read_corpus(std::string(TEXTOND_VERDICT_CORPUS) + "/fifth", "fifth"))
-        ++fifth[l.label + " " + l.half];
+    // The fifth corpus, labelled and held out whole, before the second scale was chosen.
+    auto& fifth = count["fifth"];
     EXPECT_EQ(fifth["macro held-out"], 12);
     EXPECT_EQ(fifth["micro held-out"], 71);
     EXPECT_EQ(fifth["borderline held-out"], 9);
@@ -195,6 +193,19 @@ TEST(VerdictCorpus, HeldOutHalfOfTheFourthCorpus) {
     EXPECT_LE(t.macro_called_micro, 9);
 }
 
+// The fifth corpus, held out whole and scored once, after the second scale was chosen on the
+// native sources of the first four (core/README.md "Two scales"). Its crops are 256 pixels, so
+// they have one scale and the verdict on them is the one before; the README reports its native
+// sources too (66 of 71 micro, 8 of 12 macro, 4 macro called micro). Floors of what the crops
+// reached: 67 of 71 micro (the 90% target is met), 8 of 12 macro (missed: 11 would be 92%), 4
+// macro called micro (missed).
+TEST(VerdictCorpus, TheFifthCorpusHeldOutWhole) {
+    const Tally t = held_out_half("fifth");
+    EXPECT_GE(t.micro_right, 67);
+    EXPECT_GE(t.macro_right, 8);
+    EXPECT_LE(t.macro_called_micro, 4);
+}
+
 // The fit set is sorted as the fit found it (fit_verdict.py: 90 of 95 micro and 82 of 91 macro
 // right): moving a weight or the band breaks this.
 TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
@@ -204,7 +215,7 @@ TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
 }
 
 // A Gaussian texture has no shapes to lose: a random-phase synthesis of every macro texture of
-// the four corpora is called micro, RPN and ADSN (with a seed the null does not use) in turn.
+// the five corpora is called micro, RPN and ADSN (with a seed the null does not use) in turn.
 // One synthesis a texture, not both: the fourth corpus's 51 macro textures fit in the time both
 // took for the first three's 261.
 TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
@@ -219,5 +230,5 @@ TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
         EXPECT_EQ(v.kind(), core::TextureKind::micro) << l.name << " " << v.score;
         ++n;
     }
-    EXPECT_EQ(n, 40 + 101 + 120 + 51);
+    EXPECT_EQ(n, 40 + 101 + 120 + 51 + 12);
 }

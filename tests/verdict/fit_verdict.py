@@ -23,13 +23,23 @@ three corpora, had kept the verdict unchanged.
   tests/verdict/fit_verdict.py - --candidates candidates.tsv shared.tsv
 
 The refit study (core/README.md "Micro or macro"): forward selection over verdict_candidates'
-21 statistics on every texture of the corpora given (a statistic joins while it adds at least
+25 statistics on every texture of the corpora given (a statistic joins while it adds at least
 0.005 of cross-validated balanced accuracy), then each refit, with a band keeping 90% or 92% of
 each class (band_of), compared with the unchanged verdict on those textures and on the nine
 shared photos (a target: they keep their kinds). Run on the first three corpora before the
 fourth was scored, and on all four after. SHARED is a directory holding corpus.tsv (name,
 label, half) and corpus/NAME.jpg, a link to each photo (the decoder reads a PNG by its
 content), as the commands above make it; the kinds are ../shared/data/exemplars/README.md's.
+
+The second scale's offset (core/README.md "Two scales"; scales_study below; needs SHARED
+above, and about 7 GB of packages in build/verdict/):
+
+  for c in tests/verdict tests/verdict/shapes tests/verdict/third tests/verdict/fourth \
+      tests/verdict/fifth; do tests/verdict/make_corpus.py native --corpus $c; done
+  N=build/verdict/native
+  build/release/tests/verdict_scales $N/verdict $N/shapes $N/third $N/fourth $N/fifth SHARED \
+      > scales.tsv
+  tests/verdict/fit_verdict.py --scales scales.tsv
 
 1. Candidate sets of statistics (each one's excess over its ADSN null), nested in the order the
    statistics separate the fit set alone; each scored by balanced accuracy under 5-fold
@@ -293,7 +303,61 @@ def refit_study(path, shared_path):
                     verdicts(m, cols, lo, hi, shared))
 
 
+def scales_study(path):
+    """kFineScaleOffset: the full resolution's score, less this, against the reduced whole's.
+    Reads verdict_scales' table over the corpora's native sources and the shared photos (half
+    "shared"). Fit: every corpus but the fifth (all have been seen), borderline not scored;
+    among offsets on a 0.25 grid from 0 to 6 that keep every shared photo's kind, the one with
+    the best balanced accuracy, the largest of equals (a finer scale needs more evidence). Held
+    out: the fifth corpus, reported once with the offset chosen and with one scale."""
+    with open(path) as f:
+        rows = [r for r in csv.DictReader(f, delimiter="\t")]
+    for r in rows:
+        r["s"] = [float(x.split(":")[1]) for x in r["scales"].split(",")]
+    band = shipped()[1]
+
+    def verdict(r, d):
+        return kind(max([r["s"][0]] + [v - d for v in r["s"][1:]]), band)
+
+    shared = [r for r in rows if r["half"] == "shared"]
+    fifth = [r for r in rows if r["corpus"].rstrip("/").endswith("fifth")]
+    fit = [r for r in rows if r not in shared and r not in fifth and r["label"] != "borderline"]
+    two = sum(len(r["s"]) > 1 for r in fit)
+    print(f"## Fit: {len(fit)} native sources ({two} measured at two scales), "
+          f"{len(shared)} shared photos\n")
+    print("| offset | micro right | macro right | macro called micro | balanced | shared photos off |")
+    print("|---|---|---|---|---|---|")
+    best = None
+    for d in [k / 4 for k in range(0, 25)] + [math.inf]:
+        right = {lab: sum(verdict(r, d) == lab for r in fit if r["label"] == lab)
+                 for lab in ("micro", "macro")}
+        n = {lab: sum(r["label"] == lab for r in fit) for lab in ("micro", "macro")}
+        called = sum(verdict(r, d) == "micro" for r in fit if r["label"] == "macro")
+        acc = (right["micro"] / n["micro"] + right["macro"] / n["macro"]) / 2
+        off = [r["name"] for r in shared if verdict(r, d) != r["label"]]
+        if d == math.inf or d in (0.0,) or d % 0.5 == 0 or not off:
+            print(f"| {'one scale' if d == math.inf else d} | {right['micro']} of {n['micro']} | "
+                  f"{right['macro']} of {n['macro']} | {called} | {acc:.3f} | "
+                  f"{', '.join(off) or 'none'} |")
+        if not off and d != math.inf and (best is None or acc >= best[0]):
+            best = (acc, d)
+    d = best[1]
+    held = re.search(r"kFineScaleOffset = ([0-9.]+);", open(HEADER).read()).group(1)
+    print(f"\nChosen: kFineScaleOffset = {d} (core/shape_verdict.h holds {held})")
+    print("\n## Held out: the fifth corpus's native sources, with the offset chosen\n")
+    confusion(fifth, lambda r: verdict(r, d))
+    print("\nWith one scale (the verdict before):\n")
+    confusion(fifth, lambda r: verdict(r, math.inf))
+    for label, k in (("macro", "micro"), ("micro", "macro"), ("macro", "borderline"),
+                     ("micro", "borderline")):
+        print(f"{label} called {k}:", [r["name"] for r in fifth
+                                      if r["label"] == label and verdict(r, d) == k])
+
+
 def main():
+    if "--scales" in sys.argv:
+        scales_study(sys.argv[sys.argv.index("--scales") + 1])
+        return
     if "--candidates" in sys.argv:
         i = sys.argv.index("--candidates")
         refit_study(sys.argv[i + 1], sys.argv[i + 2])
