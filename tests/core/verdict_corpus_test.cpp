@@ -48,7 +48,7 @@ std::vector<Labelled> read_corpus(const std::string& dir, const std::string& cor
 const std::vector<Labelled>& corpus() {
     static const std::vector<Labelled> all = [] {
         auto out = read_corpus(TEXTOND_VERDICT_CORPUS, "first");
-        for (const char* c : {"shapes", "third", "fourth", "fifth"})
+        for (const char* c : {"shapes", "third", "fourth", "fifth", "sixth"})
             for (auto& l : read_corpus(std::string(TEXTOND_VERDICT_CORPUS) + "/" + c, c))
                 out.push_back(std::move(l));
         return out;
@@ -135,6 +135,12 @@ TEST(VerdictCorpus, HasTheDocumentedLabelsAndSplit) {
     EXPECT_EQ(fifth["micro held-out"], 71);
     EXPECT_EQ(fifth["borderline held-out"], 9);
     EXPECT_EQ(fifth.size(), 3u);
+    // The sixth, labelled and held out whole after the second scale was chosen.
+    auto& sixth = count["sixth"];
+    EXPECT_EQ(sixth["macro held-out"], 41);
+    EXPECT_EQ(sixth["micro held-out"], 11);
+    EXPECT_EQ(sixth["borderline held-out"], 6);
+    EXPECT_EQ(sixth.size(), 3u);
 }
 
 void report(const char* what, const Tally& t) {
@@ -215,7 +221,7 @@ TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
 }
 
 // A Gaussian texture has no shapes to lose: a random-phase synthesis of every macro texture of
-// the five corpora is called micro, RPN and ADSN (with a seed the null does not use) in turn.
+// the six corpora is called micro, RPN and ADSN (with a seed the null does not use) in turn.
 // One synthesis a texture, not both: the fourth corpus's 51 macro textures fit in the time both
 // took for the first three's 261.
 TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
@@ -230,5 +236,5 @@ TEST(VerdictCorpus, EveryRandomPhaseVersionOfAMacroTextureIsMicro) {
         EXPECT_EQ(v.kind(), core::TextureKind::micro) << l.name << " " << v.score;
         ++n;
     }
-    EXPECT_EQ(n, 40 + 101 + 120 + 51 + 12);
+    EXPECT_EQ(n, 40 + 101 + 120 + 51 + 12 + 41);
 }
