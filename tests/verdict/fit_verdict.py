@@ -35,10 +35,11 @@ The second scale's offset (core/README.md "Two scales"; scales_study below; need
 above, and about 7 GB of packages in build/verdict/):
 
   for c in tests/verdict tests/verdict/shapes tests/verdict/third tests/verdict/fourth \
-      tests/verdict/fifth; do tests/verdict/make_corpus.py native --corpus $c; done
+      tests/verdict/fifth tests/verdict/sixth; do tests/verdict/make_corpus.py native --corpus $c
+  done
   N=build/verdict/native
-  build/release/tests/verdict_scales $N/verdict $N/shapes $N/third $N/fourth $N/fifth SHARED \
-      > scales.tsv
+  build/release/tests/verdict_scales $N/verdict $N/shapes $N/third $N/fourth $N/fifth $N/sixth \
+      SHARED > scales.tsv
   tests/verdict/fit_verdict.py --scales scales.tsv
 
 1. Candidate sets of statistics (each one's excess over its ADSN null), nested in the order the
@@ -306,10 +307,11 @@ def refit_study(path, shared_path):
 def scales_study(path):
     """kFineScaleOffset: the full resolution's score, less this, against the reduced whole's.
     Reads verdict_scales' table over the corpora's native sources and the shared photos (half
-    "shared"). Fit: every corpus but the fifth (all have been seen), borderline not scored;
-    among offsets on a 0.25 grid from 0 to 6 that keep every shared photo's kind, the one with
-    the best balanced accuracy, the largest of equals (a finer scale needs more evidence). Held
-    out: the fifth corpus, reported once with the offset chosen and with one scale."""
+    "shared"). Fit: the first four corpora (all have been seen), borderline not scored; among
+    offsets on a 0.25 grid from 0 to 6 that keep every shared photo's kind, the one with the
+    best balanced accuracy, the largest of equals (a finer scale needs more evidence). Held out:
+    the fifth corpus and the sixth, drawn after the choice, each reported once with the offset
+    chosen and with one scale."""
     with open(path) as f:
         rows = [r for r in csv.DictReader(f, delimiter="\t")]
     for r in rows:
@@ -320,8 +322,9 @@ def scales_study(path):
         return kind(max([r["s"][0]] + [v - d for v in r["s"][1:]]), band)
 
     shared = [r for r in rows if r["half"] == "shared"]
-    fifth = [r for r in rows if r["corpus"].rstrip("/").endswith("fifth")]
-    fit = [r for r in rows if r not in shared and r not in fifth and r["label"] != "borderline"]
+    held = {c: [r for r in rows if r["corpus"].rstrip("/").endswith(c)] for c in ("fifth", "sixth")}
+    fit = [r for r in rows if r not in shared and all(r not in h for h in held.values())
+           and r["label"] != "borderline"]
     two = sum(len(r["s"]) > 1 for r in fit)
     print(f"## Fit: {len(fit)} native sources ({two} measured at two scales), "
           f"{len(shared)} shared photos\n")
@@ -342,16 +345,19 @@ def scales_study(path):
         if not off and d != math.inf and (best is None or acc >= best[0]):
             best = (acc, d)
     d = best[1]
-    held = re.search(r"kFineScaleOffset = ([0-9.]+);", open(HEADER).read()).group(1)
-    print(f"\nChosen: kFineScaleOffset = {d} (core/shape_verdict.h holds {held})")
-    print("\n## Held out: the fifth corpus's native sources, with the offset chosen\n")
-    confusion(fifth, lambda r: verdict(r, d))
-    print("\nWith one scale (the verdict before):\n")
-    confusion(fifth, lambda r: verdict(r, math.inf))
-    for label, k in (("macro", "micro"), ("micro", "macro"), ("macro", "borderline"),
-                     ("micro", "borderline")):
-        print(f"{label} called {k}:", [r["name"] for r in fifth
-                                      if r["label"] == label and verdict(r, d) == k])
+    in_header = re.search(r"kFineScaleOffset = ([0-9.]+);", open(HEADER).read()).group(1)
+    print(f"\nChosen: kFineScaleOffset = {d} (core/shape_verdict.h holds {in_header})")
+    for corpus, part in held.items():
+        if not part:
+            continue
+        print(f"\n## Held out: the {corpus} corpus's native sources, with the offset chosen\n")
+        confusion(part, lambda r: verdict(r, d))
+        print("\nWith one scale (the verdict before):\n")
+        confusion(part, lambda r: verdict(r, math.inf))
+        for label, k in (("macro", "micro"), ("micro", "macro"), ("macro", "borderline"),
+                         ("micro", "borderline")):
+            print(f"{label} called {k}:", [r["name"] for r in part
+                                          if r["label"] == label and verdict(r, d) == k])
 
 
 def main():
