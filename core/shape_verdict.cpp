@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <vector>
 
 namespace textond::core {
@@ -110,20 +109,15 @@ double weighted(const ShapeStatistics& e) {
     return w.bias + w.tensor * e.tensor + w.tv * e.tv + w.lines * e.lines + w.specks * e.specks;
 }
 
-// The verdict of one measured image: its statistics, their excess over its ADSN null, the score.
-// `filters` are sampled for its size, once for both scales.
-void measure(const Image& grey, const std::optional<Filters>& filters, int threads,
-             std::uint64_t seed, int samples, ShapeVerdict& out) {
-    out.width = grey.width;
-    out.height = grey.height;
-    out.score = weighted(out.excess); // no excess: a Gaussian texture's score
-    if (grey.width < 16 || grey.height < 16) return;
-
+// The verdict of one measured image, at least 16 pixels a side: its statistics, their excess
+// over its ADSN null, the score. `filters` are sampled for its size, once for both scales.
+void measure(const Image& grey, const Filters& filters, int threads, std::uint64_t seed,
+             int samples, ShapeVerdict& out) {
     const auto fft = RealFft2d::get(grey.width, grey.height);
     Spectrum spec(grey.width, grey.height);
     fft->forward(grey.data.data(), spec, threads);
     spec.row(0)[0] = 0; // the mean: no statistic sees it
-    out.exemplar = statistics_of(grey, spec, *fft, *filters, threads);
+    out.exemplar = statistics_of(grey, spec, *fft, filters, threads);
 
     // ADSN (TIP 2011, Theorem 2): the exemplar's spectrum times white noise's, over sqrt(|Omega|).
     const double n = static_cast<double>(grey.plane_size());
@@ -140,7 +134,7 @@ void measure(const Image& grey, const std::optional<Filters>& filters, int threa
         Spectrum copy = z;
         fft->inverse(copy, sample.data.data(), threads);
         for (float& v : sample.data) v /= static_cast<float>(n);
-        null.push_back(statistics_of(sample, z, *fft, *filters, threads));
+        null.push_back(statistics_of(sample, z, *fft, filters, threads));
     }
     for (double ShapeStatistics::*field : {&ShapeStatistics::tensor, &ShapeStatistics::tv,
                                            &ShapeStatistics::lines, &ShapeStatistics::specks}) {
@@ -173,8 +167,14 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
     ShapeVerdict out;
     out.factor = std::max(1, std::min(u.width, u.height) / 256);
     const Image whole = periodic_component(grey_level(box_reduce(u, out.factor)), threads);
-    std::optional<Filters> filters;
-    if (whole.width >= 16 && whole.height >= 16) filters.emplace(whole.width, whole.height);
+    out.width = whole.width;
+    out.height = whole.height;
+    out.score = weighted(out.excess); // no excess: a Gaussian texture's score
+    if (whole.width < 16 || whole.height < 16) {
+        out.scales.push_back({out.factor, out.score});
+        return out;
+    }
+    const Filters filters(whole.width, whole.height);
     measure(whole, filters, threads, seed, samples, out);
     out.scales.push_back({out.factor, out.score});
     if (out.factor == 1) return out;
@@ -183,6 +183,8 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
     // clear kFineScaleOffset more (core/README.md "Micro or macro", "Two scales").
     ShapeVerdict fine;
     fine.factor = 1;
+    fine.width = out.width;
+    fine.height = out.height;
     measure(periodic_component(grey_level(centred_part(u, out.width, out.height)), threads),
             filters, threads, seed, samples, fine);
     out.scales.push_back({1, fine.score});

@@ -17,8 +17,8 @@
 //           which the noise blurs without a viewer naming a lost shape (its weight is negative).
 //
 // The statistics are in pixels of the exemplar box-reduced until its short side is under 512
-// (a 1024 x 1024 analysis window by 4), of its grey level's periodic component; past 512 pixels
-// a side, also of its centred part of that size at full resolution (kFineScaleOffset below).
+// (a 1024 x 1024 analysis window by 4), of its grey level's periodic component; from 512 pixels
+// on the short side, also of its centred part of that size at full resolution (kFineScaleOffset).
 // core/README.md "Micro or macro" says how they, the weights and the offset were chosen, and how
 // often they are right.
 #include "core/image.h"
@@ -42,11 +42,12 @@ struct ShapeWeights {
     double bias, tensor, tv, lines, specks;
 };
 inline constexpr ShapeWeights kShapeWeights{-3.961463, 30.263934, 42.790682, 3.830087, -8.386317};
-// Past 512 pixels a side the verdict also measures the centred part of the exemplar at full
-// resolution, as large as the reduced whole, where shapes a few pixels across are still shapes,
-// and keeps the higher score of the two after taking this from the full resolution's: there
-// photographed grain is sharp too. Chosen on the native sources of the first four corpora with
-// the nine shared photos kept micro or macro (tests/verdict/fit_verdict.py --scales).
+// From 512 pixels on the short side the verdict also measures the centred part of the exemplar
+// at full resolution, as large as the reduced whole, where shapes a few pixels across are still
+// shapes, and keeps the higher score of the two after taking this from the full resolution's:
+// there photographed grain is sharp too. Chosen on the native sources of the first four
+// corpora with the nine shared photos kept micro or macro (tests/verdict/fit_verdict.py
+// --scales).
 inline constexpr double kFineScaleOffset = 2.0;
 // micro at or below -kShapeBand, macro above +kShapeBand, borderline between.
 inline constexpr double kShapeBand = 0.25;

@@ -64,16 +64,22 @@ TEST(ShapeVerdict, SameOnAnyThreadCountAndSeeded) {
     EXPECT_NE(core::shape_verdict(u, 2, /*seed=*/1).score, two.score); // the null is drawn
     EXPECT_EQ(one.factor, 1);
     EXPECT_EQ(one.scales.size(), 1u); // 256: one scale
-    // 512: the whole by 2, and its centred 256 x 256 at full resolution.
-    const core::ShapeVerdict brick = core::shape_verdict(load_exemplar("skimage_brick.png"), 2);
+    // 512: the whole by 2 (+15.2), and its centred 256 x 256 at full resolution (+21.4), which
+    // wins after the offset; the same bits on one thread and on two.
+    const core::Image photo = load_exemplar("skimage_brick.png");
+    const core::ShapeVerdict brick = core::shape_verdict(photo, 2);
+    const core::ShapeVerdict brick1 = core::shape_verdict(photo, 1);
     ASSERT_EQ(brick.scales.size(), 2u);
+    ASSERT_EQ(brick1.scales.size(), 2u);
     EXPECT_EQ(brick.scales[0].factor, 2);
     EXPECT_EQ(brick.scales[1].factor, 1);
+    for (int k = 0; k < 2; ++k) EXPECT_EQ(brick.scales[k].score, brick1.scales[k].score);
+    EXPECT_NEAR(brick.scales[0].score, 15.2, 0.1);
+    EXPECT_NEAR(brick.scales[1].score, 21.4, 0.1);
+    EXPECT_EQ(brick.factor, 1);
+    EXPECT_EQ(brick.score, brick.scales[1].score - core::kFineScaleOffset);
     EXPECT_EQ(brick.width, 256);
-    const double best =
-        std::max(brick.scales[0].score, brick.scales[1].score - core::kFineScaleOffset);
-    EXPECT_EQ(brick.score, best);
-    EXPECT_EQ(brick.factor, best == brick.scales[0].score ? 2 : 1);
+    EXPECT_EQ(brick.height, 256);
 }
 
 // The nine shared photos keep their kinds (README: brick and pave are macro, the rest micro;
@@ -104,6 +110,35 @@ TEST(ShapeVerdict, DiagnosisARepeatedMotifFoldsAwayInThePhaseCoherenceScales) {
     EXPECT_NEAR(pc.scales[1].coherence, 1.0 - std::sqrt(3.14159265 / 2), 0.02); // 64: Nyquist
     EXPECT_EQ(pc.scales[2].si.mean, 0.0);                                       // 32: flat
     EXPECT_EQ(pc.kind(), core::TextureKind::micro);
+}
+
+// The scales by size: a short side of 512-767 pixels is reduced by 2, 768-1023 by 3, and the
+// centred part at full resolution is as large as the reduced whole, square or not. Values past
+// float's range give a finite score at both scales.
+TEST(ShapeVerdict, TheSecondScaleByShape) {
+    core::Rng rng(4);
+    auto noise = [&](int w, int h) {
+        core::Image u(w, h, 1);
+        for (float& v : u.data) v = static_cast<float>(rng.normal());
+        return u;
+    };
+    const core::ShapeVerdict wide = core::shape_verdict(noise(2000, 600), 2);
+    ASSERT_EQ(wide.scales.size(), 2u);
+    EXPECT_EQ(wide.scales[0].factor, 2);
+    EXPECT_EQ(wide.width, 1000);
+    EXPECT_EQ(wide.height, 300);
+    EXPECT_EQ(wide.kind(), core::TextureKind::micro);
+    const core::ShapeVerdict three = core::shape_verdict(noise(800, 900), 2);
+    ASSERT_EQ(three.scales.size(), 2u);
+    EXPECT_EQ(three.scales[0].factor, 3);
+    EXPECT_EQ(three.width, 266);
+    EXPECT_EQ(three.kind(), core::TextureKind::micro);
+    EXPECT_EQ(core::shape_verdict(noise(511, 700), 2).scales.size(), 1u); // short side 511
+    core::Image huge = noise(512, 512);
+    for (float& v : huge.data) v *= 1e30f;
+    const core::ShapeVerdict far = core::shape_verdict(huge, 2);
+    EXPECT_TRUE(std::isfinite(far.score));
+    for (const core::ShapeScale& sc : far.scales) EXPECT_TRUE(std::isfinite(sc.score));
 }
 
 // Drawn shapes the phase coherence index called micro or macro by accident of the scales: bricks
@@ -150,6 +185,9 @@ TEST(ShapeVerdict, RandomPhaseSynthesesOfDrawnShapesAreMicroAtFullResolution) {
 
 TEST(ShapeVerdict, FlatAndTinyImagesAreMicro) {
     EXPECT_EQ(core::shape_verdict(core::Image(64, 64, 3, 0.5f)).kind(), core::TextureKind::micro);
+    const core::ShapeVerdict flat = core::shape_verdict(core::Image(600, 600, 1, 0.5f), 2);
+    EXPECT_EQ(flat.scales.size(), 2u);
+    EXPECT_EQ(flat.kind(), core::TextureKind::micro);
     const core::ShapeVerdict tiny = core::shape_verdict(core::Image(8, 8, 1, 0.2f));
     EXPECT_EQ(tiny.score, core::kShapeWeights.bias);
     EXPECT_EQ(tiny.kind(), core::TextureKind::micro);

@@ -309,9 +309,12 @@ def scales_study(path):
     Reads verdict_scales' table over the corpora's native sources and the shared photos (half
     "shared"). Fit: the first four corpora (all have been seen), borderline not scored; among
     offsets on a 0.25 grid from 0 to 6 that keep every shared photo's kind, the one with the
-    best balanced accuracy, the largest of equals (a finer scale needs more evidence). Held out:
-    the fifth corpus and the sixth, drawn after the choice, each reported once with the offset
-    chosen and with one scale."""
+    best balanced accuracy, the largest of equals (a finer scale needs more evidence). Held out,
+    fitted on by no choice: the fifth corpus (drawn before the choice) and the sixth (drawn
+    after it), each reported with the offset chosen and with one scale. Each corpus is known by
+    its directory's name (make_corpus.py native names it so); a table without both held-out
+    corpora or without the shared photos is refused, so that neither joins the fit set by a
+    name."""
     with open(path) as f:
         rows = [r for r in csv.DictReader(f, delimiter="\t")]
     for r in rows:
@@ -322,7 +325,13 @@ def scales_study(path):
         return kind(max([r["s"][0]] + [v - d for v in r["s"][1:]]), band)
 
     shared = [r for r in rows if r["half"] == "shared"]
-    held = {c: [r for r in rows if r["corpus"].rstrip("/").endswith(c)] for c in ("fifth", "sixth")}
+    held = {c: [r for r in rows if os.path.basename(r["corpus"].rstrip("/")) == c]
+            for c in ("fifth", "sixth")}
+    for c, part in held.items():
+        if not part:
+            sys.exit(f"{path}: no rows of the {c} corpus (a directory named {c})")
+    if not shared:
+        sys.exit(f"{path}: no shared photos (half 'shared')")
     fit = [r for r in rows if r not in shared and all(r not in h for h in held.values())
            and r["label"] != "borderline"]
     two = sum(len(r["s"]) > 1 for r in fit)
@@ -348,8 +357,6 @@ def scales_study(path):
     in_header = re.search(r"kFineScaleOffset = ([0-9.]+);", open(HEADER).read()).group(1)
     print(f"\nChosen: kFineScaleOffset = {d} (core/shape_verdict.h holds {in_header})")
     for corpus, part in held.items():
-        if not part:
-            continue
         print(f"\n## Held out: the {corpus} corpus's native sources, with the offset chosen\n")
         confusion(part, lambda r: verdict(r, d))
         print("\nWith one scale (the verdict before):\n")

@@ -7,7 +7,7 @@
   tests/verdict/make_corpus.py tints   [--corpus DIR] [--against DIR]  # pairs: one a tint
   tests/verdict/make_corpus.py native  [--corpus DIR]            # sources as the service sees them
 
-DIR is tests/verdict (the first corpus), tests/verdict/shapes, third, fourth or fifth; its
+DIR is tests/verdict (the first corpus), tests/verdict/shapes, third, fourth, fifth or sixth; its
 corpus.tsv names each texture's package, version, path (ARCHIVE:MEMBER inside a pk3) and
 licence, and its label (DIR/LABELLING.md says how labels were given) and half of the split. A crop is the source
 scaled (box filter) so that its short side is 256, then its centred 256 x 256, saved as JPEG
@@ -15,9 +15,9 @@ quality 92; the verdict is computed on these crops. `draw` prints the candidates
 picked from (DIR/draws.json: packages, seeds, keyword filter, and "after": corpora whose
 candidates are never drawn again), one TSV row each, with the licence its package's
 debian/copyright gives the file. `tints` prints every pair of the corpus's crops whose 48 x 48
-grey levels correlate above 0.9, the rule by which the fourth and fifth corpora dropped the same
-image in another tint (none are left in either), and with --against the pairs with another
-corpus's crops (none between the fifth and the fourth). `native` writes each source as the
+grey levels correlate above 0.9, the rule by which the fourth, fifth and sixth corpora dropped
+the same image in another tint (none are left in any), and with --against the pairs with
+another corpus's crops (none between the fifth and the fourth, nor the sixth and any earlier). `native` writes each source as the
 service analyses it (its centred 1024 x 1024 window when larger, core/working_window.h) to
 build/verdict/native/NAME_OF_DIR/corpus/NAME.png with a corpus.tsv, for the verdict's two
 scales (build/release/tests/verdict_scales, fit_verdict.py --scales). Needs apt-get, dpkg-deb, unzip and
