@@ -47,13 +47,7 @@ bool MixStore::contains(const std::string& id) {
 
 void MixStore::forget(const std::string& id) {
     std::lock_guard<std::mutex> lock(m_mutex);
-    for (auto it = m_lru.begin(); it != m_lru.end();)
-        if (it->id == id) {
-            m_bytes -= it->bytes;
-            it = m_lru.erase(it);
-        } else {
-            ++it;
-        }
+    m_kept.erase(id);
 }
 
 Result<bool> MixStore::remove(const std::string& id) {
@@ -66,12 +60,7 @@ Result<bool> MixStore::remove(const std::string& id) {
 
 std::optional<MixStore::Entry> MixStore::kept(const std::string& id) {
     std::lock_guard<std::mutex> lock(m_mutex);
-    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-        if (it->id == id) {
-            m_lru.splice(m_lru.begin(), m_lru, it);
-            return *it;
-        }
-    return std::nullopt;
+    return m_kept.get(id);
 }
 
 Result<MixStore::Entry> MixStore::load(const std::string& id) {
@@ -133,18 +122,7 @@ Result<MixStore::Entry> MixStore::load_files(const std::string& id) {
     std::lock_guard<std::mutex> lock(m_mutex);
     // Deleted while it loaded (remove() erases the files, then forgets): not kept, not served.
     if (!m_shared.held(id)) return make_error(ErrorCode::not_found, "no mix " + id + " (deleted)");
-    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-        if (it->id == id) { // kept meanwhile (a creation's load): once is enough
-            m_bytes -= it->bytes;
-            m_lru.erase(it);
-            break;
-        }
-    m_lru.push_front(e);
-    m_bytes += e.bytes;
-    while (m_lru.size() > 1 && (m_lru.size() > kCapacity || m_bytes > kBudgetBytes)) {
-        m_bytes -= m_lru.back().bytes;
-        m_lru.pop_back();
-    }
+    m_kept.put(e); // in place of one kept meanwhile (a creation's load)
     return e;
 }
 

@@ -6,12 +6,12 @@
 #include "core/result.h"
 #include "render/prepared_mix.h"
 #include "server/io/mix_file.h"
+#include "server/store/bounded_lru.h"
 #include "server/store/load_limit.h"
 #include "server/store/shared_objects.h"
 #include "server/store/single_flight.h"
 
 #include <chrono>
-#include <list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -55,8 +55,7 @@ private:
     SharedObjects m_shared;
     mutable std::mutex m_mutex;
     std::vector<std::string> m_quarantined;
-    std::list<Entry> m_lru; // front = most recent
-    std::size_t m_bytes = 0;
+    BoundedLru<Entry> m_kept{kCapacity, kBudgetBytes}; // prepared, in memory
     SingleFlight<Result<Entry>> m_loads;
     LoadLimit m_limit{1}; // one mask decoded at a time (16 bytes a pixel, 256 MiB at most)
     static constexpr std::chrono::seconds kLoadWait{30};

@@ -44,12 +44,7 @@ bool SplatStore::contains(const std::string& id) {
 
 void SplatStore::forget(const std::string& id) {
     std::lock_guard<std::mutex> lock(m_mutex);
-    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-        if (it->id == id) {
-            m_bytes -= it->bytes;
-            m_lru.erase(it);
-            return;
-        }
+    m_kept.erase(id);
 }
 
 Result<bool> SplatStore::remove(const std::string& id) {
@@ -129,12 +124,7 @@ std::optional<Error> SplatStore::layers_stored(const api::SplatMeta& meta) {
 
 std::optional<SplatStore::Entry> SplatStore::kept(const std::string& id) {
     std::lock_guard<std::mutex> lock(m_mutex);
-    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-        if (it->id == id) {
-            m_lru.splice(m_lru.begin(), m_lru, it);
-            return *it;
-        }
-    return std::nullopt;
+    return m_kept.get(id);
 }
 
 Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
@@ -191,18 +181,7 @@ Result<SplatStore::Entry> SplatStore::load_files(const std::string& id) {
     // Deleted while it loaded (remove() erases the files, then forgets): not kept, not served.
     if (!m_shared.held(id))
         return make_error(ErrorCode::not_found, "no splat " + id + " (deleted)");
-    for (auto it = m_lru.begin(); it != m_lru.end(); ++it)
-        if (it->id == id) { // kept meanwhile (a creation's load): once is enough
-            m_bytes -= it->bytes;
-            m_lru.erase(it);
-            break;
-        }
-    m_lru.push_front(e);
-    m_bytes += e.bytes;
-    while (m_lru.size() > 1 && (m_lru.size() > kCapacity || m_bytes > kBudgetBytes)) {
-        m_bytes -= m_lru.back().bytes;
-        m_lru.pop_back();
-    }
+    m_kept.put(e); // in place of one kept meanwhile (a creation's load)
     return e;
 }
 

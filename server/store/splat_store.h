@@ -9,13 +9,13 @@
 #include "core/result.h"
 #include "render/prepared_splat.h"
 #include "server/io/splat_file.h"
+#include "server/store/bounded_lru.h"
 #include "server/store/load_limit.h"
 #include "server/store/shared_objects.h"
 #include "server/store/single_flight.h"
 #include "server/store/texton_store.h"
 
 #include <chrono>
-#include <list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -66,8 +66,7 @@ private:
     mutable std::mutex m_mutex;
     std::mutex m_put_mutex;
     std::vector<std::string> m_quarantined;
-    std::list<Entry> m_lru; // front = most recent
-    std::size_t m_bytes = 0;
+    BoundedLru<Entry> m_kept{kCapacity, kBudgetBytes}; // prepared, in memory
     SingleFlight<Result<Entry>> m_loads;
     LoadLimit m_limit{1}; // one splat's weight images decoded at a time (192 MiB at most)
     static constexpr std::chrono::seconds kLoadWait{30};
