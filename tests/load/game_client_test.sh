@@ -7,6 +7,8 @@
 # Environment: BIN, EXEMPLAR, RING (2), CONNECTIONS (8), REVALIDATE_FRAMES (20).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=tests/load/server_url.sh
+. "$here/server_url.sh"
 root=$(cd "$here/../.." && pwd)
 FRAMES=${1:-120}
 BIN=${BIN:-$root/build/release/textond}
@@ -24,8 +26,7 @@ cleanup() {
 trap cleanup EXIT
 "$BIN" serve --port 0 --data "$tmp/data" --backend cpu --no-access-log --log-level warn >"$tmp/log" 2>&1 &
 pid=$!
-for _ in $(seq 100); do grep -q "listening on" "$tmp/log" && break; sleep 0.1; done
-server=$(sed -n 's/.*listening on \(http:[^ ]*\)\/$/\1/p' "$tmp/log")
+server=$(server_url "$tmp/log") || { cat "$tmp/log"; exit 1; }
 edge_port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
 LOAD_TEST=1 "$root/deploy/local/edge-files.sh" "$tmp/edge" "127.0.0.1:$edge_port" "${server#http://}"
 /usr/sbin/nginx -p "$tmp/edge" -c "$tmp/edge/nginx.conf"

@@ -12,6 +12,8 @@
 # the per-request log line, to a file), SERVER_ARGS (more `serve` flags).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=tests/load/server_url.sh
+. "$here/server_url.sh"
 [ "${1:-}" = --replicas ] && exec "$here/replicas_test.sh"
 root=$(cd "$here/../.." && pwd)
 DURATION=${DURATION:-20s}
@@ -35,9 +37,7 @@ if [ -z "${URL:-}" ]; then
     # shellcheck disable=SC2086
     "$BIN" serve --port 0 --data "$data" "${access[@]}" ${SERVER_ARGS:-} >"$log" 2>&1 &
     server_pid=$!
-    for _ in $(seq 100); do grep -q "listening on" "$log" && break; sleep 0.1; done
-    URL=$(sed -n 's/.*listening on \(http:[^ ]*\)\/$/\1/p' "$log")
-    [ -n "$URL" ] || { cat "$log"; exit 1; }
+    URL=$(server_url "$log") || { cat "$log"; exit 1; }
 fi
 pid=${server_pid:-$(pgrep -f "textond serve" | head -1 || true)}
 

@@ -15,6 +15,8 @@
 # one exemplar with different analysis seeds), CACHE_MB (64, each replica), EXEMPLAR, BIN.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=tests/load/server_url.sh
+. "$here/server_url.sh"
 root=$(cd "$here/../.." && pwd)
 DURATION=${DURATION:-20s}
 SOAK=${SOAK:-60s}
@@ -55,8 +57,8 @@ for r in a b; do
         --cache-mb "$CACHE_MB" --no-access-log --log-level warn >"$tmp/$r.log" 2>&1 &
     pids+=($!)
     replica_pids+=($!)
-    for _ in $(seq 100); do grep -q "listening on" "$tmp/$r.log" && break; sleep 0.1; done
-    urls+=("$(sed -n 's/.*listening on \(http:[^ ]*\)\/$/\1/p' "$tmp/$r.log")")
+    url=$(server_url "$tmp/$r.log") || { cat "$tmp/$r.log"; exit 1; }
+    urls+=("$url")
 done
 
 # The edge config as deployed, with local paths, port and replicas; its cache is used only when

@@ -7,6 +7,8 @@
 # Environment: BIN, EXEMPLAR, CONNECTIONS (256), DURATION (5s).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
+# shellcheck source=tests/load/server_url.sh
+. "$here/server_url.sh"
 root=$(cd "$here/../.." && pwd)
 BACKENDS=${1:-cpu osmesa}
 BIN=${BIN:-$root/build/release/textond}
@@ -29,13 +31,8 @@ for backend in $BACKENDS; do
     "$BIN" serve --port 0 --data "$tmp/data-$backend" --backend "$backend" --no-access-log \
         --log-level warn --queue-timeout-ms 60000 >"$tmp/log-$backend" 2>&1 &
     pid=$!
-    url=""
-    for _ in $(seq 300); do
-        url=$(sed -n 's/.*listening on \(http:[^ ]*\)\/$/\1/p' "$tmp/log-$backend")
-        [ -n "$url" ] && break
-        sleep 0.1
-    done
-    [ -n "$url" ] || fail "$backend: the server did not start: $(cat "$tmp/log-$backend")"
+    url=$(server_url "$tmp/log-$backend" 300) ||
+        fail "$backend: the server did not start: $(cat "$tmp/log-$backend")"
     id=$(curl -sf -X POST -H 'Content-Type: image/png' --data-binary "@$EXEMPLAR" \
         "$url/v1/textons?size=32" | python3 -c 'import json,sys; print(json.load(sys.stdin)["id"])')
     line=$(TEXTON=$id MODE=cold SEED=$RANDOM wrk -t 2 -c "$CONNECTIONS" -d "$DURATION" \
