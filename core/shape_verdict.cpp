@@ -53,21 +53,6 @@ struct Filters {
     }
 };
 
-double log_kurtosis_ratio(const std::vector<float>& b) {
-    double m1 = 0;
-    for (float v : b) m1 += v;
-    m1 /= static_cast<double>(b.size());
-    double m2 = 0, m4 = 0;
-    for (float v : b) {
-        const double d = v - m1, s = d * d;
-        m2 += s;
-        m4 += s * s;
-    }
-    m2 /= static_cast<double>(b.size());
-    m4 /= static_cast<double>(b.size());
-    return m2 > 0 ? std::log(m4 / (m2 * m2) / 3.0) : 0.0;
-}
-
 // Structure tensor anisotropy: gradient (central differences) at sigma 1, tensor at sigma 2.
 double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, const Filters& f,
                          int threads) {
@@ -80,12 +65,12 @@ double tensor_anisotropy(const Spectrum& spec, const RealFft2d& fft, const Filte
 double line_kurtosis(const Spectrum& spec, const RealFft2d& fft, const Filters& f, int threads) {
     double best = -1e300;
     for (const Transfer& t : f.lines)
-        best = std::max(best, log_kurtosis_ratio(filtered(spec, fft, threads, t)));
+        best = std::max(best, band_moments(filtered(spec, fft, threads, t)).log_kurtosis);
     return best;
 }
 
 double speck_kurtosis(const Spectrum& spec, const RealFft2d& fft, const Filters& f, int threads) {
-    return log_kurtosis_ratio(filtered(spec, fft, threads, f.speck));
+    return band_moments(filtered(spec, fft, threads, f.speck)).log_kurtosis;
 }
 
 double tv_coherence(const Image& grey) {

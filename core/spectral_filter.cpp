@@ -53,4 +53,23 @@ double structure_tensor_anisotropy(const std::vector<float>& gx, const std::vect
     return trace > 0 ? anisotropy / trace : 0.0;
 }
 
+BandMoments band_moments(const std::vector<float>& field) {
+    double m1 = 0;
+    for (float v : field) m1 += v;
+    m1 /= static_cast<double>(field.size());
+    double m2 = 0, m3 = 0, m4 = 0;
+    for (float v : field) {
+        const double d = v - m1, s = d * d;
+        m2 += s;
+        m3 += s * d;
+        m4 += s * s;
+    }
+    const double n = static_cast<double>(field.size());
+    m2 /= n;
+    m3 /= n;
+    m4 /= n;
+    if (m2 <= 0) return {};
+    return {m3 / std::pow(m2, 1.5), std::log(m4 / (m2 * m2) / 3.0)};
+}
+
 } // namespace textond::core

@@ -42,4 +42,11 @@ std::vector<float> filtered(const std::vector<float>& field, const RealFft2d& ff
 double structure_tensor_anisotropy(const std::vector<float>& gx, const std::vector<float>& gy,
                                    const RealFft2d& fft, int threads, const Transfer& window);
 
+// A filtered field's skewness and log(kurtosis / 3), 0 for a Gaussian field's; both 0 for a
+// flat one.
+struct BandMoments {
+    double skew = 0, log_kurtosis = 0;
+};
+BandMoments band_moments(const std::vector<float>& field);
+
 } // namespace textond::core

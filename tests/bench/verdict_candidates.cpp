@@ -40,28 +40,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-struct Moments {
-    double skew = 0, log_kurt = 0;
-};
-Moments moments(const std::vector<float>& b) {
-    double m1 = 0;
-    for (float v : b) m1 += v;
-    m1 /= static_cast<double>(b.size());
-    double m2 = 0, m3 = 0, m4 = 0;
-    for (float v : b) {
-        const double d = v - m1;
-        m2 += d * d;
-        m3 += d * d * d;
-        m4 += d * d * d * d;
-    }
-    const double n = static_cast<double>(b.size());
-    m2 /= n;
-    m3 /= n;
-    m4 /= n;
-    if (m2 <= 0) return {};
-    return {m3 / std::pow(m2, 1.5), std::log(m4 / (m2 * m2) / 3.0)};
-}
-
 double correlation(const std::vector<float>& a, const std::vector<float>& b) {
     double ma = 0, mb = 0;
     for (std::size_t i = 0; i < a.size(); ++i) {
@@ -230,24 +208,24 @@ std::vector<double> candidates(const core::Image& grey, const core::Spectrum& sp
     const auto gx1 = core::filtered(spec, fft, 1, f.gx1), gy1 = core::filtered(spec, fft, 1, f.gy1);
     const auto gx2 = core::filtered(spec, fft, 1, f.gx2), gy2 = core::filtered(spec, fft, 1, f.gy2);
     const auto b1 = core::filtered(spec, fft, 1, f.dog1), b2 = core::filtered(spec, fft, 1, f.dog2);
-    const Moments m1 = moments(b1), m2 = moments(b2);
+    const core::BandMoments m1 = core::band_moments(b1), m2 = core::band_moments(b2);
     // The verdict's four statistics before this choice (core/README "Micro or macro").
     all[0] = core::structure_tensor_anisotropy(gx1, gy1, fft, 1, f.g2);
     all[1] = tv_at(grey, 4);
     double widest = -1e300;
     for (const auto& t : f.lines1)
-        widest = std::max(widest, moments(core::filtered(spec, fft, 1, t)).log_kurt);
+        widest = std::max(widest, core::band_moments(core::filtered(spec, fft, 1, t)).log_kurtosis);
     all[2] = widest;
-    all[3] = m1.log_kurt;
+    all[3] = m1.log_kurtosis;
     double* c = all.data() + 4;
     c[0] = core::structure_tensor_anisotropy(gx2, gy2, fft, 1, f.g4);
     c[1] = tv_at(grey, 2);
     c[2] = tv_at(grey, 8);
     double best = -1e300;
     for (const auto& t : f.lines2)
-        best = std::max(best, moments(core::filtered(spec, fft, 1, t)).log_kurt);
+        best = std::max(best, core::band_moments(core::filtered(spec, fft, 1, t)).log_kurtosis);
     c[3] = best;
-    c[4] = m2.log_kurt;
+    c[4] = m2.log_kurtosis;
     c[5] = std::abs(m1.skew);
     c[6] = std::abs(m2.skew);
     std::vector<float> e1(b1.size()), e2(b2.size());
@@ -257,15 +235,16 @@ std::vector<double> candidates(const core::Image& grey, const core::Spectrum& sp
     }
     const auto s1 = core::filtered(e1, fft, 1, f.g2), s2 = core::filtered(e2, fft, 1, f.g4);
     c[7] = correlation(s1, s2);
-    c[8] = moments(s1).log_kurt;
-    c[9] = moments(s2).log_kurt;
+    c[8] = core::band_moments(s1).log_kurtosis;
+    c[9] = core::band_moments(s2).log_kurtosis;
     std::vector<float> mag(gx1.size());
     for (std::size_t i = 0; i < gx1.size(); ++i)
         mag[i] = std::sqrt(gx1[i] * gx1[i] + gy1[i] * gy1[i]);
-    c[10] = moments(mag).log_kurt;
+    c[10] = core::band_moments(mag).log_kurtosis;
     // The line filter's kurtosis averaged over orientations, not the largest: seams in a grid.
     double mean = 0;
-    for (const auto& t : f.lines1) mean += moments(core::filtered(spec, fft, 1, t)).log_kurt / 4.0;
+    for (const auto& t : f.lines1)
+        mean += core::band_moments(core::filtered(spec, fft, 1, t)).log_kurtosis / 4.0;
     c[11] = mean;
     c[12] = core::structure_tensor_anisotropy(gx1, gy1, fft, 1, f.g8);
     c[13] = core::structure_tensor_anisotropy(core::filtered(spec, fft, 1, f.gxh),
