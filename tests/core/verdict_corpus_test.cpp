@@ -223,6 +223,25 @@ TEST(VerdictCorpus, TheSixthCorpusHeldOutWhole) {
     EXPECT_LE(t.macro_called_micro, 4);
 }
 
+// The second scale on real textures: four of the fourth corpus's macro textures as the service
+// sees them (their 512 x 512 sources, tests/verdict/fourth/native/, JPEG quality 95), whose
+// shapes the reduction by 2 blurs away: at most borderline on the reduced whole (-2.2 to -0.2),
+// macro at full resolution (+3.5 to +4.5 before the offset). The corpus tests above read crops
+// of 256 pixels, which have one scale.
+TEST(VerdictCorpus, TheSecondScaleSeesSmallShapesOfTheFourthCorpus) {
+    for (const char* name : {"ad_bridge_wood_c", "ad_desert_city_tile_plaza",
+                             "ad_polar_ice_cracked", "ad_savanna_tile_a"}) {
+        auto u = io::decode_image_file(std::string(TEXTOND_VERDICT_CORPUS) + "/fourth/native/" +
+                                       name + ".jpg");
+        ASSERT_TRUE(u) << name;
+        const core::ShapeVerdict v = core::shape_verdict(u.value(), 2);
+        ASSERT_EQ(v.scales.size(), 2u) << name;
+        EXPECT_LE(v.scales[0].score, core::kShapeBand) << name;
+        EXPECT_EQ(v.factor, 1) << name;
+        EXPECT_EQ(v.kind(), core::TextureKind::macro) << name;
+    }
+}
+
 // The fit set is sorted as the fit found it (fit_verdict.py: 90 of 95 micro and 82 of 91 macro
 // right): moving a weight or the band breaks this.
 TEST(VerdictCorpus, FitSetIsSortedAsFitted) {
