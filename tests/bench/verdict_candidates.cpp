@@ -18,18 +18,14 @@
 #include "core/phase_coherence.h"
 #include "core/random.h"
 #include "core/spectral_filter.h"
-#include "server/io/image_io.h"
+#include "tests/bench/corpus_table.h"
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <complex>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 using namespace textond;
@@ -294,66 +290,18 @@ std::vector<double> excess_of(const core::Image& u) {
     return out;
 }
 
-struct Row {
-    std::string dir, name, label, half, line;
-};
-
 } // namespace
 
 int main(int argc, char** argv) {
-    std::vector<Row> rows;
-    for (int a = 1; a < argc; ++a) {
-        std::ifstream tsv(std::string(argv[a]) + "/corpus.tsv");
-        if (!tsv) {
-            std::fprintf(stderr, "no %s/corpus.tsv\n", argv[a]);
-            return 2;
+    std::string header;
+    for (const char* n : kNames) header += std::string("\t") + n;
+    return bench::corpus_table(argc, argv, header, [](const core::Image& u) {
+        std::string out;
+        char buf[32];
+        for (double v : excess_of(u)) {
+            std::snprintf(buf, sizeof buf, "\t%.5f", v);
+            out += buf;
         }
-        std::string line;
-        std::getline(tsv, line);
-        while (std::getline(tsv, line)) {
-            std::istringstream f(line);
-            Row r{argv[a], {}, {}, {}, {}};
-            std::getline(f, r.name, '\t');
-            std::getline(f, r.label, '\t');
-            std::getline(f, r.half, '\t');
-            rows.push_back(r);
-        }
-    }
-    std::atomic<std::size_t> next{0};
-    std::vector<std::thread> pool;
-    const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
-    for (unsigned t = 0; t < threads; ++t)
-        pool.emplace_back([&] {
-            for (std::size_t i; (i = next++) < rows.size();) {
-                Row& r = rows[i];
-                auto u = io::decode_image_file(r.dir + "/corpus/" + r.name + ".jpg");
-                if (!u) {
-                    r.line = "!" + u.error().message; // reported below: the study would be short
-                    continue;
-                }
-                std::ostringstream o;
-                o << r.dir << '\t' << r.name << '\t' << r.label << '\t' << r.half;
-                char buf[32];
-                for (double v : excess_of(u.value())) {
-                    std::snprintf(buf, sizeof buf, "\t%.5f", v);
-                    o << buf;
-                }
-                r.line = o.str();
-            }
-        });
-    for (auto& t : pool) t.join();
-    std::printf("corpus\tname\tlabel\thalf");
-    for (const char* n : kNames) std::printf("\t%s", n);
-    std::printf("\n");
-    int failed = 0;
-    for (const Row& r : rows) {
-        if (r.line.empty() || r.line[0] == '!') {
-            std::fprintf(stderr, "%s/corpus/%s.jpg: %s\n", r.dir.c_str(), r.name.c_str(),
-                         r.line.empty() ? "not measured" : r.line.c_str() + 1);
-            ++failed;
-        } else {
-            std::printf("%s\n", r.line.c_str());
-        }
-    }
-    return failed ? 1 : 0;
+        return out;
+    });
 }
