@@ -91,11 +91,16 @@ def source_file(row):
     return os.path.join(out, member)
 
 
+def is_colour(path):
+    """Whether the image has colour channels (3, or 4 with alpha), by oiiotool --info."""
+    info = subprocess.run(["oiiotool", "--info", path], capture_output=True, text=True).stdout
+    return ", 3 channel" in info or ", 4 channel" in info
+
+
 def crop(row, corpus):
     src = source_file(row)
     w, h = (int(v) for v in row["source_size"].split("x"))
-    info = subprocess.run(["oiiotool", "--info", src], capture_output=True, text=True).stdout
-    ch = "R,G,B" if (", 3 channel" in info or ", 4 channel" in info) else "0"
+    ch = "R,G,B" if is_colour(src) else "0"
     short = min(w, h)
     nw, nh = w * 256 // short, h * 256 // short
     args = ["oiiotool", src, "--ch", ch]
@@ -110,8 +115,7 @@ def native(row, out):
     """The source as the service analyses it: its centred 1024 x 1024 window when larger."""
     src = source_file(row)
     w, h = (int(v) for v in row["source_size"].split("x"))
-    info = subprocess.run(["oiiotool", "--info", src], capture_output=True, text=True).stdout
-    ch = "R,G,B" if (", 3 channel" in info or ", 4 channel" in info) else "0"
+    ch = "R,G,B" if is_colour(src) else "0"
     args = ["oiiotool", src, "--ch", ch]
     if w > 1024 or h > 1024:
         cw, chh = min(w, 1024), min(h, 1024)
@@ -132,8 +136,7 @@ def pair(row, corpus, textond):
                     "--seed", "1", "-o", syn], check=True, capture_output=True)
     rgb = []
     for p in (ex, syn):
-        info = subprocess.run(["oiiotool", "--info", p], capture_output=True, text=True).stdout
-        rgb.append("R,G,B" if ", 3 channel" in info else "0,0,0")
+        rgb.append("R,G,B" if is_colour(p) else "0,0,0")
     caption = f"{row['label'] or '?':10} {row['name']}"
     subprocess.run(["oiiotool", ex, "--ch", rgb[0], "--resize", "160x160", syn, "--ch", rgb[1],
                     "--resize", "160x160", "--mosaic:pad=2", "2x1", "--crop", "322x182+0+0",
