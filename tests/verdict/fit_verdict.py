@@ -332,8 +332,8 @@ def scales_study(path):
             sys.exit(f"{path}: no rows of the {c} corpus (a directory named {c})")
     if not shared:
         sys.exit(f"{path}: no shared photos (half 'shared')")
-    fit = [r for r in rows if r not in shared and all(r not in h for h in held.values())
-           and r["label"] != "borderline"]
+    left_out = {id(r) for part in [shared, *held.values()] for r in part}
+    fit = [r for r in rows if id(r) not in left_out and r["label"] != "borderline"]
     two = sum(len(r["s"]) > 1 for r in fit)
     print(f"## Fit: {len(fit)} native sources ({two} measured at two scales), "
           f"{len(shared)} shared photos\n")
@@ -347,7 +347,7 @@ def scales_study(path):
         called = sum(verdict(r, d) == "micro" for r in fit if r["label"] == "macro")
         acc = (right["micro"] / n["micro"] + right["macro"] / n["macro"]) / 2
         off = [r["name"] for r in shared if verdict(r, d) != r["label"]]
-        if d == math.inf or d in (0.0,) or d % 0.5 == 0 or not off:
+        if d == math.inf or d % 0.5 == 0 or not off:
             print(f"| {'one scale' if d == math.inf else d} | {right['micro']} of {n['micro']} | "
                   f"{right['macro']} of {n['macro']} | {called} | {acc:.3f} | "
                   f"{', '.join(off) or 'none'} |")
