@@ -35,24 +35,42 @@ std::shared_ptr<const PreparedTexton> calibration_texton() {
     return t;
 }
 
-template <class F> Result<double> median_ms(F&& f) {
-    double ms[3];
-    for (double& m : ms) {
-        const auto t0 = std::chrono::steady_clock::now();
+// A GPU raises its clock only under sustained load: the first rounds of a short measurement run at
+// its idle clock (render/BENCHMARKS.md: 345-660 MHz of 1980 on an H100, where the tiles measured
+// 13x slower than the same GPU served them). So `f` is repeated until it has run for `least_ms`
+// and kSettled rounds in a row have not beaten the best by 5%, or for `most_ms`; the best round
+// counts. A CPU settles in the first rounds.
+constexpr int kSettled = 3;
+
+struct Settled {
+    double ms = 0;
+    int rounds = 0;
+};
+
+template <class F> Result<Settled> settled_ms(double least_ms, double most_ms, F&& f) {
+    using clock = std::chrono::steady_clock;
+    const auto start = clock::now();
+    Settled out;
+    for (int since_best = 0;;) {
+        const auto t0 = clock::now();
         if (auto e = f()) return *e;
-        m = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                .count();
+        const auto t1 = clock::now();
+        const double ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+        const double spent = std::chrono::duration<double, std::milli>(t1 - start).count();
+        since_best = out.rounds == 0 || ms < 0.95 * out.ms ? 0 : since_best + 1;
+        out.ms = out.rounds == 0 ? ms : std::min(out.ms, ms);
+        ++out.rounds;
+        if (spent >= most_ms || (spent >= least_ms && since_best >= kSettled)) return out;
     }
-    std::sort(ms, ms + 3);
-    return ms[1];
 }
 
 std::string figures_text(const std::vector<Calibration>& figures) {
     std::string s;
     for (const auto& f : figures) {
         char buf[160];
-        std::snprintf(buf, sizeof buf, "%s%s 16 tiles %.1f ms, HD frame %.1f ms",
-                      s.empty() ? "" : "; ", f.backend.c_str(), f.tile_ms, f.frame_ms);
+        std::snprintf(buf, sizeof buf, "%s%s 16 tiles %.1f ms (%d rounds), HD frame %.1f ms (%d)",
+                      s.empty() ? "" : "; ", f.backend.c_str(), f.tile_ms, f.tile_rounds,
+                      f.frame_ms, f.frame_rounds);
         s += buf;
     }
     return s;
@@ -84,7 +102,8 @@ Result<Calibration> calibrate(const std::vector<Backend*>& tile_workers, Backend
         if (auto warm = render(*w, tile)) return *warm;
     // Sixteen tiles on every worker at once: one batch a lane on GL, one after another on each
     // CPU slot, so a GPU's lanes overlap and the CPU's slots share the cores as when serving.
-    auto sixteen = median_ms([&]() -> std::optional<Error> {
+    const double least_ms = quick ? 0 : 400, most_ms = quick ? 1000 : 3000;
+    auto sixteen = settled_ms(least_ms, most_ms, [&]() -> std::optional<Error> {
         const std::size_t n = tile_workers.size();
         std::vector<std::optional<Error>> errors(n);
         std::vector<std::vector<NoiseRequest>> qs(n, std::vector<NoiseRequest>(16, tile));
@@ -108,11 +127,13 @@ Result<Calibration> calibrate(const std::vector<Backend*>& tile_workers, Backend
         return std::nullopt;
     });
     if (!sixteen) return sixteen.error();
-    auto whole = median_ms([&] { return render(frames, frame); });
+    auto whole = settled_ms(least_ms, most_ms, [&] { return render(frames, frame); });
     if (!whole) return whole.error();
     out.tile_ms =
-        sixteen.value() / static_cast<double>(std::max<std::size_t>(1, tile_workers.size()));
-    out.frame_ms = whole.value();
+        sixteen.value().ms / static_cast<double>(std::max<std::size_t>(1, tile_workers.size()));
+    out.tile_rounds = sixteen.value().rounds;
+    out.frame_ms = whole.value().ms;
+    out.frame_rounds = whole.value().rounds;
     return out;
 }
 

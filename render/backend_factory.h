@@ -49,12 +49,14 @@ std::vector<std::shared_ptr<GlBackend>> make_gl_lanes(std::shared_ptr<GlBackend>
                                                       const BackendOptions& options,
                                                       std::string* failure = nullptr);
 
-// What the calibration of `auto` measured for one backend (milliseconds, median of 3).
+// What the calibration of `auto` measured for one backend (milliseconds, the best round once the
+// rounds settle: calibrate below).
 struct Calibration {
     std::string backend;
     double tile_ms = 0;  // sixteen 256x256 8-bit tiles, as one batch (the CPU: one thread each,
                          // divided by the tiles it renders at once)
     double frame_ms = 0; // one 1920x1080 frame (the CPU: every thread)
+    int tile_rounds = 0, frame_rounds = 0; // how many times each was measured
 };
 
 struct BackendChoice {
@@ -70,6 +72,9 @@ struct BackendChoice {
 // The calibration set: sixteen tiles on each of `tile_workers` at once, one thread each, as the
 // server renders them (the CPU: one worker a render slot; GL: one a lane), and the frame on
 // `frames`. tile_ms is the wall time over the workers: sixteen tiles' share of the throughput.
+// Each is repeated until it settles (at least 400 ms and three rounds in a row no faster by 5%,
+// at most 3 s; quick: no least, at most 1 s), since a GPU idles at a fraction of its clock until
+// it has been busy a while; the best round counts.
 Result<Calibration> calibrate(const std::vector<Backend*>& tile_workers, Backend& frames,
                               bool quick = false);
 

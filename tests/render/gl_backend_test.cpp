@@ -779,9 +779,42 @@ TEST(BackendFactory, CalibrationRendersOnEveryWorkerAtOnce) {
     auto out = render::calibrate({&a, &b, &c, &c}, a, true);
     ASSERT_TRUE(out.ok()) << out.error().message;
     EXPECT_EQ(OverlapProbe::most.load(), 4); // the two slots of `c` too
-    // Warm-ups (the frame, then a tile on each worker), 3 x 16 tiles a worker, 3 frames.
-    EXPECT_EQ(OverlapProbe::renders.load(), 1 + 4 + 3 * 16 * 4 + 3);
-    EXPECT_GT(out.value().tile_ms, 0);
+    // Warm-ups (the frame, then a tile on each worker), 16 tiles a worker a round, a frame a
+    // round; at least the rounds that show a settled time.
+    const render::Calibration& got = out.value();
+    EXPECT_GE(got.tile_rounds, 4);
+    EXPECT_GE(got.frame_rounds, 4);
+    EXPECT_EQ(OverlapProbe::renders.load(), 1 + 4 + got.tile_rounds * 16 * 4 + got.frame_rounds);
+    EXPECT_GT(got.tile_ms, 0);
+}
+
+// A backend that renders like a GPU at its idle clock until it has been busy a while: its first
+// `slow` renders take 8 ms, the rest 1 ms.
+class ClockRamp final : public render::Backend {
+public:
+    explicit ClockRamp(int slow) : m_slow(slow) {}
+    std::string name() const override { return "ramp"; }
+    std::string renderer() const override { return "ramp"; }
+    Result<core::Image> render(const render::PreparedTexton&, const render::NoiseRequest& q,
+                               render::RenderStats* = nullptr) override {
+        std::this_thread::sleep_for(std::chrono::milliseconds(++m_calls <= m_slow ? 8 : 1));
+        return core::Image(q.width, q.height, 3);
+    }
+
+private:
+    int m_slow, m_calls = 0;
+};
+
+// The figure is the backend's once its clock has risen, not its idle clock's: 40 slow renders
+// are the warm-up and two and a half rounds of sixteen tiles, whose median the calibration took
+// before (128 ms where the settled round takes 16).
+TEST(BackendFactory, CalibrationWaitsForTheClockToRise) {
+    ClockRamp gpu(40), frames(3);
+    auto out = render::calibrate({&gpu}, frames, true);
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    EXPECT_GE(out.value().tile_rounds, 3 + 3); // past the ramp, then three no faster
+    EXPECT_LT(out.value().tile_ms, 3 * 16.0) << out.value().tile_rounds << " rounds";
+    EXPECT_LT(out.value().frame_ms, 3 * 1.0 + 2);
 }
 
 // The calibration itself, on whatever EGL finds (llvmpipe in CI): real figures for both
