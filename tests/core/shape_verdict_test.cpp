@@ -183,6 +183,33 @@ TEST(ShapeVerdict, RandomPhaseSynthesesOfDrawnShapesAreMicroAtFullResolution) {
     }
 }
 
+// Short sides of 768 to 1023 pixels are reduced by 3, a factor only one texture of the fit set had
+// (core/README.md "Two scales"): a print of period 24 (dots 12 pixels wide) at 800 and 1000
+// pixels scores about -26 and -9 reduced, +21 and +17 at full resolution, so macro; its RPN
+// synthesis is micro at both scales.
+TEST(ShapeVerdict, AReductionByThreeSeesSmallShapesAtFullResolution) {
+    const auto spots24 = [](int x, int y) {
+        const double dx = x % 24 - 12.0, dy = y % 24 - 12.0;
+        return dx * dx + dy * dy < 36.0 ? 1.0f : 0.0f;
+    };
+    for (int n : {800, 1000}) {
+        core::Image u(n, n, 1);
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) u.at(0, x, y) = spots24(x, y);
+        const core::ShapeVerdict print = core::shape_verdict(u, 2);
+        ASSERT_EQ(print.scales.size(), 2u);
+        EXPECT_EQ(print.scales[0].factor, 3);
+        EXPECT_LT(print.scales[0].score, -core::kShapeBand) << n;
+        EXPECT_GT(print.scales[1].score, core::kFineScaleOffset + core::kShapeBand) << n;
+        EXPECT_EQ(print.kind(), core::TextureKind::macro);
+        const core::ShapeVerdict rpn = core::shape_verdict(
+            core::synthesize_from_exemplar(u, core::SpectralMethod::rpn, n, n, 3), 2);
+        for (const core::ShapeScale& sc : rpn.scales)
+            EXPECT_LT(sc.score, -core::kShapeBand) << n << " reduced by " << sc.factor;
+        EXPECT_EQ(rpn.kind(), core::TextureKind::micro);
+    }
+}
+
 TEST(ShapeVerdict, FlatAndTinyImagesAreMicro) {
     EXPECT_EQ(core::shape_verdict(core::Image(64, 64, 3, 0.5f)).kind(), core::TextureKind::micro);
     const core::ShapeVerdict flat = core::shape_verdict(core::Image(600, 600, 1, 0.5f), 2);
