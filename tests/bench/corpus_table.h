@@ -3,8 +3,8 @@
 // (verdict_candidates, verdict_scales): DIR/corpus.tsv names each texture (name, label, half),
 // DIR/corpus/NAME.png or else NAME.jpg holds it. Rows are measured on every core and printed in
 // the files' order as a TSV: corpus, name, label, half, then what `measure` gives (each column
-// after a tab). A texture that does not decode is named on stderr and the exit status is 1 (the
-// study would be short); a DIR without corpus.tsv, 2.
+// after a tab). A texture that does not decode, or that `measure` fails on, is named on stderr and
+// the exit status is 1 (the study would be short); a DIR without corpus.tsv, 2.
 #include "core/image.h"
 #include "server/io/image_io.h"
 
@@ -21,7 +21,7 @@
 namespace textond::bench {
 
 inline int corpus_table(int argc, char** argv, const std::string& header,
-                        const std::function<std::string(const core::Image&)>& measure) {
+                        const std::function<Result<std::string>(const core::Image&)>& measure) {
     struct Row {
         std::string dir, name, label, half, line;
     };
@@ -53,9 +53,13 @@ inline int corpus_table(int argc, char** argv, const std::string& header,
                 const std::string stem = r.dir + "/corpus/" + r.name;
                 auto u = io::decode_image_file(stem + ".png");
                 if (!u) u = io::decode_image_file(stem + ".jpg");
-                r.line =
-                    u ? r.dir + '\t' + r.name + '\t' + r.label + '\t' + r.half + measure(u.value())
-                      : "!" + u.error().message;
+                if (!u) {
+                    r.line = "!" + u.error().message;
+                    continue;
+                }
+                auto m = measure(u.value());
+                r.line = m ? r.dir + '\t' + r.name + '\t' + r.label + '\t' + r.half + m.value()
+                           : "!" + m.error().message;
             }
         });
     for (auto& t : pool) t.join();
