@@ -59,7 +59,7 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --analysis-workers N     analyses at once (each uses every core)             [1]
   --analysis-queue N       analyses waiting before uploads get 429             [4]
   --cache-mb N             in-memory image cache budget, MiB                   [256]
-  --png-compression N      zlib level of PNG images, 0..9 (1: 14% smaller, 8x slower) [0]
+  --png-compression N      zlib level of PNG images, 0..9 (1: 19-39% smaller, 8x slower) [0]
 
   --max-upload-mb N        largest request body, MiB (413 above)               [32]
   --max-pixels N           largest image decoded (exemplar, mix mask, splat weights), pixels,
