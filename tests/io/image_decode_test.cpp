@@ -304,6 +304,45 @@ TEST(Decode, JpegMetadataIsStrippedAndThePixelsKept) {
     EXPECT_EQ(cut.error().code, ErrorCode::unprocessable);
 }
 
+// A progressive JPEG decodes; one with more than kMaxJpegScans scans is refused before libjpeg
+// sees it. The bomb repeats a 10-byte scan of the file's own (an AC band of one component) before
+// its end, as an attacker's 1 MB file held 100,000 of them.
+TEST(Decode, AProgressiveJpegDecodesAndAScanBombIsRefused) {
+    const core::Image u = test::crop(test::load_exemplar("etr_sand01.png"), 64, 48);
+    const std::string path = test::temp_path("progressive.jpg");
+    {
+        auto out = OIIO::ImageOutput::create(path);
+        OIIO::ImageSpec spec(u.width, u.height, 3, OIIO::TypeDesc::FLOAT);
+        spec.attribute("jpeg:progressive", 1);
+        ASSERT_TRUE(out->open(path, spec) &&
+                    out->write_image(OIIO::TypeDesc::FLOAT, u.data.data(), sizeof(float) * 3) &&
+                    out->close());
+    }
+    const std::string jpeg = io::read_file(path).value();
+    std::size_t scans = 0, last = 0;
+    for (std::size_t at = jpeg.find("\xff\xda"); at != std::string::npos;
+         at = jpeg.find("\xff\xda", at + 2), ++scans)
+        last = at;
+    ASSERT_GT(scans, 1u) << "not progressive";
+    ASSERT_LE(scans, io::kMaxJpegScans);
+    auto ok = io::decode_image_memory(jpeg);
+    ASSERT_TRUE(ok) << ok.error().message;
+    EXPECT_EQ(ok.value().width, 64);
+
+    const std::string scan =
+        jpeg.substr(last, 2 + 256 * static_cast<unsigned char>(jpeg[last + 2]) +
+                              static_cast<unsigned char>(jpeg[last + 3]));
+    std::string bomb = jpeg.substr(0, jpeg.size() - 2); // without its EOI
+    for (std::size_t k = scans; k <= io::kMaxJpegScans; ++k) bomb += scan;
+    bomb += "\xff\xd9";
+    auto refused = io::decode_image_memory(bomb);
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().code, ErrorCode::unprocessable);
+    EXPECT_NE(refused.error().message.find(std::to_string(io::kMaxJpegScans + 1) + " scans"),
+              std::string::npos)
+        << refused.error().message;
+}
+
 TEST(Decode, ExrHeadersAreCheckedBeforeOpenExrAllocates) {
     core::Image u(64, 48, 3, 0.25f);
     const std::string exr = io::encode_image_memory(u, io::Encoding::exr).value();
