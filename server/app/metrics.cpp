@@ -50,11 +50,19 @@ void Metrics::Histogram::observe(double v) {
     sum += v;
 }
 
+std::string Metrics::method_label(const std::string& method) {
+    static constexpr const char* kKnown[] = {"GET",     "HEAD",  "POST",    "PUT",   "DELETE",
+                                             "OPTIONS", "PATCH", "CONNECT", "TRACE", "-"};
+    for (const char* m : kKnown)
+        if (method == m) return method;
+    return "other";
+}
+
 void Metrics::request(const std::string& route, const std::string& method, int status,
                       double seconds) {
     const std::string s = std::to_string(status);
     std::lock_guard lock(m_mutex);
-    ++m_requests[{route, method, s}];
+    ++m_requests[{route, method_label(method), s}];
     m_latency[{route, s}].observe(seconds);
 }
 

@@ -19,6 +19,9 @@ public:
         0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 5};
 
     void request(const std::string& route, const std::string& method, int status, double seconds);
+    // A request's method as its label: one of HTTP's methods, else "other". A method the client
+    // made up would add a series a request (2,000 of 8 kB took /metrics from 0.8 MB to 17 MB).
+    static std::string method_label(const std::string& method);
     void render(const std::string& backend, const std::string& kind, double ms);
     void tile_cache(bool hit);
     // Where an image request's time goes: "queue" (waiting for a render slot), "render",

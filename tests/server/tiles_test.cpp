@@ -407,6 +407,28 @@ TEST(Ops, HealthReadinessMetricsAndSpec) {
     EXPECT_NE(spec->body.find("/v1/textons/{id}/tiles/{z}/{x}/{y}.{format}"), std::string::npos);
 }
 
+// A method the client made up is counted under "other": one series, not one a request.
+TEST(Ops, MadeUpMethodsShareOneMetricsSeries) {
+    TestServer server;
+    auto c = server.client();
+    for (int k = 0; k < 3; ++k) {
+        httplib::Request req;
+        req.method = "K" + std::to_string(k) + std::string(200, 'Z');
+        req.path = "/healthz";
+        auto r = c.send(req);
+        ASSERT_TRUE(r);
+        EXPECT_GE(r->status, 400);
+    }
+    std::string metrics;
+    for (int attempt = 0; attempt < 100; ++attempt) {
+        metrics = c.Get("/metrics")->body;
+        if (metrics.find("method=\"other\",status=\"400\"} 3") != std::string::npos) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_EQ(metrics.find("ZZZZ"), std::string::npos);
+    EXPECT_NE(metrics.find("method=\"other\",status=\"400\"} 3"), std::string::npos) << metrics;
+}
+
 } // namespace
 } // namespace textond::test
 
