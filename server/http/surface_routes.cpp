@@ -2,11 +2,13 @@
 
 #include "api/json_body.h"
 #include "api/requests.h"
+#include "server/http/auth.h"
 #include "server/http/request_context.h"
 #include "server/http/responses.h"
 #include "server/io/image_io.h"
 
 #include <cstring>
+#include <utility>
 
 namespace textond::http {
 
@@ -41,11 +43,13 @@ std::optional<api::ApiError> read_points(const httplib::Request& req, const std:
 
 } // namespace
 
-SurfaceRoutes::SurfaceRoutes(TextonStore& store, SurfaceService& surfaces, Gate& gate)
-    : m_store(store), m_surfaces(surfaces), m_gate(gate) {}
+SurfaceRoutes::SurfaceRoutes(TextonStore& store, SurfaceService& surfaces, Gate& gate,
+                             std::string api_key)
+    : m_store(store), m_surfaces(surfaces), m_gate(gate), m_api_key(std::move(api_key)) {}
 
 void SurfaceRoutes::points(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/surface");
+    if (!authorised(m_api_key, req, res)) return;
     const std::string id = req.matches[1].str();
     Body body(m_gate.bodies());
     if (!m_gate.read_request_body(reader, res, body)) return;
@@ -87,6 +91,7 @@ void SurfaceRoutes::points(Req req, Res res, const httplib::ContentReader& reade
 
 void SurfaceRoutes::mesh(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/textons/{id}/mesh.png");
+    if (!authorised(m_api_key, req, res)) return;
     const std::string id = req.matches[1].str();
     Body body(m_gate.bodies());
     if (!m_gate.read_request_body(reader, res, body)) return;

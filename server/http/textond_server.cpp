@@ -137,7 +137,8 @@ void TextondServer::make_services() {
     m_splat_routes =
         std::make_unique<SplatRoutes>(m_config, *m_splat_service, *m_splats, m_cache, m_gate);
     m_surfaces = std::make_unique<SurfaceService>(*m_renderer);
-    m_surface_routes = std::make_unique<SurfaceRoutes>(*m_store, *m_surfaces, m_gate);
+    m_surface_routes =
+        std::make_unique<SurfaceRoutes>(*m_store, *m_surfaces, m_gate, m_config.api_key);
     m_sign_routes = std::make_unique<SignRoutes>(m_config, m_gate);
     m_ops_routes = std::make_unique<OpsRoutes>(m_config, m_metrics, *m_store, *m_mixes, *m_renderer,
                                                m_stopping);

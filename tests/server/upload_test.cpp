@@ -136,7 +136,7 @@ TEST(Upload, MetadataFilesListAndDelete) {
     EXPECT_EQ(json::parse(c.Get("/v1/textons")->body).at("total"), 1);
 }
 
-TEST(Upload, ApiKeyGuardsWritesOnly) {
+TEST(Upload, ApiKeyGuardsEveryPostAndDelete) {
     http::ServeConfig config = TestServer::default_config();
     config.api_key = "s3cret";
     TestServer server(config);
@@ -155,6 +155,15 @@ TEST(Upload, ApiKeyGuardsWritesOnly) {
     ASSERT_EQ(ok->status, 201);
     const std::string id = json::parse(ok->body).at("id");
     EXPECT_EQ(c.Get(("/v1/textons/" + id + "/tiles/0/0/0.png").c_str())->status, 200);
+    // Surface and mesh renders are POSTs too (their body is no part of a signed URL).
+    const std::string points = R"({"points": [[0, 0, 0]], "normals": [[0, 0, 1]]})";
+    const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    const std::string surface = "/v1/textons/" + id + "/surface";
+    const std::string mesh = "/v1/textons/" + id + "/mesh.png?width=64&height=64";
+    EXPECT_EQ(c.Post(surface.c_str(), points, "application/json")->status, 401);
+    EXPECT_EQ(c.Post(mesh.c_str(), obj, "model/obj")->status, 401);
+    EXPECT_EQ(c.Post(surface.c_str(), right, points, "application/json")->status, 200);
+    EXPECT_EQ(c.Post(mesh.c_str(), right, obj, "model/obj")->status, 200);
     EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str())->status, 401);
     EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str(), right)->status, 204);
 }
