@@ -1,10 +1,12 @@
 #include "server/app/mix_service.h"
 
 #include "core/texture_mix.h"
+#include "server/app/work_cost.h"
 #include "server/io/image_io.h"
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 
 namespace textond::app {
@@ -54,7 +56,8 @@ Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api
     return record;
 }
 
-Result<MixService::Started> MixService::start(const api::MixRequest& m) {
+Result<MixService::Started> MixService::start(const api::MixRequest& m,
+                                              const std::function<bool(double)>& admit) {
     auto u = m_textons.find(m.u);
     if (!u) return u.error();
     auto v = m_textons.find(m.v);
@@ -68,6 +71,13 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m) {
             out.known = std::move(meta.value());
             return out;
         }
+    const api::TextonMeta &a = u.value(), &b = v.value();
+    if (!admit(mix_work_s(std::min(a.exemplar_width, b.exemplar_width),
+                          std::min(a.exemplar_height, b.exemplar_height),
+                          std::max(a.channels, b.channels), a.iterations, m.levels))) {
+        out.refused = true;
+        return out;
+    }
     // A mix is R texton analyses: it runs on the analysis pool, single flight per id, and a
     // full pool answers 429 at once (it waited on a mutex before: 15 s became 159 s).
     store::TextonStore* textons = &m_textons;

@@ -11,6 +11,7 @@
 #include "server/store/mix_store.h"
 #include "server/store/texton_store.h"
 
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -27,10 +28,12 @@ public:
     struct Started {
         std::string id;
         std::optional<api::MixMeta> known; // stored already: nothing was submitted
+        bool refused = false;              // `admit` said no: nothing was submitted
         AnalysisPool::Submitted submitted; // otherwise the job; a null job: the queue is full
     };
-    // not_found (or unavailable) when a texton is not stored.
-    Result<Started> start(const api::MixRequest& m);
+    // not_found (or unavailable) when a texton is not stored. A mix not stored yet is submitted
+    // only if `admit` takes its estimated CPU seconds (work_cost.h, mix_work_s).
+    Result<Started> start(const api::MixRequest& m, const std::function<bool(double)>& admit);
 
 private:
     store::TextonStore& m_textons;

@@ -31,4 +31,10 @@ double analysis_work_s(int width, int height, int channels, int iterations) {
     return window * (iterations + 8) * kAnalysisNs * 1e-9 + whole * 10e-9;
 }
 
+double mix_work_s(int width, int height, int channels, int iterations, int levels) {
+    constexpr double kMixNs = 3.15, kMixFixedIterations = 13.4; // tests/bench/mix_cost.py
+    const double grid = static_cast<double>(width) * height * channels;
+    return levels * grid * (iterations + kMixFixedIterations) * kMixNs * 1e-9;
+}
+
 } // namespace textond::app

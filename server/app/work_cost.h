@@ -23,5 +23,11 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
 // channel-pixel of the whole exemplar for its id (sha256 of its floats) and the window's copy. The
 // upload is refused (413 work_too_large) before it is queued when over --max-request-cpu-s.
 double analysis_work_s(int width, int height, int channels, int iterations);
+// A texture mix (core/texture_mix.h) runs `levels` analyses from a model over the common grid
+// (the two exemplars' smaller width and height, the more channels), none of them windowed: kMixNs
+// of one core a grid channel-pixel, level and iteration, with kMixFixedIterations' worth of fixed
+// work a level (fitted on one half of the shared photos' pairs by tests/bench/mix_cost.py, and
+// 0.97-1.42x of the measured CPU on the other half: grey pairs cost the more).
+double mix_work_s(int width, int height, int channels, int iterations, int levels);
 
 } // namespace textond::app

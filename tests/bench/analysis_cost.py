@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The CPU of an analysis against admission's model (server/http/request_body.cpp, analysis_work_s):
+"""The CPU of an analysis against admission's model (server/app/work_cost.cpp, analysis_work_s):
 a x channel-pixels of the working window x (iterations + 8). The shared photos are split by a
 rule fixed before any measurement: sorted by name, even positions fit a (the mean of CPU / units
 over their runs), odd ones report measured / model. One thread, iterations 20 and 50, analysis

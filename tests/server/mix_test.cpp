@@ -163,5 +163,27 @@ TEST(Mixes, MaskFieldAndBadRequests) {
     EXPECT_EQ(c.Get("/healthz")->status, 200);
 }
 
+// A mix is `levels` analyses over the exemplars' common grid: one estimated over
+// --max-request-cpu-s is refused (413 work_too_large) before it takes the analysis pool, as an
+// upload is; a smaller one runs. Estimates: 64 levels of 256 x 256 x 3 at 10 iterations about
+// 0.93 s, 3 levels 0.04 s (server/app/work_cost.h, mix_work_s).
+TEST(Mixes, OneOverTheCpuBudgetIsRefusedBeforeItRuns) {
+    http::ServeConfig config = TestServer::default_config();
+    config.max_request_cpu_s = 0.5;
+    TestServer server(config);
+    auto c = server.client();
+    const std::string u = upload(c, "etr_sand01.png", "?size=16&iterations=10");
+    const std::string v = upload(c, "etr_pebbles04.png", "?size=16&iterations=10");
+    const std::string base = "?u=" + u + "&v=" + v;
+    auto big = c.Post(("/v1/mixes" + base + "&levels=64").c_str());
+    ASSERT_TRUE(big);
+    EXPECT_EQ(big->status, 413);
+    EXPECT_EQ(nlohmann::json::parse(big->body)["error"]["code"], "work_too_large") << big->body;
+    const std::string metrics = c.Get("/metrics")->body;
+    EXPECT_NE(metrics.find("textond_analyses_total{result=\"ok\"} 2"), std::string::npos)
+        << "only the two uploads ran";
+    EXPECT_EQ(post_mix(c, base + "&levels=3", "", 201).size(), 64u);
+}
+
 } // namespace
 } // namespace textond::test
