@@ -17,13 +17,10 @@ MixService::MixService(store::TextonStore& textons, store::MixStore& mixes, Anal
 Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api::MixRequest& m,
                                           const api::TextonMeta& mu, const std::string& id) {
     const auto t0 = std::chrono::steady_clock::now();
-    auto pu = textons.exemplar_png(m.u);
-    if (!pu) return pu.error();
-    auto pv = textons.exemplar_png(m.v);
-    if (!pv) return pv.error();
-    auto eu = io::decode_image_memory(pu.value());
-    auto ev = io::decode_image_memory(pv.value());
-    if (!eu || !ev) return eu ? ev.error() : eu.error();
+    auto eu = textons.exemplar_image(m.u);
+    if (!eu) return eu.error();
+    auto ev = textons.exemplar_image(m.v);
+    if (!ev) return ev.error();
     const core::AnalysisParams p = mu.params();
     auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
     if (!pair) return pair.error();

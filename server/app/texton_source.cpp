@@ -142,9 +142,7 @@ Result<QualityReport> TextonSource::quality(const std::string& id, const api::No
                                             const render::Cancel& cancel) {
     auto meta = m_textons.find(id);
     if (!meta) return meta.error();
-    auto png = m_textons.exemplar_png(id);
-    if (!png) return png.error();
-    auto exemplar = io::decode_image_memory(png.value());
+    auto exemplar = m_textons.exemplar_image(id);
     if (!exemplar) return exemplar.error();
     const core::Image& u = exemplar.value();
     const int w = std::min(kReportSide, u.width), h = std::min(kReportSide, u.height);
@@ -171,9 +169,7 @@ std::string TextonSource::spectrum_key(const std::string& id, const api::NoisePa
 // exemplar shows peaks the noise cannot have.
 Result<core::Image> TextonSource::spectrum(const std::string& id, const api::NoiseParams& noise,
                                            const render::Cancel& cancel) {
-    auto png = m_textons.exemplar_png(id);
-    if (!png) return png.error();
-    auto exemplar = io::decode_image_memory(png.value());
+    auto exemplar = m_textons.exemplar_image(id);
     if (!exemplar) return exemplar.error();
     const core::Image& u = exemplar.value();
     const int w = std::min(512, u.width), h = std::min(512, u.height);

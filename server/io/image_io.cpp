@@ -279,6 +279,10 @@ std::optional<Error> exr_header_check(std::string_view b, std::uint64_t max_pixe
 
 } // namespace
 
+bool png_complete(std::string_view bytes) {
+    return png_chunks_complete(bytes);
+}
+
 // A file goes through the upload's path (decode_image_memory): the same sniffing, allow-list,
 // header checks and JPEG metadata stripping, so a photo gives the same pixels (and texton)
 // whether it was uploaded or named on the command line.

@@ -31,6 +31,9 @@ struct DecodeLimits {
 // whole image, so more are refused before decoding (422), at 100 about 0.3 s for 4096 x 4096.
 inline constexpr std::size_t kMaxJpegScans = 100;
 
+// Whether every chunk of a PNG lies inside `bytes`, up to IEND (a truncated file does not).
+bool png_complete(std::string_view bytes);
+
 // The format named by the first bytes (magic numbers), as an OpenImageIO format name, or ""
 // when none of the formats we accept for uploads starts that way.
 std::string sniff_format(std::string_view bytes);

@@ -278,7 +278,22 @@ Result<std::string> TextonStore::exemplar_png(const std::string& id) {
         return make_error(ErrorCode::not_found, "texton " + id +
                                                     " was stored without its exemplar (before "
                                                     "exemplars were kept)");
+    // The file was written whole (atomic_file.h): a PNG cut short was damaged since, on this
+    // disk; it is never served as the exemplar, nor blamed on the client (500, not 422).
+    if (png && !io::png_complete(png.value()))
+        return make_error(ErrorCode::io, "the stored exemplar of texton " + id +
+                                             " is damaged (a PNG chunk runs past its end)");
     return png;
+}
+
+Result<core::Image> TextonStore::exemplar_image(const std::string& id) {
+    auto png = exemplar_png(id);
+    if (!png) return png.error();
+    auto image = io::decode_image_memory(png.value());
+    if (!image && image.error().code == ErrorCode::unprocessable)
+        return make_error(ErrorCode::io, "the stored exemplar of texton " + id +
+                                             " does not decode: " + image.error().message);
+    return image;
 }
 
 Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after, int limit,

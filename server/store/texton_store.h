@@ -60,6 +60,9 @@ public:
     Result<bool> put(io::TextonRecord record, const core::Image* exemplar = nullptr);
     // The stored exemplar PNG, or not_found.
     Result<std::string> exemplar_png(const std::string& id);
+    // The exemplar decoded; a stored one that does not decode is an io error (500), not the
+    // client's (422).
+    Result<core::Image> exemplar_image(const std::string& id);
     Result<bool> remove(const std::string& id);
 
     // Ids in ascending order after `after` (exclusive), at most `limit`: the shared store's when

@@ -106,6 +106,31 @@ TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
     EXPECT_EQ(status, 201);
 }
 
+// An exemplar damaged on disk (cut short) is the store's error, not the client's: 500
+// storage_error from its own route, the quality report, the spectrum and a mix of it, never its
+// bytes; the texton itself still serves tiles.
+TEST(Store, ADamagedExemplarIsAStorageErrorNeverServed) {
+    const std::string data = fresh_dir("store-exemplar");
+    ServerProcess server(data);
+    auto c = server.client();
+    const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    const std::string other = upload(c, "etr_pebbles04.png", "?size=16&iterations=5");
+    const std::string path = data + "/exemplars/" + id + ".png";
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << read_file(path).substr(0, 100);
+    const std::string base = "/v1/textons/" + id;
+    for (const std::string& url :
+         {base + "/exemplar.png", base + "/quality.json", base + "/spectrum.png"}) {
+        auto r = c.Get(url.c_str());
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 500) << url << ": " << r->body;
+        EXPECT_EQ(json::parse(r->body)["error"]["code"], "storage_error") << url;
+    }
+    auto mix = c.Post(("/v1/mixes?u=" + id + "&v=" + other + "&levels=2").c_str());
+    ASSERT_TRUE(mix);
+    EXPECT_EQ(mix->status, 500) << mix->body;
+    EXPECT_EQ(c.Get((base + "/tiles/0/0/0.png").c_str())->status, 200);
+}
+
 // The kill -9 test cannot land between a write and its rename (writes take microseconds), so
 // the server is stopped there on purpose (server/io/crash_point.h): after the exemplar's write,
 // after the texton's write, after its rename and after its directory's fsync. Each time the
