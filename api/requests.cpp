@@ -327,8 +327,10 @@ bool canonical_number(std::string_view s, bool fraction) {
 
 std::string query_text(double v) {
     if (v == 0) return "0";
-    if (std::isfinite(v) && std::fabs(v) < 1e21 && v == std::trunc(v)) {
-        char buf[32];
+    // A whole number in its digits, however large (1e21 as 1000000000000000000000: a ".0" is no
+    // spelling of it).
+    if (std::isfinite(v) && v == std::trunc(v)) {
+        char buf[400];
         std::snprintf(buf, sizeof buf, "%.0f", v);
         return buf;
     }

@@ -137,7 +137,7 @@ double MixField::rho(double x, double y) const {
 
 std::optional<Error> MixField::validate() const {
     auto bad = [](const std::string& m) { return make_error(ErrorCode::invalid_argument, m); };
-    const double lim = 4.6e18; // 2^62, the plane
+    const double lim = std::ldexp(1.0, 62); // the plane
     if (!std::isfinite(x0) || !std::isfinite(y0) || std::fabs(x0) > lim || std::fabs(y0) > lim)
         return bad("field origin must be finite and within the plane (|x|, |y| <= 2^62)");
     if (kind == Kind::ramp) {

@@ -375,11 +375,14 @@ TEST(Requests, NumbersInUrlsHaveOneSpellingAndTheMessageNamesIt) {
               std::string::npos)
         << "the same double as 30";
     // What the server writes into URLs reads back as the same number and is accepted.
-    for (double v : {1.1, 30.0, 0.000001, 199.99, 1.0 / 3.0}) {
+    for (double v : {1.1, 30.0, 0.000001, 199.99, 1.0 / 3.0, 1e21, -4.5e30}) {
         const std::string text = query_text(v);
         EXPECT_EQ(parse_decimal(text), v) << text;
         EXPECT_EQ(text.find('e'), std::string::npos) << text;
     }
+    // A hint names a spelling that is accepted, for large numbers too.
+    const std::string hint = canonical_hint("1e21");
+    EXPECT_NE(hint.find("write 1000000000000000000000)"), std::string::npos) << hint;
     EXPECT_EQ(query_text(30.0), "30");
     EXPECT_EQ(query_text(1.1), "1.1");
 }

@@ -133,6 +133,13 @@ TEST(TextureMix, LevelsShareTheStartAndEndAtTheModels) {
     core::MixField bad;
     bad.dx = bad.dy = 0;
     EXPECT_TRUE(bad.validate().has_value());
+    // The origin may lie anywhere on the plane, its edges included: |x|, |y| <= 2^62.
+    core::MixField edge;
+    edge.x0 = -std::ldexp(1.0, 62);
+    edge.y0 = std::ldexp(1.0, 62);
+    EXPECT_FALSE(edge.validate().has_value());
+    edge.x0 = std::nextafter(edge.x0, -1e300);
+    EXPECT_TRUE(edge.validate().has_value());
 }
 
 TEST(TextureMix, RampAndMaskFields) {
