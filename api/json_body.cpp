@@ -84,6 +84,9 @@ private:
 
 // Depth 1: the object; 2: the points or normals array; 3: one point.
 struct SurfaceSax final : BoundedSax {
+    static constexpr const char* kObjectWanted =
+        "the body must be a JSON object, {\"points\": [[x, y, z], ...], \"normals\": [[x, y, z], "
+        "...]}";
     SurfaceSax(std::size_t max_points, std::vector<float>& p, std::vector<float>& n)
         : BoundedSax(3, 3 + 8 * max_points + 8), m_max_points(max_points), m_points(p),
           m_normals(n) {}
@@ -94,6 +97,7 @@ struct SurfaceSax final : BoundedSax {
     }
     bool number(double v) {
         if (!value()) return false;
+        if (depth == 0) return shape(kObjectWanted);
         if (depth != 3 || !m_into) return shape("a coordinate outside a point");
         if (++m_coordinates > 3) return shape("a point has exactly three coordinates");
         m_into->push_back(static_cast<float>(v));
@@ -125,7 +129,7 @@ struct SurfaceSax final : BoundedSax {
     }
     bool start_array(std::size_t) override {
         if (!open()) return false;
-        if (depth == 1) return shape("the body is an object, not an array");
+        if (depth == 1) return shape(kObjectWanted);
         if (depth == 3) {
             m_coordinates = 0;
             if (m_into->size() / 3 >= m_max_points) {

@@ -163,7 +163,7 @@ std::optional<ApiError> tile_fields(const Query& q, bool maps, bool tilejson, Ti
 std::optional<ApiError> tile_common(std::string_view id, std::string_view x, std::string_view y,
                                     std::string_view ext, const Query& q, bool maps,
                                     TileRequest& out) {
-    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_image_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
     if (auto e = tile_fields(q, maps, false, out)) return e;
@@ -299,13 +299,26 @@ bool is_texton_id(std::string_view s) {
     return true;
 }
 
-std::optional<ApiError> check_texton_id(std::string_view s) {
+namespace {
+// Texton, mix and splat ids are all sha256 hex; the message names the kind asked for.
+std::optional<ApiError> check_id(const char* kind, std::string_view s) {
     if (is_texton_id(s)) return std::nullopt;
     std::string shown(s.substr(0, 80));
     for (char& c : shown)
         if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7e) c = '?';
-    return bad("invalid_id", "texton ids are 64 lowercase hex digits (sha256), not '" + shown +
+    return bad("invalid_id", std::string(kind) +
+                                 " ids are 64 lowercase hex digits (sha256), not '" + shown +
                                  (s.size() > 80 ? "...'" : "'"));
+}
+} // namespace
+
+std::optional<ApiError> check_texton_id(std::string_view s) {
+    return check_id("texton", s);
+}
+
+// The image routes serve textons, mixes and splats alike.
+std::optional<ApiError> check_image_id(std::string_view s) {
+    return check_id("texton, mix and splat", s);
 }
 
 bool canonical_number(std::string_view s, bool fraction) {
@@ -391,7 +404,7 @@ std::optional<double> parse_finite(std::string_view s) {
 std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std::string_view x,
                                    std::string_view y, std::string_view ext, const Query& q,
                                    TileRequest& out, bool maps) {
-    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_image_id(id)) return e;
     if (auto e = level_of(z, out.level)) return e;
     return tile_common(id, x, y, ext, q, maps, out);
 }
@@ -399,7 +412,7 @@ std::optional<ApiError> parse_tile(std::string_view id, std::string_view z, std:
 std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, std::string_view x,
                                        std::string_view y, std::string_view ext, const Query& q,
                                        TileRequest& out, bool maps) {
-    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_image_id(id)) return e;
     auto zoom = parse_i64(z);
     if (!zoom || *zoom < 0 || *zoom > kMapMaxZoom)
         return bad("level_out_of_range",
@@ -411,7 +424,7 @@ std::optional<ApiError> parse_map_tile(std::string_view id, std::string_view z, 
 std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, const Query& q,
                                      const Limits& limits, RegionRequest& out, bool maps) {
     const NoiseRoute route = maps ? kRegionRoute : kMixRegionRoute;
-    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_image_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
     if (auto e = check_fields(q, {"x", "y", "w", "h", "z", "quality"}, route)) return e;
@@ -446,7 +459,7 @@ std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, 
 
 std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext, const Query& q,
                                        const Limits& limits, TileableRequest& out) {
-    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_image_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
     if (auto e = check_fields(q, {"w", "h", "quality"}, kTileableRoute)) return e;
@@ -481,13 +494,13 @@ std::optional<ApiError> parse_list(const Query& q, ListRequest& out) {
 
 std::optional<ApiError> parse_tilejson(std::string_view id, const Query& q, TileRequest& out,
                                        bool maps) {
-    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_image_id(id)) return e;
     out.id = std::string(id);
     return tile_fields(q, maps, true, out);
 }
 
 std::optional<ApiError> parse_spectrum(std::string_view id, const Query& q, NoiseParams& out) {
-    if (auto e = check_texton_id(id)) return e;
+    if (auto e = check_image_id(id)) return e;
     if (auto e = check_fields(q, {}, kReportRoute)) return e;
     return read_noise_fields(q, kReportRoute, out);
 }
@@ -524,7 +537,7 @@ std::optional<ApiError> parse_mix(const Query& q, bool has_mask, MixRequest& out
 }
 
 std::optional<ApiError> check_mix_id(std::string_view s) {
-    return check_texton_id(s);
+    return check_id("mix", s);
 }
 
 namespace {
@@ -653,8 +666,7 @@ std::optional<ApiError> parse_splat(const Query& q, int weight_images, SplatRequ
 }
 
 std::optional<ApiError> check_splat_id(std::string_view s) {
-    if (is_texton_id(s)) return std::nullopt;
-    return bad("invalid_id", "splat ids are 64 lowercase hex digits (sha256)");
+    return check_id("splat", s);
 }
 
 std::optional<ApiError> parse_surface(std::string_view id, const Query& q, bool mesh,

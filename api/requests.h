@@ -38,6 +38,8 @@ const char* extension(ImageFormat f); // without the dot, as in URLs
 // Texton ids are lowercase sha256 hex: nothing else can reach the store's file names.
 bool is_texton_id(std::string_view s);
 std::optional<ApiError> check_texton_id(std::string_view s);
+// An id on the image routes, which textons, mixes and splats share (the same form, sha256 hex).
+std::optional<ApiError> check_image_id(std::string_view s);
 
 struct Limits {
     std::int64_t max_region_pixels = 8'388'608; // a 4K UHD frame (3840 x 2160) fits

@@ -45,7 +45,9 @@ std::optional<api::ApiError> check_framing(const httplib::Request& req, std::siz
     if (lengths == 0 && encodings == 0 &&
         (req.method == "POST" || req.method == "PUT" || req.method == "PATCH"))
         return api::ApiError{"length_required",
-                             "a POST needs Content-Length (0 for no body) or a chunked body"};
+                             "a " + req.method.substr(0, 8) +
+                                 " needs Content-Length (0 for no body)" +
+                                 (req.method == "POST" ? " or a chunked body" : "")};
     return std::nullopt;
 }
 

@@ -112,6 +112,10 @@ void SurfaceRoutes::mesh(Req req, Res res, const httplib::ContentReader& reader)
                         (p.map.name.empty() && smooth && core::find_map(maps, core::kHeightMap));
     auto prepared = render::map_view(set, relief ? std::string() : p.map.name);
     if (!prepared) return send_error(res, to_api_error(prepared.error()));
+    if (relief && maps.empty())
+        return send_error(res, {"invalid_parameter",
+                                "map=lit needs a material set with a height map; this texton has "
+                                "one exemplar"});
     auto height = relief ? render::map_view(set, core::kHeightMap) : prepared;
     if (!height) return send_error(res, to_api_error(height.error()));
     const render::PreparedTexton& texton = *prepared.value();

@@ -195,5 +195,30 @@ TEST(BadRequests, EachGetsItsStatusAndCodeAndNothingBreaks) {
         200);
 }
 
+// Messages say what was asked of what: a surface body that is no object, map=lit on a texton of
+// one exemplar, and ids by the kind of route.
+TEST(BadRequests, MessagesNameWhatWasAsked) {
+    TestServer server;
+    auto c = server.client();
+    const std::string id = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    auto message = [](const httplib::Result& r) {
+        return r ? json::parse(r->body)["error"]["message"].get<std::string>() : "no answer";
+    };
+    const std::string surface = "/v1/textons/" + id + "/surface";
+    for (const char* body : {"[1]", "1"})
+        EXPECT_NE(message(c.Post(surface.c_str(), body, "application/json"))
+                      .find("the body must be a JSON object"),
+                  std::string::npos)
+            << body;
+    const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    EXPECT_NE(message(c.Post(("/v1/textons/" + id + "/mesh.png?map=lit").c_str(), obj, "model/obj"))
+                  .find("map=lit needs a material set"),
+              std::string::npos);
+    EXPECT_NE(message(c.Get("/v1/mixes/zz")).find("mix ids are"), std::string::npos);
+    EXPECT_NE(message(c.Get("/v1/splats/zz")).find("splat ids are"), std::string::npos);
+    EXPECT_NE(message(c.Get("/v1/mixes/zz/tiles/0/0/0.png")).find("texton, mix and splat ids"),
+              std::string::npos);
+}
+
 } // namespace
 } // namespace textond::test
