@@ -13,7 +13,11 @@ namespace textond::http {
 
 std::optional<api::ApiError> check_framing(const httplib::Request& req, std::size_t max_headers) {
     auto bad = [](std::string m) { return api::ApiError{"bad_framing", std::move(m)}; };
-    if (req.headers.size() > max_headers)
+    // cpp-httplib adds REMOTE_ADDR, REMOTE_PORT, LOCAL_ADDR and LOCAL_PORT to the client's lines.
+    std::size_t lines = req.headers.size();
+    for (const char* own : {"REMOTE_ADDR", "REMOTE_PORT", "LOCAL_ADDR", "LOCAL_PORT"})
+        lines -= std::min<std::size_t>({1, lines, req.get_header_value_count(own)});
+    if (lines > max_headers)
         return api::ApiError{"too_many_headers",
                              "more than " + std::to_string(max_headers) + " header lines"};
     const std::size_t lengths = req.get_header_value_count("Content-Length");

@@ -316,6 +316,10 @@ class HostileClients(unittest.TestCase):
         # More header lines than --max-headers (100), within the byte limit.
         many = b"GET /healthz HTTP/1.1\r\nHost: x\r\n" + b"X-A: b\r\n" * 150 + b"\r\n"
         self.assertEqual(status_of(self.s.raw(many)), 431)
+        # Exactly at the limit, counted as the client sent them (Host and 99 more), and one past.
+        at = b"GET /healthz HTTP/1.1\r\nHost: x\r\n" + b"X-A: b\r\n" * 99 + b"\r\n"
+        self.assertEqual(status_of(self.s.raw(at)), 200)
+        self.assertEqual(status_of(self.s.raw(at[:-2] + b"X-A: b\r\n\r\n")), 431)
 
     # Answers the connection writes before a request is parsed (obs-fold 400,
     # 431, 408, a request line over the library's limit, a path it cannot route) carry the
