@@ -303,6 +303,9 @@ void TextonRoutes::status(Req req, Res res) {
              {"links", {{"self", self}}}});
     auto job = m_pool.find(id);
     if (!job) return send_error(res, {"not_found", "no texton or analysis " + id});
+    // The pool remembers a finished analysis a while; its texton is gone, deleted since.
+    if (job->state() == AnalysisJob::State::done)
+        return send_error(res, {"not_found", "texton " + id + " was deleted after its analysis"});
     const auto [done, total] = job->progress();
     nlohmann::json body = {{"id", id},
                            {"state", to_string(job->state())},

@@ -191,6 +191,9 @@ TEST(Upload, RespondAsyncGives202AndAStatusUrl) {
     EXPECT_EQ(s.at("state"), "done");
     EXPECT_EQ(s.at("progress").at("done"), 300);
     EXPECT_EQ(c.Get(("/v1/textons/" + id).c_str())->status, 200);
+    // Deleted: its status is gone with it, though the pool still remembers the analysis.
+    EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str())->status, 204);
+    EXPECT_EQ(c.Get(status_url.c_str())->status, 404);
 }
 
 TEST(Upload, FullQueueAnswers429WithRetryAfter) {
