@@ -46,6 +46,13 @@ void send_json(httplib::Response& res, int status, const nlohmann::json& body,
                     "application/json");
 }
 
+bool takes_no_query(const httplib::Request& req, httplib::Response& res) {
+    if (req.params.empty()) return true;
+    send_error(res, {"unknown_parameter", "this route takes no query parameters, not '" +
+                                              api::printable(req.params.begin()->first, 40) + "'"});
+    return false;
+}
+
 api::ApiError to_api_error(const Error& e, std::string code) {
     auto pick = [&](const char* fallback) {
         return api::ApiError{code.empty() ? fallback : std::move(code), e.message};

@@ -36,6 +36,10 @@ void send_json(httplib::Response& res, int status, const nlohmann::json& body,
 // 413, unsupported media 415, unprocessable 422, not found 404, no space 507, otherwise 500.
 api::ApiError to_api_error(const Error& e, std::string code = {});
 
+// Routes whose answer no query changes take none: `texton.png?x=1` would be a second URL, so a
+// second cache entry at every edge, for one answer. 400 unknown_parameter sent when there is one.
+bool takes_no_query(const httplib::Request& req, httplib::Response& res);
+
 // RFC 9110 If-None-Match: a list of strong or weak tags, or "*".
 bool etag_matches(std::string_view if_none_match, std::string_view etag);
 

@@ -293,6 +293,7 @@ void TextonRoutes::status(Req req, Res res) {
     set_route("/v1/textons/{id}/status");
     const std::string id = req.matches[1].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    if (!takes_no_query(req, res)) return;
     const std::string self = "/v1/textons/" + id;
     if (auto meta = m_store.find(id))
         return send_json(
@@ -322,6 +323,7 @@ void TextonRoutes::file(Req req, Res res) {
     set_route("/v1/textons/{id}/texton.{ext}");
     const std::string id = req.matches[1].str(), ext = req.matches[2].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
+    if (!takes_no_query(req, res)) return;
     if (auto found = m_store.find(id); !found) return send_error(res, to_api_error(found.error()));
     if (ext == "exr") {
         auto bytes = m_store.file_bytes(id);

@@ -218,6 +218,16 @@ TEST(BadRequests, MessagesNameWhatWasAsked) {
     EXPECT_NE(message(c.Get("/v1/splats/zz")).find("splat ids are"), std::string::npos);
     EXPECT_NE(message(c.Get("/v1/mixes/zz/tiles/0/0/0.png")).find("texton, mix and splat ids"),
               std::string::npos);
+    // Routes no query changes take none: one answer, one URL, one cache entry.
+    for (const char* route :
+         {"/texton.png", "/texton.exr", "/texton.texton", "/exemplar.png", "/status"}) {
+        const std::string url = "/v1/textons/" + id + route;
+        EXPECT_EQ(c.Get(url.c_str())->status, 200) << route;
+        auto r = c.Get((url + "?x=1").c_str());
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 400) << route;
+        EXPECT_EQ(json::parse(r->body)["error"]["code"], "unknown_parameter") << route;
+    }
 }
 
 } // namespace
