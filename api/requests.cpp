@@ -763,7 +763,7 @@ std::optional<ApiError> parse_analysis(const Query& q, core::AnalysisParams& out
         else if (*s == "false" || *s == "0")
             out.periodic = false;
         else
-            return bad("invalid_parameter", "periodic must be true or false");
+            return bad("invalid_parameter", "periodic must be true or false (or 1 or 0)");
     }
     return std::nullopt;
 }
