@@ -28,7 +28,7 @@ constexpr double kKitWorkSPerChannel = 0.18;
 void send_cached(httplib::Response& res, Metrics& metrics, std::shared_ptr<const CachedImage> image,
                  std::shared_ptr<BudgetLease> lease = {}) {
     const std::size_t size = image->body.size();
-    fit_ranges(size);
+    fit_ranges(res, size);
     const std::string type = image->content_type;
     // The lease (bytes of the transfer budget) goes when cpp-httplib drops the provider, after
     // the last byte was written.
@@ -296,7 +296,7 @@ void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) 
     auto png = m_textons.store().exemplar_png(id);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_header("Cache-Control", kDeletableFor);
-    fit_ranges(png.value().size());
+    fit_ranges(res, png.value().size());
     res.set_content(png.value(), "image/png");
 }
 

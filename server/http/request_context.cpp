@@ -49,9 +49,15 @@ void set_route(const char* route_template) {
     current_request().route = route_template;
 }
 
-void fit_ranges(std::size_t size) {
+void fit_ranges(const httplib::Response& res, std::size_t size) {
     httplib::Request* req = current_request().request;
     if (!req || req->ranges.empty()) return;
+    if (req->has_header("If-Range")) {
+        const std::string validator = req->get_header_value("If-Range");
+        const std::string etag = res.get_header_value("ETag");
+        if (etag.empty() || validator != etag || validator.rfind("W/", 0) == 0)
+            return req->ranges.clear();
+    }
     const auto n = static_cast<ssize_t>(size);
     for (auto& [first, last] : req->ranges) {
         if (first < 0 && last < 0) return req->ranges.clear();

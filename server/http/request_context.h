@@ -25,11 +25,15 @@ struct RequestContext {
     httplib::Request* request = nullptr;
 };
 RequestContext& current_request();
+
 // cpp-httplib 0.11 applies a Range to a body without fitting it (bytes=0-99999999 of a 100 kB
 // body read past its end from a content provider, and named a false Content-Range otherwise):
 // the request's ranges are made to fit `size` here, suffix and open ranges resolved, and a Range
 // that selects nothing is dropped, the whole answered (RFC 9110 lets a server ignore Range).
-void fit_ranges(std::size_t size);
+// Under If-Range (RFC 9110 13.1.5) a Range holds only while its validator is `res`'s strong ETag,
+// set before this (ETags change with the build); otherwise, or for a date (no answer has
+// Last-Modified), the whole answer, never a part of a changed one.
+void fit_ranges(const httplib::Response& res, std::size_t size);
 // A new request id: a per-process random prefix and a counter.
 std::string fresh_request_id();
 // Starts a context: the client's X-Request-Id when it is sane, else a fresh one.

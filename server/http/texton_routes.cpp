@@ -330,7 +330,7 @@ void TextonRoutes::file(Req req, Res res) {
         if (!bytes) return send_error(res, to_api_error(bytes.error()));
         res.set_header("Cache-Control", kDeletableFor);
         res.set_header("Content-Disposition", "inline; filename=\"" + id.substr(0, 12) + ".exr\"");
-        fit_ranges(bytes.value().size());
+        fit_ranges(res, bytes.value().size());
         return res.set_content(bytes.value(), "image/x-exr");
     }
     auto record = m_store.record(id);

@@ -548,8 +548,15 @@ class HostileClients(unittest.TestCase):
                        "0-99,50-149", "0-9,-5", "100-,0-9"):
             st, _, body = self.get(tile, headers={"Range": "bytes=" + ranges})
             self.assertEqual((st, len(body)), (200, n), ranges[:40])  # ignored: the whole, once
-        st, _, body = self.get(tile, headers={"Range": "bytes=10-19"})
+        st, h, body = self.get(tile, headers={"Range": "bytes=10-19"})
         self.assertEqual((st, body), (206, whole[10:20]))
+        # If-Range: the part while the ETag is the answer's, else the whole (a changed build).
+        etag = h["ETag"]
+        for validator, want in ((etag, (206, whole[10:20])), ('"stale"', (200, whole)),
+                                ("W/" + etag, (200, whole)),
+                                ("Sat, 28 Nov 2026 00:00:00 GMT", (200, whole))):
+            st, _, body = self.get(tile, headers={"Range": "bytes=10-19", "If-Range": validator})
+            self.assertEqual((st, body), want, validator)
         st, _, body = self.get(tile, headers={"Range": "bytes=0-9,100-109"})
         self.assertEqual(st, 206)
         self.assertLess(len(body), 1000)
