@@ -4,12 +4,20 @@
 
 #include <openssl/crypto.h>
 
+#include <cctype>
+#include <string_view>
+
 namespace textond::http {
 
 bool holds_api_key(const std::string& api_key, const httplib::Request& req) {
     if (api_key.empty()) return false;
-    const std::string got = req.get_header_value("Authorization"), want = "Bearer " + api_key;
-    return got.size() == want.size() && CRYPTO_memcmp(got.data(), want.data(), want.size()) == 0;
+    // The scheme's name is case-insensitive (RFC 9110 11.1); the key is compared in constant time.
+    const std::string got = req.get_header_value("Authorization");
+    constexpr std::string_view kScheme = "bearer ";
+    if (got.size() != kScheme.size() + api_key.size()) return false;
+    for (std::size_t i = 0; i < kScheme.size(); ++i)
+        if (std::tolower(static_cast<unsigned char>(got[i])) != kScheme[i]) return false;
+    return CRYPTO_memcmp(got.data() + kScheme.size(), api_key.data(), api_key.size()) == 0;
 }
 
 bool authorised(const std::string& api_key, const httplib::Request& req, httplib::Response& res) {
