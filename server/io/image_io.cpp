@@ -196,12 +196,15 @@ std::string jpeg_without_metadata(std::string_view b) {
     return {};
 }
 
-// The scans of a JPEG without metadata segments: its start-of-scan markers. Inside entropy-coded
-// data a 0xFF byte is followed by 0x00 or a restart marker, so every 0xFF 0xDA is a scan.
+// The scans of a JPEG without metadata segments: its start-of-scan markers up to the end of
+// image, where libjpeg stops reading (a phone's motion photo carries a video after it). Inside
+// entropy-coded data a 0xFF byte is followed by 0x00 or a restart marker, so every 0xFF 0xDA
+// before the first 0xFF 0xD9 is a scan.
 std::size_t jpeg_scans(std::string_view b) {
+    const std::string_view image = b.substr(0, b.find("\xff\xd9"));
     std::size_t n = 0;
-    for (std::size_t at = b.find("\xff\xda"); at != std::string_view::npos;
-         at = b.find("\xff\xda", at + 2))
+    for (std::size_t at = image.find("\xff\xda"); at != std::string_view::npos;
+         at = image.find("\xff\xda", at + 2))
         ++n;
     return n;
 }
