@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <random>
+#include <utility>
 
 namespace textond::http {
 
@@ -43,6 +44,10 @@ void begin_request(const httplib::Request& req) {
     ctx.start = std::chrono::steady_clock::now();
     ctx.active = true;
     ctx.request = const_cast<httplib::Request*>(&req);
+    // Under If-Range the ranges wait for the answer's ETag (fit_ranges); an answer that never
+    // fits them, having none, is sent whole.
+    ctx.if_range_ranges.clear();
+    if (req.has_header("If-Range")) std::swap(ctx.if_range_ranges, ctx.request->ranges);
 }
 
 void set_route(const char* route_template) {
@@ -50,14 +55,17 @@ void set_route(const char* route_template) {
 }
 
 void fit_ranges(const httplib::Response& res, std::size_t size) {
-    httplib::Request* req = current_request().request;
-    if (!req || req->ranges.empty()) return;
-    if (req->has_header("If-Range")) {
+    RequestContext& ctx = current_request();
+    httplib::Request* req = ctx.request;
+    if (!req) return;
+    if (!ctx.if_range_ranges.empty()) {
         const std::string validator = req->get_header_value("If-Range");
         const std::string etag = res.get_header_value("ETag");
-        if (etag.empty() || validator != etag || validator.rfind("W/", 0) == 0)
-            return req->ranges.clear();
+        if (!etag.empty() && validator == etag && validator.rfind("W/", 0) != 0)
+            req->ranges = std::move(ctx.if_range_ranges);
+        ctx.if_range_ranges.clear();
     }
+    if (req->ranges.empty()) return;
     const auto n = static_cast<ssize_t>(size);
     for (auto& [first, last] : req->ranges) {
         if (first < 0 && last < 0) return req->ranges.clear();

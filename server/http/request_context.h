@@ -23,6 +23,7 @@ struct RequestContext {
     // errors included (a 404's JSON sliced into multipart/byteranges); an error clears its
     // ranges. The library's Request is its own local, not const, so the cast is well defined.
     httplib::Request* request = nullptr;
+    httplib::Ranges if_range_ranges; // held back under If-Range until fit_ranges sees the ETag
 };
 RequestContext& current_request();
 

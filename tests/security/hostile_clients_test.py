@@ -557,6 +557,13 @@ class HostileClients(unittest.TestCase):
                                 ("Sat, 28 Nov 2026 00:00:00 GMT", (200, whole))):
             st, _, body = self.get(tile, headers={"Range": "bytes=10-19", "If-Range": validator})
             self.assertEqual((st, body), want, validator)
+        # An answer without an ETag (the spec, a texton's view) matches no If-Range: whole.
+        for path in ("/v1/openapi.yaml", f"/v1/textons/{u}/texton.png"):
+            st, _, full = self.get(path)
+            st, _, body = self.get(path, headers={"Range": "bytes=0-9"})
+            self.assertEqual((st, body), (206, full[:10]), path)
+            st, _, body = self.get(path, headers={"Range": "bytes=0-9", "If-Range": '"x"'})
+            self.assertEqual((st, body), (200, full), path)
         st, _, body = self.get(tile, headers={"Range": "bytes=0-9,100-109"})
         self.assertEqual(st, 206)
         self.assertLess(len(body), 1000)
