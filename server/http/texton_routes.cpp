@@ -295,18 +295,32 @@ void TextonRoutes::status(Req req, Res res) {
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
     if (!takes_no_query(req, res)) return;
     const std::string self = "/v1/textons/" + id;
-    if (auto meta = m_store.find(id))
-        return send_json(
-            res, 200,
-            {{"id", id},
-             {"state", "done"},
-             {"progress", {{"done", meta.value().iterations}, {"total", meta.value().iterations}}},
-             {"links", {{"self", self}}}});
+    // Stored: done. Not found: the pool's job, if any. Any other error (the shared store down)
+    // is the store's answer.
+    auto stored = [&]() -> bool {
+        auto meta = m_store.find(id);
+        if (meta) {
+            const int n = meta.value().iterations;
+            send_json(res, 200,
+                      {{"id", id},
+                       {"state", "done"},
+                       {"progress", {{"done", n}, {"total", n}}},
+                       {"links", {{"self", self}}}});
+            return true;
+        }
+        if (meta.error().code == ErrorCode::not_found) return false;
+        send_error(res, to_api_error(meta.error()));
+        return true;
+    };
+    if (stored()) return;
     auto job = m_pool.find(id);
     if (!job) return send_error(res, {"not_found", "no texton or analysis " + id});
-    // The pool remembers a finished analysis a while; its texton is gone, deleted since.
-    if (job->state() == AnalysisJob::State::done)
+    // A job done since the first look has stored its texton; one the store no longer has was
+    // deleted after its analysis (the pool remembers it a while).
+    if (job->state() == AnalysisJob::State::done) {
+        if (stored()) return;
         return send_error(res, {"not_found", "texton " + id + " was deleted after its analysis"});
+    }
     const auto [done, total] = job->progress();
     nlohmann::json body = {{"id", id},
                            {"state", to_string(job->state())},
