@@ -293,7 +293,7 @@ void ImageRoutes::exemplar(const httplib::Request& req, httplib::Response& res) 
     const std::string id = req.matches[1].str();
     if (auto e = api::check_texton_id(id)) return send_error(res, *e);
     if (!takes_no_query(req, res)) return;
-    auto png = m_textons.store().exemplar_png(id);
+    auto png = m_textons.store().verified_exemplar_png(id);
     if (!png) return send_error(res, to_api_error(png.error()));
     res.set_header("Cache-Control", kDeletableFor);
     fit_ranges(res, png.value().size());

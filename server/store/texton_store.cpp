@@ -8,6 +8,8 @@
 
 #include <malloc.h>
 
+#include <limits>
+
 namespace textond::store {
 
 TextonStore::TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t prepared_cache,
@@ -74,6 +76,7 @@ Result<std::unique_ptr<TextonStore>> TextonStore::open(const std::string& data_d
 void TextonStore::forget(const std::string& id) {
     std::lock_guard lock(m_mutex);
     m_checked.erase(id);
+    m_exemplars_decoded.erase(id);
     m_prepared.remove_if([&](const auto& p) { return p.first == id; });
 }
 
@@ -289,11 +292,28 @@ Result<std::string> TextonStore::exemplar_png(const std::string& id) {
 Result<core::Image> TextonStore::exemplar_image(const std::string& id) {
     auto png = exemplar_png(id);
     if (!png) return png.error();
-    auto image = io::decode_image_memory(png.value());
-    if (!image && image.error().code == ErrorCode::unprocessable)
+    io::DecodeLimits stored;
+    stored.max_pixels = std::numeric_limits<std::uint64_t>::max();
+    auto image = io::decode_image_memory(png.value(), stored);
+    if (!image)
         return make_error(ErrorCode::io, "the stored exemplar of texton " + id +
                                              " does not decode: " + image.error().message);
+    {
+        std::lock_guard lock(m_mutex);
+        m_exemplars_decoded.insert(id);
+    }
     return image;
+}
+
+Result<std::string> TextonStore::verified_exemplar_png(const std::string& id) {
+    bool decoded = false;
+    {
+        std::lock_guard lock(m_mutex);
+        decoded = m_exemplars_decoded.count(id) != 0;
+    }
+    if (!decoded)
+        if (auto image = exemplar_image(id); !image) return image.error();
+    return exemplar_png(id);
 }
 
 Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after, int limit,

@@ -25,6 +25,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -61,8 +62,11 @@ public:
     // The stored exemplar PNG, or not_found.
     Result<std::string> exemplar_png(const std::string& id);
     // The exemplar decoded; a stored one that does not decode is an io error (500), not the
-    // client's (422).
+    // client's (422 or 413: it was admitted when it was uploaded, so no pixel budget applies).
     Result<core::Image> exemplar_image(const std::string& id);
+    // exemplar_png once its bytes have decoded in this process (the first request decodes them):
+    // a damaged exemplar is never served as one.
+    Result<std::string> verified_exemplar_png(const std::string& id);
     Result<bool> remove(const std::string& id);
 
     // Ids in ascending order after `after` (exclusive), at most `limit`: the shared store's when
@@ -96,6 +100,7 @@ private:
     const std::chrono::milliseconds m_recheck;
     mutable std::mutex m_mutex; // may be held while calling m_local, never taken inside it
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked; // against m_shared
+    std::set<std::string> m_exemplars_decoded;                              // verified_exemplar_png
     // Most recently used first.
     std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;
     SingleFlight<Result<api::TextonMeta>> m_fetches; // from the shared store, one an id

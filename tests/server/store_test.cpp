@@ -129,6 +129,15 @@ TEST(Store, ADamagedExemplarIsAStorageErrorNeverServed) {
     ASSERT_TRUE(mix);
     EXPECT_EQ(mix->status, 500) << mix->body;
     EXPECT_EQ(c.Get((base + "/tiles/0/0/0.png").c_str())->status, 200);
+    // Whole but with bytes flipped inside its pixels (their chunk's CRC fails): not served either.
+    const std::string third = upload(c, "skimage_gravel.png", "?size=16&iterations=5");
+    const std::string flipped = data + "/exemplars/" + third + ".png";
+    std::string bytes = read_file(flipped);
+    for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 16; ++i) bytes[i] ^= 0x5a;
+    std::ofstream(flipped, std::ios::binary | std::ios::trunc) << bytes;
+    auto r = c.Get(("/v1/textons/" + third + "/exemplar.png").c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 500) << r->body;
 }
 
 // The kill -9 test cannot land between a write and its rename (writes take microseconds), so
