@@ -26,8 +26,8 @@ double analysis_work_s(int width, int height, int channels, int iterations);
 // A texture mix (core/texture_mix.h) runs `levels` analyses from a model over the common grid
 // (the two exemplars' smaller width and height, the more channels), none of them windowed: kMixNs
 // of one core a grid channel-pixel, level and iteration, with kMixFixedIterations' worth of fixed
-// work a level (fitted on one half of the shared photos' pairs by tests/bench/mix_cost.py, and
-// 0.97-1.42x of the measured CPU on the other half: grey pairs cost the more).
+// work a level (fitted on one half of the shared photos' pairs by tests/bench/mix_cost.py; on the
+// other half the measured CPU is 0.97-1.42x the estimate, a grey pair's the most above it).
 double mix_work_s(int width, int height, int channels, int iterations, int levels);
 
 } // namespace textond::app

@@ -24,14 +24,15 @@ Gate::Gate(const ServeConfig& config, Metrics& metrics)
       m_decode_slots(cores(), static_cast<std::size_t>(config.render_queue)),
       m_bodies(config.body_budget_bytes), m_decoded(config.body_budget_bytes) {}
 
-bool Gate::within_budget(httplib::Response& res, double work_s, double cpu_share) {
+bool Gate::within_budget(httplib::Response& res, double work_s, double cpu_share, const char* ask) {
     work_s *= cpu_share + (1.0 - cpu_share) * m_work_factor;
     if (!(work_s <= m_config.max_request_cpu_s)) {
-        char buf[200];
+        char buf[256];
         std::snprintf(buf, sizeof buf,
                       "this request would take about %.3g CPU seconds, over the server's budget "
-                      "of %.3g (--max-request-cpu-s): ask for fewer pixels, points or a lower mni",
-                      work_s, m_config.max_request_cpu_s);
+                      "of %.3g (--max-request-cpu-s): ask for %s",
+                      work_s, m_config.max_request_cpu_s,
+                      ask ? ask : "fewer pixels, points or a lower mni");
         m_metrics.not_admitted("too_large");
         send_error(res, {"work_too_large", buf});
         return false;

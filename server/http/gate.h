@@ -30,8 +30,9 @@ public:
     // `cpu_share`: the part of the work that runs on the CPU whatever the backend (normal maps,
     // the kit); the rest is multiplied by the backend's work factor.
     std::optional<SlotGuard> admit(httplib::Response& res, double work_s, double cpu_share = 0);
-    bool within_budget(httplib::Response& res, double work_s,
-                       double cpu_share = 0); // 413 sent when not
+    // `ask`: what the 413's message asks for instead (default: fewer pixels, points or MNI).
+    bool within_budget(httplib::Response& res, double work_s, double cpu_share = 0,
+                       const char* ask = nullptr); // 413 sent when not
     // Estimates are the CPU path's (server/app/work_cost.h); a backend that does the same
     // work slower (llvmpipe) multiplies them, so admission counts what will really run.
     void set_work_factor(double factor) { m_work_factor = factor > 0 ? factor : 1.0; }

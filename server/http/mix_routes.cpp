@@ -75,8 +75,10 @@ void MixRoutes::create(Req req, Res res, const httplib::ContentReader& reader) {
     std::shared_ptr<BudgetLease> mask_lease; // held until the answer
     if (has_mask && !read_mask(res, body.bytes, m, mask_lease)) return;
     body.bytes = std::string();
-    auto started =
-        m_service.start(m, [&](double work_s) { return m_gate.within_budget(res, work_s, 1.0); });
+    auto started = m_service.start(m, [&](double work_s) {
+        return m_gate.within_budget(res, work_s, 1.0,
+                                    "fewer levels, or textons analysed with fewer iterations");
+    });
     if (!started) return send_error(res, to_api_error(started.error()));
     const MixService::Started& s = started.value();
     if (s.known) return send_json(res, 200, mix_json(*s.known));

@@ -179,9 +179,13 @@ TEST(Mixes, OneOverTheCpuBudgetIsRefusedBeforeItRuns) {
     ASSERT_TRUE(big);
     EXPECT_EQ(big->status, 413);
     EXPECT_EQ(nlohmann::json::parse(big->body)["error"]["code"], "work_too_large") << big->body;
+    EXPECT_NE(nlohmann::json::parse(big->body)["error"]["message"].get<std::string>().find(
+                  "fewer levels"),
+              std::string::npos)
+        << big->body;
     const std::string metrics = c.Get("/metrics")->body;
-    EXPECT_NE(metrics.find("textond_analyses_total{result=\"ok\"} 2"), std::string::npos)
-        << "only the two uploads ran";
+    EXPECT_NE(metrics.find("textond_not_admitted_total{reason=\"too_large\"} 1"), std::string::npos)
+        << metrics;
     EXPECT_EQ(post_mix(c, base + "&levels=3", "", 201).size(), 64u);
 }
 
