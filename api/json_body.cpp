@@ -103,9 +103,13 @@ struct SurfaceSax final : BoundedSax {
         m_into->push_back(static_cast<float>(v));
         return true;
     }
-    bool null() override { return shape("null in the body"); }
-    bool boolean(bool) override { return shape("true or false in the body"); }
-    bool string(string_t&) override { return shape("a string where numbers belong"); }
+    bool null() override { return shape(depth == 0 ? kObjectWanted : "null in the body"); }
+    bool boolean(bool) override {
+        return shape(depth == 0 ? kObjectWanted : "true or false in the body");
+    }
+    bool string(string_t&) override {
+        return shape(depth == 0 ? kObjectWanted : "a string where numbers belong");
+    }
     bool binary(binary_t&) override { return shape("binary data in the body"); }
     bool number_integer(number_integer_t v) override { return number(static_cast<double>(v)); }
     bool number_unsigned(number_unsigned_t v) override { return number(static_cast<double>(v)); }

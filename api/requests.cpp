@@ -459,7 +459,7 @@ std::optional<ApiError> parse_region(std::string_view id, std::string_view ext, 
 
 std::optional<ApiError> parse_tileable(std::string_view id, std::string_view ext, const Query& q,
                                        const Limits& limits, TileableRequest& out) {
-    if (auto e = check_image_id(id)) return e;
+    if (auto e = check_texton_id(id)) return e;
     out.id = std::string(id);
     if (auto e = format_of(ext, out.format)) return e;
     if (auto e = check_fields(q, {"w", "h", "quality"}, kTileableRoute)) return e;

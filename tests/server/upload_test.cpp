@@ -150,9 +150,11 @@ TEST(Upload, ApiKeyGuardsEveryPostAndDelete) {
     httplib::Headers wrong = {{"Authorization", "Bearer s3creT"}};
     EXPECT_EQ(c.Post("/v1/textons?size=16&iterations=5", wrong, body, "image/png")->status, 401);
     httplib::Headers right = {{"Authorization", "Bearer s3cret"}};
-    // The scheme's name in any case (RFC 9110), the key exactly.
+    // The scheme's name in any case and one or more spaces after it (RFC 9110), the key exactly.
     httplib::Headers lower = {{"Authorization", "bearer s3cret"}};
     httplib::Headers spaced = {{"Authorization", "Bearer  s3cret"}};
+    httplib::Headers glued = {{"Authorization", "Bearers3cret"}};
+    httplib::Headers longer = {{"Authorization", "Bearer s3cret1"}};
     auto ok = c.Post("/v1/textons?size=16&iterations=5", right, body, "image/png");
     ASSERT_TRUE(ok);
     ASSERT_EQ(ok->status, 201);
@@ -168,8 +170,10 @@ TEST(Upload, ApiKeyGuardsEveryPostAndDelete) {
     EXPECT_EQ(c.Post(surface.c_str(), right, points, "application/json")->status, 200);
     EXPECT_EQ(c.Post(mesh.c_str(), right, obj, "model/obj")->status, 200);
     EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str())->status, 401);
-    EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str(), spaced)->status, 401);
-    EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str(), lower)->status, 204);
+    EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str(), glued)->status, 401);
+    EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str(), longer)->status, 401);
+    EXPECT_EQ(c.Post(surface.c_str(), lower, points, "application/json")->status, 200);
+    EXPECT_EQ(c.Delete(("/v1/textons/" + id).c_str(), spaced)->status, 204);
 }
 
 TEST(Upload, RespondAsyncGives202AndAStatusUrl) {
