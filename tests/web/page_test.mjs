@@ -127,7 +127,10 @@ try {
   const first = tileStatus.length;
   check(first >= 6 && tileStatus.every((s) => s === 200), `the map loads tiles, all 200 (${first})`);
 
-  // No seam: the jump across a tile boundary is no larger than the jumps inside tiles.
+  // No seam: the jump across a tile boundary is no larger than the jumps inside tiles. Leaflet
+  // fades tiles in: a tile caught half faded made a seam of its own on a loaded machine.
+  await page.waitForFunction(() => [...document.querySelectorAll('#map .leaflet-tile')]
+    .every((t) => getComputedStyle(t).opacity === '1'), null, { timeout: 30000 });
   const boundaries = await tileBoundaries(page);
   const controls = await page.addStyleTag({ content: '.leaflet-control-container { display: none }' });
   const shot = await page.locator('#map').screenshot({ path: join(artefacts, 'map.png') });
