@@ -289,31 +289,35 @@ Result<std::string> TextonStore::exemplar_png(const std::string& id) {
     return png;
 }
 
-Result<core::Image> TextonStore::exemplar_image(const std::string& id) {
-    auto png = exemplar_png(id);
-    if (!png) return png.error();
+Result<core::Image> TextonStore::decode_exemplar(const std::string& id, const std::string& png) {
     io::DecodeLimits stored;
     stored.max_pixels = std::numeric_limits<std::uint64_t>::max();
-    auto image = io::decode_image_memory(png.value(), stored);
+    auto image = io::decode_image_memory(png, stored);
     if (!image)
         return make_error(ErrorCode::io, "the stored exemplar of texton " + id +
                                              " does not decode: " + image.error().message);
-    {
-        std::lock_guard lock(m_mutex);
-        m_exemplars_decoded.insert(id);
-    }
+    std::lock_guard lock(m_mutex);
+    m_exemplars_decoded.insert(id);
     return image;
 }
 
+Result<core::Image> TextonStore::exemplar_image(const std::string& id) {
+    auto png = exemplar_png(id);
+    if (!png) return png.error();
+    return decode_exemplar(id, png.value());
+}
+
 Result<std::string> TextonStore::verified_exemplar_png(const std::string& id) {
+    auto png = exemplar_png(id);
+    if (!png) return png;
     bool decoded = false;
     {
         std::lock_guard lock(m_mutex);
         decoded = m_exemplars_decoded.count(id) != 0;
     }
     if (!decoded)
-        if (auto image = exemplar_image(id); !image) return image.error();
-    return exemplar_png(id);
+        if (auto image = decode_exemplar(id, png.value()); !image) return image.error();
+    return png;
 }
 
 Result<std::vector<api::TextonMeta>> TextonStore::list(const std::string& after, int limit,

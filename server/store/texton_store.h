@@ -91,6 +91,8 @@ private:
     // Every --store-recheck-s, every held texton is rechecked against the shared store: written
     // back when missing there (a flushed Redis: all of them, not only those asked for), dropped
     // when deleted there.
+    // The stored exemplar's bytes decoded (any failure an io error), and marked as decoding.
+    Result<core::Image> decode_exemplar(const std::string& id, const std::string& png);
     void sweep_loop();
     void sweep();
 
