@@ -196,16 +196,30 @@ std::string jpeg_without_metadata(std::string_view b) {
     return {};
 }
 
-// The scans of a JPEG without metadata segments: its start-of-scan markers up to the end of
-// image, where libjpeg stops reading (a phone's motion photo carries a video after it). Inside
-// entropy-coded data a 0xFF byte is followed by 0x00 or a restart marker, so every 0xFF 0xDA
-// before the first 0xFF 0xD9 is a scan.
+// The scans of a JPEG: its start-of-scan markers up to the end of image, where libjpeg stops
+// reading (a phone's motion photo carries a video after it). The markers are read as libjpeg
+// reads them: a segment with a length is skipped whole (an 0xFF 0xD9 inside an APP0 or a comment
+// ends nothing), and between segments, in entropy-coded data, 0xFF is followed by 0x00, a fill
+// byte or a restart marker unless it starts the next marker.
 std::size_t jpeg_scans(std::string_view b) {
-    const std::string_view image = b.substr(0, b.find("\xff\xd9"));
-    std::size_t n = 0;
-    for (std::size_t at = image.find("\xff\xda"); at != std::string_view::npos;
-         at = image.find("\xff\xda", at + 2))
-        ++n;
+    const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(b[i]); };
+    std::size_t n = 0, at = 2; // after SOI
+    while (at + 1 < b.size()) {
+        const unsigned char marker = byte(at + 1);
+        if (byte(at) != 0xFF || marker == 0xFF) {
+            ++at; // entropy-coded data, or a fill byte
+        } else if (marker == 0x00 || marker == 0x01 || (marker >= 0xD0 && marker <= 0xD8)) {
+            at += 2; // a stuffed 0xFF, TEM, a restart marker, SOI: no length
+        } else if (marker == 0xD9) {
+            break; // end of image
+        } else {
+            if (at + 4 > b.size()) break;
+            const std::size_t length = static_cast<std::size_t>(byte(at + 2)) << 8 | byte(at + 3);
+            if (length < 2) break;
+            if (marker == 0xDA) ++n;
+            at += 2 + length; // a segment, the scan's header included
+        }
+    }
     return n;
 }
 
