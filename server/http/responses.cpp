@@ -47,10 +47,13 @@ void send_json(httplib::Response& res, int status, const nlohmann::json& body,
 }
 
 bool takes_no_query(const httplib::Request& req, httplib::Response& res) {
-    if (req.params.empty()) return true;
-    send_error(res, {"unknown_parameter", "this route takes no query parameters, not '" +
-                                              api::printable(req.params.begin()->first, 40) + "'"});
-    return false;
+    for (const auto& param : req.params) {
+        if (param.first == "sig" || param.first == "exp") continue; // `textond sign` adds them
+        send_error(res, {"unknown_parameter", "this route takes no query parameters, not '" +
+                                                  api::printable(param.first, 40) + "'"});
+        return false;
+    }
+    return true;
 }
 
 api::ApiError to_api_error(const Error& e, std::string code) {

@@ -37,7 +37,8 @@ void send_json(httplib::Response& res, int status, const nlohmann::json& body,
 api::ApiError to_api_error(const Error& e, std::string code = {});
 
 // Routes whose answer no query changes take none: `texton.png?x=1` would be a second URL, so a
-// second cache entry at every edge, for one answer. 400 unknown_parameter sent when there is one.
+// second cache entry at every edge, for one answer. 400 unknown_parameter sent when there is one;
+// a signed URL's `sig` and `exp` pass (`textond sign` and POST /v1/sign sign any path).
 bool takes_no_query(const httplib::Request& req, httplib::Response& res);
 
 // RFC 9110 If-None-Match: a list of strong or weak tags, or "*".

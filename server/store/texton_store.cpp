@@ -8,8 +8,6 @@
 
 #include <malloc.h>
 
-#include <limits>
-
 namespace textond::store {
 
 TextonStore::TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t prepared_cache,
@@ -290,8 +288,8 @@ Result<std::string> TextonStore::exemplar_png(const std::string& id) {
 }
 
 Result<core::Image> TextonStore::decode_exemplar(const std::string& id, const std::string& png) {
-    io::DecodeLimits stored;
-    stored.max_pixels = std::numeric_limits<std::uint64_t>::max();
+    io::DecodeLimits stored; // admitted once under --max-pixels, which is at most 2^32
+    stored.max_pixels = std::uint64_t{1} << 32;
     auto image = io::decode_image_memory(png, stored);
     if (!image)
         return make_error(ErrorCode::io, "the stored exemplar of texton " + id +

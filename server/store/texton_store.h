@@ -62,7 +62,8 @@ public:
     // The stored exemplar PNG, or not_found.
     Result<std::string> exemplar_png(const std::string& id);
     // The exemplar decoded; a stored one that does not decode is an io error (500), not the
-    // client's (422 or 413: it was admitted when it was uploaded, so no pixel budget applies).
+    // client's (422 or 413: it was admitted when it was uploaded, so only --max-pixels's bound of
+    // 2^32 applies).
     Result<core::Image> exemplar_image(const std::string& id);
     // exemplar_png once its bytes have decoded in this process (the first request decodes them):
     // a damaged exemplar is never served as one.

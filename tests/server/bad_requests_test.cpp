@@ -227,6 +227,8 @@ TEST(BadRequests, MessagesNameWhatWasAsked) {
         ASSERT_TRUE(r);
         EXPECT_EQ(r->status, 400) << route;
         EXPECT_EQ(json::parse(r->body)["error"]["code"], "unknown_parameter") << route;
+        // A signed link to it still opens (the signer signs any path).
+        EXPECT_EQ(c.Get((url + "?exp=4102444800&sig=00").c_str())->status, 200) << route;
     }
 }
 
