@@ -97,7 +97,8 @@ Result<Calibration> calibrate(const std::vector<Backend*>& tile_workers, Backend
     };
     // First uses build tables and upload textures (and compile shaders): not measured.
     if (auto warm = render(frames, frame)) return *warm;
-    tile.precision = Precision::u8; // as a PNG tile is read back (its own GL program)
+    tile.precision = Precision::u8; // as a PNG tile is read back (its own GL program), as bytes
+    tile.bytes = true;
     for (Backend* w : tile_workers)
         if (auto warm = render(*w, tile)) return *warm;
     // Sixteen tiles on every worker at once: one batch a lane on GL, one after another on each

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <mutex>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -11,10 +12,36 @@ namespace textond::render {
 
 namespace {
 std::mutex g_mutex;
-std::vector<std::vector<float>>& spares() {
-    static std::vector<std::vector<float>> v;
+template <class T> std::vector<std::vector<T>>& spares() {
+    static std::vector<std::vector<T>> v;
     return v;
 }
+
+std::size_t g_held = 0; // bytes in both pools
+
+// The first spare of at least n values, or an empty buffer.
+template <class T> std::vector<T> take_spare(std::size_t n) {
+    std::lock_guard lock(g_mutex);
+    auto& s = spares<T>();
+    for (std::size_t i = 0; i < s.size(); ++i)
+        if (s[i].capacity() >= n) {
+            std::vector<T> buffer = std::move(s[i]);
+            s.erase(s.begin() + static_cast<std::ptrdiff_t>(i));
+            g_held -= buffer.capacity() * sizeof(T);
+            return buffer;
+        }
+    return {};
+}
+
+template <class T> void give_spare(std::vector<T>&& buffer) {
+    const std::size_t size = buffer.capacity() * sizeof(T);
+    if (size == 0 || size > kMaxSpareBytes) return;
+    std::lock_guard lock(g_mutex);
+    if (spares<T>().size() >= kMaxSpares || g_held + size > kMaxSpares * kMaxSpareBytes) return;
+    g_held += size;
+    spares<T>().push_back(std::move(buffer));
+}
+
 // A frame too large for the pool is a fresh mapping that its zero fill faults in page by page: on
 // 4 kB pages a 4K RGB float frame (100 MB) took 108 ms here, 40 ms on 2 MB pages, where the system
 // gives them on request (transparent huge pages in `madvise` mode, Debian's default).
@@ -40,17 +67,7 @@ core::Image fresh_image(int width, int height, int channels, std::size_t n) {
 
 core::Image take_image(int width, int height, int channels) {
     const std::size_t n = static_cast<std::size_t>(width) * height * channels;
-    std::vector<float> buffer;
-    {
-        std::lock_guard lock(g_mutex);
-        auto& s = spares();
-        for (std::size_t i = 0; i < s.size(); ++i)
-            if (s[i].capacity() >= n) {
-                buffer = std::move(s[i]);
-                s.erase(s.begin() + static_cast<std::ptrdiff_t>(i));
-                break;
-            }
-    }
+    std::vector<float> buffer = take_spare<float>(n);
     if (buffer.capacity() < n) return fresh_image(width, height, channels, n);
     core::Image out;
     out.width = width;
@@ -61,12 +78,25 @@ core::Image take_image(int width, int height, int channels) {
     return out;
 }
 
+core::Image take_bytes_image(int width, int height, int channels) {
+    core::Image out;
+    if (width < 0 || height < 0 || channels < 0)
+        throw std::invalid_argument("take_bytes_image: negative size");
+    out.width = width;
+    out.height = height;
+    out.channels = channels;
+    const std::size_t n = static_cast<std::size_t>(width) * height * channels;
+    out.bytes = take_spare<std::uint8_t>(n);
+    out.bytes.resize(n);
+    return out;
+}
+
 void recycle_image(core::Image&& image) {
-    std::vector<float> buffer = std::move(image.data);
+    std::vector<float> floats = std::move(image.data);
+    std::vector<std::uint8_t> bytes = std::move(image.bytes);
     image = core::Image();
-    if (buffer.capacity() * sizeof(float) > kMaxSpareBytes) return;
-    std::lock_guard lock(g_mutex);
-    if (spares().size() < kMaxSpares) spares().push_back(std::move(buffer));
+    give_spare(std::move(floats));
+    give_spare(std::move(bytes));
 }
 
 } // namespace textond::render

@@ -34,6 +34,10 @@ struct NoiseRequest {
     std::array<std::int64_t, 2> period{0, 0}; // tileable mode, in cells; 0 = unbounded plane
     Marginals marginals = Marginals::gaussian;
     Precision precision = Precision::f32; // not part of the window: what the caller keeps
+    // With precision u8, and not part of the window either: the caller takes the bytes themselves
+    // (core::Image::bytes, interleaved) from a backend that reads back only those (GL); the CPU
+    // backend and GL's float paths (exemplar marginals) still return floats.
+    bool bytes = false;
     // Not part of the window: when to give up (render/cancel.h); none = run to the end.
     const Cancel* cancel = nullptr;
 };

@@ -18,8 +18,9 @@ int words_per_pixel(Precision p) {
 
 namespace {
 
-// The pass's pixels into each piece's window, as floats that encode to the same bytes (q / 255
-// scaled back by the encoder is q again: the error is far below its + 0.5).
+// The pass's pixels into each piece's window: as the bytes themselves where the caller takes
+// them (NoiseRequest::bytes), else as floats that encode to the same bytes (q / 255 scaled back by
+// the encoder is q again: the error is far below its + 0.5).
 void copy_out(const Piece& p, Precision precision, const std::uint32_t* words, int y_begin,
               int y_end) {
     static const auto u8 = [] {
@@ -37,6 +38,26 @@ void copy_out(const Piece& p, Precision precision, const std::uint32_t* words, i
     core::Image& img = p.work->image.value();
     const int nc = img.channels;
     const int stride = words_per_pixel(precision);
+    if (img.is_bytes()) { // the word's low bytes are the channels: copied as they are
+        for (int y = y_begin; y < y_end; ++y) {
+            const std::uint32_t* src = words + p.out_base + static_cast<std::size_t>(y) * p.w;
+            std::uint8_t* dst = img.bytes.data() + (static_cast<std::size_t>(p.y0 + y) * img.width +
+                                                    static_cast<std::size_t>(p.x0)) *
+                                                       static_cast<std::size_t>(nc);
+            if (nc == 3)
+                for (int x = 0; x < p.w; ++x, dst += 3) {
+                    const std::uint32_t v = src[x];
+                    dst[0] = static_cast<std::uint8_t>(v);
+                    dst[1] = static_cast<std::uint8_t>(v >> 8);
+                    dst[2] = static_cast<std::uint8_t>(v >> 16);
+                }
+            else
+                for (int x = 0; x < p.w; ++x)
+                    for (int c = 0; c < nc; ++c)
+                        *dst++ = static_cast<std::uint8_t>(src[x] >> (8 * c));
+        }
+        return;
+    }
     for (int y = y_begin; y < y_end; ++y) {
         const std::uint32_t* src =
             words + (p.out_base + static_cast<std::size_t>(y) * p.w) * stride;
@@ -86,7 +107,8 @@ std::vector<Piece> cut(const std::vector<GlBackend::Work*>& batch, std::size_t p
             work->image = abandoned(win.cancel, "the render");
             continue;
         }
-        work->image = take_image(win.width, win.height, win.channels); // every pixel is written
+        work->image = win.bytes ? take_bytes_image(win.width, win.height, win.channels)
+                                : take_image(win.width, win.height, win.channels); // all written
         const int pw = std::min(win.width, piece_side);
         const int ph = std::max(
             1, std::min(win.height, static_cast<int>(pass_words / words_per_pixel(win.precision) /

@@ -42,8 +42,8 @@ struct BatchPlan {
 BatchPlan plan_batch(const std::vector<GlBackend::Work*>& batch, std::size_t pass_words,
                      int piece_side);
 
-// A pass's readback (`words`) into each piece's window, as floats that encode to the bytes the
-// GPU rounded to, on all cores.
+// A pass's readback (`words`) into each piece's window, as the bytes the GPU rounded to (a window
+// of core::Image::bytes) or as floats that encode to them, on all cores.
 void copy_out_pass(const Pass& pass, const std::uint32_t* words);
 
 } // namespace textond::render::gl

@@ -172,6 +172,7 @@ NoiseWindow make_noise_window(const PreparedTexton& tex, const PreparedMix* mix,
     win.height = q.height;
     win.channels = tex.channels();
     win.precision = q.precision;
+    win.bytes = q.bytes && q.precision == Precision::u8;
     win.cancel = q.cancel;
     Record rec{win.record};
     win.limit_model = q.level >= tex.limit_level();

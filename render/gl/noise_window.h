@@ -61,6 +61,7 @@ struct NoiseWindow {
     const core::MixField* mask = nullptr;
     int width = 0, height = 0, channels = 0;
     Precision precision = Precision::f32;
+    bool bytes = false; // read back into core::Image::bytes (NoiseRequest::bytes, at 8 bits)
     const Cancel* cancel = nullptr;
     bool limit_model = false;
 };

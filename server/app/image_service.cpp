@@ -103,10 +103,13 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
         job.out_width != job.request.width || job.out_height != job.request.height;
     // The encoder keeps only the format's bits: a GL backend rounds on the GPU and reads back
     // only those (the same bytes). A resampled window needs the floats.
-    if (!resampled)
+    if (!resampled) {
         q.precision = job.format == api::ImageFormat::png16 ? render::Precision::u16
                       : job.format == api::ImageFormat::exr ? render::Precision::f32
                                                             : render::Precision::u8;
+        // And at 8 bits the bytes themselves, which every 8-bit encoder takes as they are.
+        q.bytes = q.precision == render::Precision::u8;
+    }
     auto image = job.source->window(job.id, q, job.whole_machine ? Work::frame : Work::tile,
                                     job.kind, job.noise.map);
     if (!image || !resampled) return image;

@@ -51,6 +51,7 @@ Result<core::Image> render_view(render::Renderer& renderer, const PreparedTexton
         height.encoding.reset();
         render::NoiseRequest f = q;
         f.precision = render::Precision::f32;
+        f.bytes = false;
         auto h = render_view(renderer, set, height, f, work, used);
         if (!h) return h;
         return core::encode_elevation(h.value(), *map.encoding, map.height_scale);
@@ -68,7 +69,9 @@ Result<core::Image> render_view(render::Renderer& renderer, const PreparedTexton
         auto height = render::map_view(set, core::kNormalMap);
         if (!height) return height.error();
         if (auto err = height.value()->check(q)) return *err;
-        auto colour = renderer.noise(*albedo.value(), q, work, used);
+        render::NoiseRequest shaded = q; // lit from floats, never from bytes
+        shaded.bytes = false;
+        auto colour = renderer.noise(*albedo.value(), shaded, work, used);
         if (!colour) return colour;
         auto normals = renderer.normals(*height.value(), q, map.strength, work);
         if (!normals) return normals;

@@ -29,8 +29,8 @@ Milliseconds per frame of texton noise (MNI 30, level 0) for each backend at 256
 1920x1080 and 3840x2160, with textons of r = 64 and r = 256 (the paper's Table 1), next to an
 FFTW ADSN of the same size measured in the same run (ratio = ADSN ms / backend ms); for OpenGL
 also the GPU time of the dispatches alone (timer queries), where the rest is readback and
-conversion, and (OpenGL) the same frame read back as 8-bit RGB, rounded on the GPU as the PNG
-encoder rounds; on a GPU, 4K frames at 1, 2 and 4 times the pass size, each pass's GPU ms. Then 64 tiles of 256x256 as 8-bit: one call each, and as one batch (OpenGL: one
+conversion, and (OpenGL) the same frame read back as 8-bit RGB bytes, rounded on the GPU as the
+PNG encoder rounds and handed on as the bytes a PNG tile is encoded from; on a GPU, 4K frames at 1, 2 and 4 times the pass size, each pass's GPU ms. Then 64 tiles of 256x256 as 8-bit: one call each, and as one batch (OpenGL: one
 upload, one dispatch and one readback; the CPU renders them one after another). Also one
 256x256 tile at every level 0..5 (exact box filtering), 6 and 8 (limit model), 24 and -2, with
 its ratio to level 0, one 1024x1024 frame at interpolation orders 0, 1, 3, and (CPU,
@@ -132,6 +132,7 @@ Result<bool> frame_row(const Bench& b, render::Backend& backend, const render::P
     if (gpu_ms >= 0) {
         std::snprintf(gpu_text, sizeof gpu_text, "%.2f", gpu_ms);
         q.precision = render::Precision::u8;
+        q.bytes = true; // as a PNG tile is served: the bytes, no floats
         const double ms8 = median_ms(b.repeat, [&] {
             ++q.seed;
             auto img = backend.render(tex, q);
@@ -154,6 +155,7 @@ void passes_by_size(const Bench& b, render::GlBackend& gl) {
             q.width = 3840;
             q.height = 2160;
             q.precision = precision;
+            q.bytes = precision == render::Precision::u8;
             std::vector<std::pair<double, std::vector<double>>> gpu;
             const double ms = median_ms(b.repeat, [&] {
                 ++q.seed;
@@ -191,6 +193,7 @@ void frames_by_shape(const Bench& b, render::GlBackend& gl) {
         q.width = s.w;
         q.height = s.h;
         q.precision = render::Precision::u8;
+        q.bytes = true;
         std::vector<double> gpu;
         median_ms(b.repeat, [&] {
             ++q.seed;
@@ -263,6 +266,7 @@ std::pair<double, double> tiles_ms(const Bench& b, render::Backend& backend, boo
             qs[t].y0 = 256 * static_cast<std::int64_t>(t / 8);
             qs[t].seed = ++seed;
             qs[t].precision = render::Precision::u8;
+            qs[t].bytes = true;
         }
         double sum = 0;
         if (batch) {

@@ -169,6 +169,7 @@ Result<Encoded> render_tile(const Context& c, TileAddress t) {
         app::to_noise_request(r.level, r.x0(), r.y0(), r.size, r.size, r.noise);
     q.precision =
         r.format == api::ImageFormat::png16 ? render::Precision::u16 : render::Precision::u8;
+    q.bytes = q.precision == render::Precision::u8;
     auto image =
         app::render_view(c.renderer, c.set, r.noise.map, q, render::Renderer::Work::tile, nullptr);
     if (!image) return image.error();

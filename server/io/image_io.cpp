@@ -504,7 +504,7 @@ struct Scratch {
 struct EncodeInput {
     ImageSpec spec;
     TypeDesc type;
-    std::vector<unsigned char>& pixels; // interleaved, in `type`
+    const unsigned char* pixels; // interleaved, in `type`
 };
 
 template <class T> void interleave(const core::Image& image, float scale, T* out) {
@@ -538,7 +538,7 @@ EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attribute
     const TypeDesc type = e == Encoding::png8    ? TypeDesc::UINT8
                           : e == Encoding::png16 ? TypeDesc::UINT16
                                                  : TypeDesc::FLOAT;
-    EncodeInput in{ImageSpec(image.width, image.height, image.channels, type), type, pixels};
+    EncodeInput in{ImageSpec(image.width, image.height, image.channels, type), type, nullptr};
     if (e == Encoding::exr) {
         in.spec.attribute("compression", "zip");
         // OpenEXR's writer stamps the current time (capDate) unless a DateTime is given: the
@@ -549,13 +549,19 @@ EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attribute
     if (static_cast<int>(channel_names.size()) == image.channels)
         in.spec.channelnames = channel_names;
     for (const auto& [key, value] : attributes) in.spec.attribute(key, value);
-    in.pixels.resize(image.data.size() * type.size());
+    if (image.is_bytes()) { // already what a PNG of 8 bits holds (a GL tile's readback)
+        if (e != Encoding::png8) throw std::invalid_argument("encode: 8-bit pixels as 8-bit PNG");
+        in.pixels = image.bytes.data();
+        return in;
+    }
+    pixels.resize(image.data.size() * type.size());
     if (e == Encoding::png8)
-        interleave(image, 255.0f, in.pixels.data());
+        interleave(image, 255.0f, pixels.data());
     else if (e == Encoding::png16)
-        interleave(image, 65535.0f, reinterpret_cast<std::uint16_t*>(in.pixels.data()));
+        interleave(image, 65535.0f, reinterpret_cast<std::uint16_t*>(pixels.data()));
     else
-        interleave(image, 1.0f, reinterpret_cast<float*>(in.pixels.data()));
+        interleave(image, 1.0f, reinterpret_cast<float*>(pixels.data()));
+    in.pixels = pixels.data();
     return in;
 }
 
@@ -576,7 +582,9 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
                                                              : 64 /* PNG_FILTER_AVG */);
     }
     std::vector<unsigned char>& buffer = encoded.bytes;
-    buffer.reserve(in.pixels.size() + in.pixels.size() / 64 + 4096); // stored PNG, no regrowth
+    const std::size_t raw =
+        image.plane_size() * static_cast<std::size_t>(image.channels) * in.type.size();
+    buffer.reserve(raw + raw / 64 + 4096); // stored PNG, no regrowth
     OIIO::Filesystem::IOVecOutput proxy(buffer);
     void* proxy_ptr = &proxy;
     in.spec.attribute("oiio:ioproxy", TypeDesc::PTR, static_cast<const void*>(&proxy_ptr));
@@ -588,7 +596,7 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
     if (!out) out = ImageOutput::create(name);
     if (!out) return make_error(ErrorCode::io, "no encoder: " + oiio_message(OIIO::geterror()));
     const bool ok =
-        out->open(name, in.spec) && out->write_image(in.type, in.pixels.data()) && out->close();
+        out->open(name, in.spec) && out->write_image(in.type, in.pixels) && out->close();
     if (!ok) {
         const std::string err = oiio_message(out->geterror());
         out.reset(); // never reuse an encoder in an unknown state
@@ -618,7 +626,7 @@ Result<bool> encode_image_file(const core::Image& image, const std::string& path
                                 .string();
     auto out = ImageOutput::create(tmp);
     if (!out) return make_error(ErrorCode::io, "no encoder: " + oiio_message(OIIO::geterror()));
-    bool ok = out->open(tmp, spec) && out->write_image(in.type, in.pixels.data()) && out->close();
+    bool ok = out->open(tmp, spec) && out->write_image(in.type, in.pixels) && out->close();
     if (ok) {
         const int fd = ::open(tmp.c_str(), O_RDONLY);
         ok = fd >= 0 && ::fsync(fd) == 0;

@@ -21,6 +21,12 @@ constexpr int kWebpLossyMethod = 0;
 // Interleaved 8-bit RGB, rounded as the PNG encoder rounds (image_io.cpp, interleave).
 std::vector<std::uint8_t> rgb8(const core::Image& u) {
     std::vector<std::uint8_t> out(static_cast<std::size_t>(u.width) * u.height * 3);
+    if (u.is_bytes()) { // rounded already (a GL tile's readback): grey repeats its byte
+        if (u.channels == 3) return u.bytes;
+        for (std::size_t k = 0; k < u.bytes.size(); ++k)
+            out[3 * k] = out[3 * k + 1] = out[3 * k + 2] = u.bytes[k];
+        return out;
+    }
     for (int y = 0; y < u.height; ++y)
         for (int x = 0; x < u.width; ++x)
             for (int c = 0; c < 3; ++c) {

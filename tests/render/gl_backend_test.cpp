@@ -263,6 +263,7 @@ std::uint32_t rounded(float v, int bits) {
 void check_batch_against_singles(GlBackend& gl) {
     const auto sand = analysed_texton("etr_sand01.png", 64);
     const auto cork = analysed_texton("mypaint_HR_Cork.png", 32, 3);
+    const auto gravel = analysed_texton("skimage_gravel.png", 32); // grey
     core::MixField ramp;
     ramp.dx = 1;
     ramp.width = 60;
@@ -305,6 +306,21 @@ void check_batch_against_singles(GlBackend& gl) {
     items.back().q.period = {0, 0};
     add(*sand, nullptr, 0, 0, 0, 3 * sand->cell_size(), 2 * sand->cell_size(), P::u16, 8);
     items.back().q.period = {3, 2};
+    // 8-bit windows taken as bytes (NoiseRequest::bytes), beside the float ones of their passes:
+    // grey and RGB, a mix, the limit model, and a frame of several pieces.
+    const auto bytes = [&] { items.back().q.bytes = true; };
+    add(*sand, nullptr, 0, 64 * 6 - 100, 0, 64, 64, P::u8, 5);
+    bytes();
+    add(*cork, nullptr, 0, 1 << 20, 40, 33, 17, P::u8, 1);
+    bytes();
+    add(*gravel, nullptr, 2, -5, 6, 40, 24, P::u8, 7);
+    bytes();
+    add(*sand, nullptr, sand->limit_level(), -3, 4, 48, 32, P::u8, 2);
+    bytes();
+    add(mix->level(0), mix.get(), 0, -40, 40, 80, 40, P::u8, 3);
+    bytes();
+    add(*sand, nullptr, 1, 7, -9, software ? 700 : 2500, software ? 450 : 2000, P::u8, 4);
+    bytes();
     render::Cancel gone(render::Cancel::Clock::now() - std::chrono::seconds(1), nullptr);
     add(*sand, nullptr, 0, 0, 0, 64, 64, P::u8, 5);
     items.back().q.cancel = &gone;
@@ -334,17 +350,31 @@ void check_batch_against_singles(GlBackend& gl) {
         EXPECT_EQ(0, std::memcmp(got.value().data.data(), alone.value().data.data(),
                                  got.value().data.size() * sizeof(float)))
             << gl.name() << " window " << i << ": batched differs from alone";
+        EXPECT_EQ(got.value().bytes, alone.value().bytes) << gl.name() << " window " << i;
+        const core::Image& g = got.value();
+        ASSERT_EQ(g.is_bytes(), it.q.bytes) << i;
+        ASSERT_EQ(g.is_bytes() ? g.data.size() : g.bytes.size(), 0u) << i;
+        const std::size_t values = g.plane_size() * static_cast<std::size_t>(g.channels);
+        ASSERT_EQ(g.is_bytes() ? g.bytes.size() : g.data.size(), values) << i;
         EXPECT_GT(works[i].stats.gpu_ms, -1.0);
         const bool exact = it.q.level < it.texton->limit_level();
-        if (it.q.precision == P::f32 || !exact) continue;
+        if (it.q.precision == P::f32 || (!exact && !it.q.bytes)) continue;
         render::NoiseRequest full = it.q;
         full.precision = P::f32;
+        full.bytes = false;
         auto want = it.mix ? cpu.render_mix(*it.mix, full) : cpu.render(*it.texton, full);
+        if (!exact) // the limit model is GL's own floats (within float rounding of the CPU's)
+            want = gl.render(*it.texton, full);
         ASSERT_TRUE(want.ok());
         const int bits = it.q.precision == P::u8 ? 8 : 16;
         std::size_t differ = 0;
-        for (std::size_t k = 0; k < want.value().data.size(); ++k)
-            differ += rounded(want.value().data[k], bits) != rounded(got.value().data[k], bits);
+        for (std::size_t k = 0; k < values; ++k) {
+            // the bytes interleave the channels; floats are planar
+            const std::size_t px = k % g.plane_size(), c = k / g.plane_size();
+            const std::uint32_t have =
+                g.is_bytes() ? g.bytes[px * g.channels + c] : rounded(g.data[k], bits);
+            differ += rounded(want.value().data[k], bits) != have;
+        }
         // Bit-identical floats round alike; a mix's float field may move a value by 1e-5 std.
         EXPECT_LE(differ, it.mix ? want.value().data.size() / 1000 : 0u)
             << gl.name() << " window " << i << " at " << bits << " bits";
