@@ -26,7 +26,7 @@ struct MixMeta {
     int size = 0, order = 1, channels = 0, iterations = 0;
     std::uint64_t seed = 0;
     bool periodic = true;
-    std::array<int, 2> grid{};              // the common exemplar size
+    std::array<int, 2> grid{};              // core::mix_grid: the common size, FFT-cut
     std::vector<std::vector<double>> means; // mean colour per level
     std::vector<double> rme;                // RME per level
     nlohmann::json field;                   // io::field_json

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
-#include <map>
+#include <list>
 #include <mutex>
 #include <new>
 #include <stdexcept>
@@ -87,13 +87,49 @@ int resolve_threads(int requested) {
     return hw == 0 ? 1 : static_cast<int>(hw);
 }
 
+namespace {
+// Most recently used first; a size in use elsewhere outlives its eviction (shared_ptr).
+struct PlanCache {
+    std::mutex mutex;
+    std::list<std::pair<std::pair<int, int>, std::shared_ptr<const RealFft2d>>> sizes;
+};
+PlanCache& plan_cache() {
+    static PlanCache cache;
+    return cache;
+}
+} // namespace
+
 std::shared_ptr<const RealFft2d> RealFft2d::get(int width, int height) {
-    static std::mutex cache_mutex;
-    static std::map<std::pair<int, int>, std::shared_ptr<const RealFft2d>> cache;
-    std::lock_guard<std::mutex> lock(cache_mutex);
-    auto& slot = cache[{width, height}];
-    if (!slot) slot.reset(new RealFft2d(width, height));
-    return slot;
+    PlanCache& cache = plan_cache();
+    std::unique_lock<std::mutex> lock(cache.mutex);
+    const std::pair<int, int> key{width, height};
+    for (auto it = cache.sizes.begin(); it != cache.sizes.end(); ++it)
+        if (it->first == key) {
+            cache.sizes.splice(cache.sizes.begin(), cache.sizes, it);
+            return it->second;
+        }
+    std::shared_ptr<const RealFft2d> made(new RealFft2d(width, height));
+    cache.sizes.emplace_front(key, made);
+    std::shared_ptr<const RealFft2d> evicted;
+    if (cache.sizes.size() > kCachedSizes) {
+        evicted = std::move(cache.sizes.back().second);
+        cache.sizes.pop_back();
+    }
+    lock.unlock(); // its plans are destroyed under the planner's lock, not the cache's
+    if (evicted) {
+        evicted.reset();
+        // FFTW remembers every problem it planned (its wisdom), about 70 bytes each: forgotten
+        // with the sizes it planned, so the memory stays bounded too (plans in use keep theirs).
+        std::lock_guard<std::mutex> planner(g_planner_mutex);
+        fftwf_forget_wisdom();
+    }
+    return made;
+}
+
+std::size_t RealFft2d::cached_sizes() {
+    PlanCache& cache = plan_cache();
+    std::lock_guard<std::mutex> lock(cache.mutex);
+    return cache.sizes.size();
 }
 
 RealFft2d::RealFft2d(int width, int height)

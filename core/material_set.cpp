@@ -67,7 +67,7 @@ Result<SetAnalysis> analyze_material_set(const Image& stacked, const std::vector
     const auto t_start = std::chrono::steady_clock::now();
     const int threads = resolve_threads(params.threads);
     // SOT paper section 3.1, on the working window of large maps.
-    const Image crop = working_window(stacked, params.working_side);
+    const Image crop = working_window(stacked, params.working_side, 2 * params.size);
     const Image& window = crop.empty() ? stacked : crop;
     const Image p = params.periodic ? periodic_component(window, threads) : window;
     const GaussianModel model = estimate_gaussian_model(p, threads);

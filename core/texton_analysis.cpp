@@ -141,7 +141,7 @@ Result<AnalysisResult> analyze_texton(const Image& exemplar, const AnalysisParam
     auto t0 = std::chrono::steady_clock::now();
     // SOT paper section 3.1, on the working window of a large exemplar: every step below, the
     // verdict and the marginals too, looks at the window alone.
-    const Image crop = working_window(exemplar, params.working_side);
+    const Image crop = working_window(exemplar, params.working_side, 2 * params.size);
     const Image& window = crop.empty() ? exemplar : crop;
     const Image p = params.periodic ? periodic_component(window, threads) : window;
     out.timings.periodic_ms = ms_since(t0);

@@ -2,6 +2,7 @@
 
 #include "core/periodic_component.h"
 #include "core/placed_image.h"
+#include "core/working_window.h"
 
 #include <algorithm>
 #include <cmath>
@@ -25,12 +26,17 @@ Image centre_crop_rgb(const Image& src, int w, int h, int channels) {
 
 } // namespace
 
-Result<ModelPair> common_models(const Image& u, const Image& v, bool periodic, int threads) {
+std::array<int, 2> mix_grid(int uw, int uh, int vw, int vh, int least) {
+    return {fast_side(std::min(uw, vw), least), fast_side(std::min(uh, vh), least)};
+}
+
+Result<ModelPair> common_models(const Image& u, const Image& v, bool periodic, int threads,
+                                int least) {
     for (const Image* e : {&u, &v})
         if ((e->channels != 1 && e->channels != 3) || e->width < 2 || e->height < 2)
             return make_error(ErrorCode::invalid_argument,
                               "mix exemplars must be grey or RGB images of at least 2x2");
-    const int w = std::min(u.width, v.width), h = std::min(u.height, v.height);
+    const auto [w, h] = mix_grid(u.width, u.height, v.width, v.height, least);
     const int nc = std::max(u.channels, v.channels);
     const Image cu = centre_crop_rgb(u, w, h, nc), cv = centre_crop_rgb(v, w, h, nc);
     ModelPair p;

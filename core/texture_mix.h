@@ -8,6 +8,7 @@
 #include "core/texton.h"
 #include "core/texton_analysis.h"
 
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <cstdint>
@@ -19,12 +20,18 @@ inline constexpr const char* kMixVersion = "textond-mix/1";
 inline constexpr int kDefaultMixLevels = 21; // the paper's R
 inline constexpr int kMaxMixLevels = 64;
 
-// Two models on one grid: both exemplars centre-cropped to the common size, a grey one promoted
-// to RGB when the other is colour, each replaced by its periodic component when `periodic`.
+// The common grid of exemplars of these sizes: each side the smaller of the two, brought down to
+// a size FFTW transforms fast unless that is under `least`, the analysis' 2r (fast_side,
+// core/working_window.h; each of a mix's levels is an analysis on it).
+std::array<int, 2> mix_grid(int uw, int uh, int vw, int vh, int least);
+
+// Two models on one grid: both exemplars centre-cropped to mix_grid, a grey one promoted to RGB
+// when the other is colour, each replaced by its periodic component when `periodic`.
 struct ModelPair {
     GaussianModel u, v;
 };
-Result<ModelPair> common_models(const Image& u, const Image& v, bool periodic, int threads);
+Result<ModelPair> common_models(const Image& u, const Image& v, bool periodic, int threads,
+                                int least);
 
 // Section 7: tau_rho = (1 - rho) tau_0 + rho t_v with tau_0^ = (t_u^* t_v^ / |t_u^* t_v^|) t_u^
 // (one phase for all channels, the scalar sum_c conj(t_u^_c) t_v^_c; phase 1 where it is 0), and

@@ -5,13 +5,34 @@
 
 namespace textond::core {
 
+int fast_fft_size(int n) {
+    for (int m = n; m > 1; --m) {
+        int k = m;
+        for (int prime : {2, 3, 5, 7})
+            while (k % prime == 0) k /= prime;
+        if (k == 1) return m;
+    }
+    return 1;
+}
+
+int fast_side(int n, int least) {
+    const int fast = fast_fft_size(n);
+    return fast >= least ? fast : n;
+}
+
+std::array<int, 2> window_size(int width, int height, int side, int least) {
+    if (side <= 0) return {width, height};
+    return {fast_side(std::min(width, side), least), fast_side(std::min(height, side), least)};
+}
+
 bool is_windowed(int width, int height, int side) {
     return side > 0 && (width > side || height > side);
 }
 
-Image working_window(const Image& u, int side) {
-    if (!is_windowed(u.width, u.height, side)) return {};
-    return centred_part(u, std::min(u.width, side), std::min(u.height, side));
+Image working_window(const Image& u, int side, int least) {
+    const auto [w, h] = window_size(u.width, u.height, side, least);
+    if (w == u.width && h == u.height) return {};
+    return centred_part(u, w, h);
 }
 
 Image centred_part(const Image& u, int w, int h) {

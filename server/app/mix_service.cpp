@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 
 namespace textond::app {
@@ -22,7 +23,7 @@ Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api
     auto ev = textons.exemplar_image(m.v);
     if (!ev) return ev.error();
     const core::AnalysisParams p = mu.params();
-    auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads);
+    auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads, 2 * p.size);
     if (!pair) return pair.error();
     auto levels = core::mix_levels(pair.value(), p, m.levels);
     if (!levels) return levels.error();
@@ -60,7 +61,13 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m,
     auto v = m_textons.find(m.v);
     if (!v) return v.error();
     Started out;
-    out.id = io::mix_id(m.u, m.v, m.levels, m.field);
+    const api::TextonMeta &a = u.value(), &b = v.value();
+    const auto grid = core::mix_grid(a.exemplar_width, a.exemplar_height, b.exemplar_width,
+                                     b.exemplar_height, 2 * a.size);
+    const bool cropped = grid != std::array<int, 2>{std::min(a.exemplar_width, b.exemplar_width),
+                                                    std::min(a.exemplar_height, b.exemplar_height)};
+    out.id = io::mix_id(m.u, m.v, m.levels, m.field,
+                        cropped ? std::optional<std::array<int, 2>>(grid) : std::nullopt);
     // contains() asks the shared store now whether a copy held here was deleted elsewhere: a
     // creation after a delete stores the mix again (it answered 200 and stored nothing).
     if (m_mixes.contains(out.id))
@@ -68,10 +75,8 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m,
             out.known = std::move(meta.value());
             return out;
         }
-    const api::TextonMeta &a = u.value(), &b = v.value();
-    if (!admit(mix_work_s(std::min(a.exemplar_width, b.exemplar_width),
-                          std::min(a.exemplar_height, b.exemplar_height),
-                          std::max(a.channels, b.channels), a.iterations, m.levels))) {
+    if (!admit(mix_work_s(grid[0], grid[1], std::max(a.channels, b.channels), a.iterations,
+                          m.levels))) {
         out.refused = true;
         return out;
     }

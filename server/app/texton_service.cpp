@@ -28,7 +28,7 @@ std::optional<TextonService::Refused> TextonService::store_refuses_writes() cons
 
 std::optional<TextonService::Refused>
 TextonService::over_budget(const core::Image& u, const core::AnalysisParams& p) const {
-    const double work = analysis_work_s(u.width, u.height, u.channels, p.iterations);
+    const double work = analysis_work_s(u.width, u.height, u.channels, p.iterations, p.size);
     if (m_max_work_s <= 0 || work <= m_max_work_s) return std::nullopt;
     char text[160];
     std::snprintf(text, sizeof text,
@@ -75,7 +75,8 @@ TextonService::ingest(std::string_view bytes, const core::AnalysisParams& params
     }
     if (auto refused = store_refuses_writes()) return *refused;
     if (auto refused = over_budget(u, params)) return *refused;
-    const double work_s = analysis_work_s(u.width, u.height, u.channels, params.iterations);
+    const double work_s =
+        analysis_work_s(u.width, u.height, u.channels, params.iterations, params.size);
     image.value() = core::Image{}; // while queued, the job holds the encoded bytes alone
     auto body = std::make_shared<const std::string>(bytes);
     out.submitted = submit(
@@ -192,8 +193,8 @@ TextonService::ingest_set(const std::vector<MapUpload>& maps, const core::Analys
     }
     if (auto refused = store_refuses_writes()) return *refused;
     if (auto refused = over_budget(stacked, params)) return *refused;
-    const double work_s =
-        analysis_work_s(stacked.width, stacked.height, stacked.channels, params.iterations);
+    const double work_s = analysis_work_s(stacked.width, stacked.height, stacked.channels,
+                                          params.iterations, params.size);
     stacked = core::Image{}; // while queued, the job holds the encoded maps alone
     // The maps' bytes outlive the request (a client that polls has left it).
     auto kept = std::make_shared<std::vector<std::pair<std::string, std::string>>>();

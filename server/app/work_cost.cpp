@@ -23,10 +23,10 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
            surface_work_s(static_cast<std::size_t>(pixels), mni, order);
 }
 
-double analysis_work_s(int width, int height, int channels, int iterations) {
+double analysis_work_s(int width, int height, int channels, int iterations, int size) {
     constexpr double kAnalysisNs = 13; // fitted by tests/bench/analysis_cost.py
-    const double window = static_cast<double>(std::min(width, core::kWorkingSide)) *
-                          std::min(height, core::kWorkingSide) * channels;
+    const auto [w, h] = core::window_size(width, height, core::kWorkingSide, 2 * size);
+    const double window = static_cast<double>(w) * h * channels;
     const double whole = static_cast<double>(width) * height * channels;
     return window * (iterations + 8) * kAnalysisNs * 1e-9 + whole * 10e-9;
 }

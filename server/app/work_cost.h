@@ -15,16 +15,18 @@ int taps_of_order(int order); // 1, 4 or 16
 double noise_work_s(std::int64_t pixels, double mni, int order);
 double surface_work_s(std::size_t points, double mni, int order);
 double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, int order);
-// An analysis (core/texton_analysis.h) runs two FFTs of its working window (at most 1024 x 1024,
-// core/working_window.h) a channel and an iteration (alternating projections, texton paper
-// section 4), plus the periodic component, the model, the verdict and the marginals: kAnalysisNs
-// of one core a window channel-pixel and iteration, with 8 iterations' worth of fixed work
-// (fitted on a split of the shared photos, core/README.md "Analysis time"), and 10 ns a
-// channel-pixel of the whole exemplar for its id (sha256 of its floats) and the window's copy. The
-// upload is refused (413 work_too_large) before it is queued when over --max-request-cpu-s.
-double analysis_work_s(int width, int height, int channels, int iterations);
+// An analysis (core/texton_analysis.h) runs two FFTs of its working window (at most 1024 x 1024
+// and of fast FFT sizes, core::window_size for texton support `size`) a channel and an iteration
+// (alternating projections, texton paper section 4), plus the periodic component, the model, the
+// verdict and the marginals: kAnalysisNs of one core a window channel-pixel and iteration, with 8
+// iterations' worth of fixed work (fitted on a split of the shared photos, core/README.md "Analysis
+// time"), and 10 ns a channel-pixel of the whole exemplar for its id (sha256 of its floats) and the
+// window's copy. The upload is refused (413 work_too_large) before it is queued when over
+// --max-request-cpu-s.
+double analysis_work_s(int width, int height, int channels, int iterations, int size);
 // A texture mix (core/texture_mix.h) runs `levels` analyses from a model over the common grid
-// (the two exemplars' smaller width and height, the more channels), none of them windowed: kMixNs
+// (core::mix_grid: the two exemplars' smaller width and height at fast FFT sizes, the more
+// channels), none of them cut to kWorkingSide: kMixNs
 // of one core a grid channel-pixel, level and iteration, with kMixFixedIterations' worth of fixed
 // work a level (fitted on one half of the shared photos' pairs by tests/bench/mix_cost.py; on the
 // other half the measured CPU is 0.97-1.42x the estimate, a grey pair's the most above it).

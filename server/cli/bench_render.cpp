@@ -367,7 +367,7 @@ Result<bool> mix_rows(const Bench& b, render::CpuBackend& cpu1, render::NoiseReq
     p.size = 64;
     p.threads = b.threads;
     const auto t0 = std::chrono::steady_clock::now();
-    auto pair = core::common_models(b.sand, other.value(), true, b.threads);
+    auto pair = core::common_models(b.sand, other.value(), true, b.threads, 2 * p.size);
     if (!pair) return pair.error();
     auto levels = core::mix_levels(pair.value(), p, core::kDefaultMixLevels);
     if (!levels) return levels.error();

@@ -129,8 +129,8 @@ int mix_command(const Argv& argv) {
     auto v = io::decode_image_file(a.positional[1], limits.value());
     if (!v) return fail(1, v.error().message);
     const auto t0 = std::chrono::steady_clock::now();
-    auto pair =
-        core::common_models(u.value(), v.value(), params.value().periodic, params.value().threads);
+    auto pair = core::common_models(u.value(), v.value(), params.value().periodic,
+                                    params.value().threads, 2 * params.value().size);
     if (!pair) return fail(1, pair.error().message);
     auto mixed = core::mix_levels(pair.value(), params.value(), static_cast<int>(levels.value()),
                                   progress_reporter("mix", "level"));

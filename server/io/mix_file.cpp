@@ -34,8 +34,8 @@ nlohmann::json field_json(const core::MixField& f) {
             {"sha256", pixels_sha256(f.mask)}};
 }
 
-std::string mix_id(const std::string& u, const std::string& v, int levels,
-                   const core::MixField& f) {
+std::string mix_id(const std::string& u, const std::string& v, int levels, const core::MixField& f,
+                   const std::optional<std::array<int, 2>>& fft_grid) {
     Sha256 h;
     h.update(core::kMixVersion).update("\n").update(u).update("\n").update(v).update("\n");
     h.update(std::to_string(levels)).update("\n");
@@ -46,6 +46,9 @@ std::string mix_id(const std::string& u, const std::string& v, int levels,
     else
         h.update("mask " + api::exact_text(f.x0) + " " + api::exact_text(f.y0) + " " +
                  api::exact_text(f.scale) + " " + pixels_sha256(f.mask));
+    if (fft_grid)
+        h.update("\nfft grid " + std::to_string((*fft_grid)[0]) + "x" +
+                 std::to_string((*fft_grid)[1]));
     return h.hex();
 }
 
@@ -149,7 +152,9 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
         if (!field) return bad(path, field.error().message);
         r.field = std::move(field.value());
         if (auto err = r.field.validate()) return bad(path, "field: " + err->message);
-        if (mix_id(r.meta.u, r.meta.v, nl, r.field) != id)
+        // Of a grid cropped to a fast FFT size, or (older builds, or no crop) not.
+        if (mix_id(r.meta.u, r.meta.v, nl, r.field) != id &&
+            mix_id(r.meta.u, r.meta.v, nl, r.field, r.meta.grid) != id)
             return bad(path, "content does not hash to its id");
     } catch (const std::exception& e) {
         return bad(path, std::string("metadata: ") + e.what());

@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,9 +29,12 @@ struct MixRecord {
 };
 
 // Content address of a mix: its version, both texton ids, the level count and the canonical
-// field (a mask by the sha256 of its float pixels).
+// field (a mask by the sha256 of its float pixels); and `fft_grid`, the grid, where core::mix_grid
+// brought the exemplars' common size down to a fast FFT size: builds before that crop analysed
+// the common size itself, a different computation, so it must be a different id.
 std::string mix_id(const std::string& u, const std::string& v, int levels,
-                   const core::MixField& field);
+                   const core::MixField& field,
+                   const std::optional<std::array<int, 2>>& fft_grid = std::nullopt);
 // The field as JSON (meta["field"]) and back (the mask's pixels travel separately).
 nlohmann::json field_json(const core::MixField& field);
 

@@ -6,6 +6,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <array>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -92,6 +93,14 @@ std::string texton_id(const core::Image& exemplar, const core::AnalysisParams& p
     // different computation than the whole exemplar's, so a different id.
     if (core::is_windowed(exemplar.width, exemplar.height, params.working_side))
         h.update("\nwindow " + std::to_string(params.working_side));
+    // So does a window whose sides were brought down to fast FFT sizes (builds before that crop
+    // transformed the sides as they were).
+    const auto window =
+        core::window_size(exemplar.width, exemplar.height, params.working_side, 2 * params.size);
+    if (params.working_side > 0 &&
+        window != std::array<int, 2>{std::min(exemplar.width, params.working_side),
+                                     std::min(exemplar.height, params.working_side)})
+        h.update("\nfft window " + std::to_string(window[0]) + "x" + std::to_string(window[1]));
     for (const api::MapMeta& m : maps)
         h.update("\nmap " + m.name + " " + std::to_string(m.channels) + " " +
                  std::to_string(m.bits));

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The CPU of an analysis against admission's model (server/app/work_cost.cpp, analysis_work_s):
-a x channel-pixels of the working window x (iterations + 8). The shared photos are split by a
+a x channel-pixels of the working window (core::window_size) x (iterations + 8). The shared photos are split by a
 rule fixed before any measurement: sorted by name, even positions fit a (the mean of CPU / units
 over their runs), odd ones report measured / model. One thread, iterations 20 and 50, analysis
 time only (`textond analyze`'s timings_ms.total). Prints a table.
@@ -16,13 +16,26 @@ BINARY = sys.argv[1] if len(sys.argv) > 1 else "build/release/textond"
 EXEMPLARS = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/exemplars"
 
 
-def run(path, iterations):
+def fast_side(n, least):
+    """core::fast_side: the largest m <= n of the form 2^a 3^b 5^c 7^d, unless under least."""
+    for m in range(n, 1, -1):
+        k = m
+        for prime in (2, 3, 5, 7):
+            while k % prime == 0:
+                k //= prime
+        if k == 1:
+            return m if m >= least else n
+    return n
+
+
+def run(path, iterations, size=64):
     out = subprocess.run([BINARY, "analyze", path, "--threads", "1", "--iterations",
                           str(iterations), "-o", "/dev/null"], capture_output=True, text=True,
                          check=True).stdout
     j = json.loads(out)
     w, h = j["exemplar"]["width"], j["exemplar"]["height"]
-    window = min(w, 1024) * min(h, 1024) * j["channels"]
+    window = (fast_side(min(w, 1024), 2 * size) * fast_side(min(h, 1024), 2 * size) *
+              j["channels"])
     return w, h, j["channels"], j["timings_ms"]["total"] / 1000, window * (iterations + 8)
 
 

@@ -66,3 +66,24 @@ TEST(RealFft2d, BitIdenticalForAnyThreadCount) {
     fft->inverse(s3, b3.plane(0), 3);
     EXPECT_EQ(b1.data, b3.data);
 }
+
+// The plan cache keeps the sizes used last, not every size ever asked for; a size evicted while
+// held stays usable, and one planned again gives the same bits.
+TEST(RealFft2d, PlanCacheIsBoundedAndEvictedSizesStillTransform) {
+    const int w = 37, h = 29;
+    const Image u = test::white_noise(w, h, 1, 8);
+    const auto held = RealFft2d::get(w, h);
+    Spectrum before(w, h);
+    held->forward(u.plane(0), before, 1);
+    for (int k = 0; k < 3 * static_cast<int>(RealFft2d::kCachedSizes); ++k)
+        RealFft2d::get(16 + k, 17);
+    EXPECT_EQ(RealFft2d::cached_sizes(), RealFft2d::kCachedSizes);
+    Spectrum again(w, h), replanned(w, h);
+    held->forward(u.plane(0), again, 1);
+    RealFft2d::get(w, h)->forward(u.plane(0), replanned, 1);
+    for (int i = 0; i < h; ++i)
+        for (int j = 0; j < w / 2 + 1; ++j) {
+            EXPECT_EQ(again.row(i)[j], before.row(i)[j]);
+            EXPECT_EQ(replanned.row(i)[j], before.row(i)[j]);
+        }
+}

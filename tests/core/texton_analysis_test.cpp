@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 
@@ -201,6 +202,41 @@ TEST(Analysis, LargeExemplarsAreAnalysedOnTheirCentredWorkingWindow) {
     auto whole = analyze_texton(u, p);
     ASSERT_TRUE(whole.ok());
     EXPECT_NE(whole.value().texton.alpha.data, windowed.value().texton.alpha.data);
+}
+
+// A side with a prime factor over 7 is transformed at the next size FFTW has codelets for: the
+// analysis of a 509 x 331 exemplar (both prime) is that of its centred 504 x 324, bit for bit,
+// unless that would be under 2r (a side is then left as it is).
+TEST(Analysis, SidesWithLargePrimeFactorsAreCutToFastFftSizes) {
+    EXPECT_EQ(fast_fft_size(1024), 1024);
+    EXPECT_EQ(fast_fft_size(1019), 1008); // 2^4 3^2 7
+    EXPECT_EQ(fast_fft_size(1000), 1000); // 2^3 5^3: fast already
+    EXPECT_EQ(fast_fft_size(509), 504);
+    EXPECT_EQ(fast_fft_size(331), 324);
+    EXPECT_EQ(fast_fft_size(11), 10);
+    EXPECT_EQ(fast_fft_size(1), 1);
+    EXPECT_EQ((window_size(4099, 1019)), (std::array<int, 2>{1024, 1008}));
+    EXPECT_EQ((window_size(4099, 1019, 0)), (std::array<int, 2>{4099, 1019})); // benchmarks
+    EXPECT_EQ((window_size(67, 131, kWorkingSide, 66)), (std::array<int, 2>{67, 128}));
+    const Image u = tiled(test::load_exemplar("etr_sand01.png"), 509, 331);
+    const Image centre = centred_part(u, 504, 324);
+    EXPECT_EQ(working_window(u).data, centre.data);
+    AnalysisParams p;
+    p.size = 32;
+    p.iterations = 5;
+    auto cut = analyze_texton(u, p);
+    auto direct = analyze_texton(centre, p);
+    ASSERT_TRUE(cut.ok() && direct.ok());
+    EXPECT_EQ(cut.value().texton.alpha.data, direct.value().texton.alpha.data);
+    EXPECT_EQ(cut.value().rme, direct.value().rme);
+    EXPECT_EQ(cut.value().shape->score, direct.value().shape->score);
+    // Under 2r: 67 is left whole (64 < 2 x 33), so the analysis differs from the 64's.
+    const Image narrow = tiled(test::load_exemplar("etr_sand01.png"), 67, 96);
+    p.size = 33;
+    auto kept = analyze_texton(narrow, p);
+    auto cropped = analyze_texton(centred_part(narrow, 64, 96), p);
+    ASSERT_TRUE(kept.ok());
+    EXPECT_FALSE(cropped.ok()); // 2r = 66 > 64: the cut would have made it invalid
 }
 
 // What the window costs in fidelity: on a 2048 x 2048 exemplar the windowed analysis's texton,

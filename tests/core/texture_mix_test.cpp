@@ -14,7 +14,7 @@ namespace {
 // linear interpolation of the moduli, at every frequency.
 TEST(TextureMix, GreyBarycentreModulusIsTheInterpolatedModulus) {
     auto pair = core::common_models(load_exemplar("skimage_gravel.png"),
-                                    load_exemplar("skimage_grass.png"), true, 2);
+                                    load_exemplar("skimage_grass.png"), true, 2, 0);
     ASSERT_TRUE(pair.ok());
     ASSERT_EQ(pair.value().u.channels, 1);
     const auto& u = pair.value().u.t_hat[0];
@@ -35,7 +35,7 @@ TEST(TextureMix, GreyBarycentreModulusIsTheInterpolatedModulus) {
 // rho = 0 keeps u's colour covariance and mean (only the phases move); rho = 1 is v's model.
 TEST(TextureMix, EndsAreTheTwoModels) {
     auto pair = core::common_models(load_exemplar("etr_sand01.png"),
-                                    load_exemplar("etr_pebbles04.png"), true, 2);
+                                    load_exemplar("etr_pebbles04.png"), true, 2, 0);
     ASSERT_TRUE(pair.ok());
     const core::GaussianModel m0 = core::barycentre_model(pair.value(), 0.0, 2);
     const core::GaussianModel m1 = core::barycentre_model(pair.value(), 1.0, 2);
@@ -61,7 +61,7 @@ TEST(TextureMix, EndsAreTheTwoModels) {
 // Between the two variances it need not lie: disjoint spectra give (A + B) / 4 halfway.
 TEST(TextureMix, TotalVarianceIsTheQuadraticOfLinearSpectra) {
     auto pair = core::common_models(load_exemplar("etr_sand01.png"),
-                                    load_exemplar("etr_pebbles04.png"), true, 2);
+                                    load_exemplar("etr_pebbles04.png"), true, 2, 0);
     ASSERT_TRUE(pair.ok());
     auto total = [&](double rho) {
         const core::GaussianModel m = core::barycentre_model(pair.value(), rho, 2);
@@ -82,7 +82,7 @@ TEST(TextureMix, TotalVarianceIsTheQuadraticOfLinearSpectra) {
 // Grey and colour exemplars of different sizes meet on one grid: centre crop, grey promoted.
 TEST(TextureMix, CommonModelsCropAndPromote) {
     auto pair = core::common_models(load_exemplar("skimage_gravel.png"),
-                                    load_exemplar("etr_sand01.png"), true, 2);
+                                    load_exemplar("etr_sand01.png"), true, 2, 0);
     ASSERT_TRUE(pair.ok());
     EXPECT_EQ(pair.value().u.width, 256);
     EXPECT_EQ(pair.value().u.height, 256);
@@ -96,7 +96,7 @@ TEST(TextureMix, CommonModelsCropAndPromote) {
 // are finite and their RME is that of an ordinary texton.
 TEST(TextureMix, LevelsShareTheStartAndEndAtTheModels) {
     auto pair = core::common_models(load_exemplar("etr_sand01.png"),
-                                    load_exemplar("etr_pebbles04.png"), true, 2);
+                                    load_exemplar("etr_pebbles04.png"), true, 2, 0);
     ASSERT_TRUE(pair.ok());
     core::AnalysisParams p;
     p.size = 32;

@@ -34,7 +34,7 @@ std::shared_ptr<const render::PreparedTexton> analysed_texton(const std::string&
 std::shared_ptr<const render::PreparedMix> analysed_mix(const std::string& u, const std::string& v,
                                                         int size, int levels,
                                                         const core::MixField& field) {
-    auto pair = core::common_models(load_exemplar(u), load_exemplar(v), true, 0);
+    auto pair = core::common_models(load_exemplar(u), load_exemplar(v), true, 0, 0);
     if (!pair) throw std::runtime_error(pair.error().message);
     core::AnalysisParams p;
     p.size = size;

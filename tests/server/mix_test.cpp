@@ -1,6 +1,7 @@
 // Texture mixes over HTTP: POST /v1/mixes from two uploaded textons (content addressed: one id
 // for one request, 201 then 200), the image endpoints under /v1/mixes/{id}/ (tiles stitch into
 // the region, TileJSON points at them), masks, bad requests, and persistence across a restart.
+#include "core/working_window.h"
 #include "render/cpu_backend.h"
 #include "render/gl/osmesa_backend.h"
 #include "server/io/image_io.h"
@@ -187,6 +188,41 @@ TEST(Mixes, OneOverTheCpuBudgetIsRefusedBeforeItRuns) {
     EXPECT_NE(metrics.find("textond_not_admitted_total{reason=\"too_large\"} 1"), std::string::npos)
         << metrics;
     EXPECT_EQ(post_mix(c, base + "&levels=3", "", 201).size(), 64u);
+}
+
+// Exemplars of 509 x 509 (a prime side) are mixed on a 504 x 504 grid (core::mix_grid: FFTW's
+// fast sizes), whose id names the crop (builds before it mixed on 509 x 509 under the id without
+// it); the mix loads again after a restart (its id checks out) and serves the same tile.
+TEST(Mixes, PrimeSidedExemplarsAreMixedOnAFastFftGrid) {
+    TestServer server;
+    auto c = server.client();
+    std::string ids[2];
+    const char* names[2] = {"skimage_gravel.png", "skimage_brick.png"};
+    for (int k = 0; k < 2; ++k) {
+        const core::Image part = core::centred_part(load_exemplar(names[k]), 509, 509);
+        auto up = c.Post("/v1/textons?size=16&iterations=5",
+                         io::encode_image_memory(part, io::Encoding::png8).value(), "image/png");
+        ASSERT_TRUE(up && (up->status == 201 || up->status == 200)) << (up ? up->body : "");
+        ids[k] = nlohmann::json::parse(up->body).at("id").get<std::string>();
+    }
+    const std::string id = post_mix(c, "?u=" + ids[0] + "&v=" + ids[1] + "&levels=3", "", 201);
+    ASSERT_EQ(id.size(), 64u);
+    const auto meta = nlohmann::json::parse(c.Get(("/v1/mixes/" + id).c_str())->body);
+    EXPECT_EQ(meta["grid"], nlohmann::json::array({504, 504}));
+    auto record = io::read_mix_files(server.data_dir() + "/mixes", id);
+    ASSERT_TRUE(record.ok()) << record.error().message;
+    EXPECT_NE(id, io::mix_id(ids[0], ids[1], 3, record.value().field));
+    EXPECT_EQ(id,
+              io::mix_id(ids[0], ids[1], 3, record.value().field, std::array<int, 2>{504, 504}));
+    const std::string path = "/v1/mixes/" + id + "/tiles/0/0/0.png?seed=3";
+    const std::string before = c.Get(path.c_str())->body;
+    http::ServeConfig cfg = TestServer::default_config();
+    cfg.data_dir = server.data_dir();
+    TestServer again(cfg);
+    auto c2 = again.client();
+    auto after = c2.Get(path.c_str());
+    ASSERT_TRUE(after && after->status == 200) << (after ? after->body : "");
+    EXPECT_TRUE(after->body == before);
 }
 
 } // namespace
