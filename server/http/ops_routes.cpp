@@ -10,6 +10,8 @@
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
+#include <string>
+#include <string_view>
 
 #ifndef TEXTOND_WEB_DIR
 #define TEXTOND_WEB_DIR "web"
@@ -93,12 +95,15 @@ void OpsRoutes::readyz(Req, Res res) {
 void OpsRoutes::metrics(Req, Res res) {
     set_route("/metrics");
     res.set_header("Cache-Control", "no-store");
-    res.set_content(m_metrics.prometheus_text(), "text/plain; version=0.0.4; charset=utf-8");
+    std::string text = m_metrics.prometheus_text();
+    fit_ranges(res, text.size());
+    res.set_content(std::move(text), "text/plain; version=0.0.4; charset=utf-8");
 }
 
 void OpsRoutes::openapi(Req, Res res) {
     set_route("/v1/openapi.yaml");
     res.set_header("Cache-Control", "public, max-age=300");
+    fit_ranges(res, std::string_view(api::kOpenApiYaml).size());
     res.set_content(api::kOpenApiYaml, "application/yaml");
 }
 
@@ -117,6 +122,7 @@ void OpsRoutes::serve_web(const std::string& key, Res res) const {
     if (f == m_web.end()) return send_error(res, {"not_found", "no such file"});
     // The page changes with the build; revalidate rather than cache for a year.
     res.set_header("Cache-Control", "no-cache");
+    fit_ranges(res, f->second.body.size());
     res.set_content(f->second.body, f->second.content_type.c_str());
 }
 

@@ -353,12 +353,15 @@ void TextonRoutes::file(Req req, Res res) {
     if (ext == "texton") {
         res.set_header("Content-Disposition",
                        "attachment; filename=\"" + id.substr(0, 12) + ".texton\"");
-        return res.set_content(io::texton_v1_text(record.value(), id + ".png"), "text/plain");
+        std::string text = io::texton_v1_text(record.value(), id + ".png");
+        fit_ranges(res, text.size());
+        return res.set_content(std::move(text), "text/plain");
     }
     if (ext != "png")
         return send_error(res, {"invalid_format", "texton views are .png, .exr or .texton"});
     auto png = io::encode_image_memory(visualise(record.value().texton), io::Encoding::png8);
     if (!png) return send_error(res, to_api_error(png.error()));
+    fit_ranges(res, png.value().size());
     res.set_content(png.value(), "image/png");
 }
 

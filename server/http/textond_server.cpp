@@ -297,7 +297,11 @@ httplib::Server::HandlerResponse TextondServer::pre_route(const httplib::Request
         return httplib::Server::HandlerResponse::Handled;
     }
     // Ranges past the limit are ignored, as nginx does past max_ranges: the whole answer, once.
-    if (!ranges_allowed(req.ranges)) current_request().request->ranges.clear();
+    // So is Range on a method other than GET and HEAD, for which RFC 9110 (14.2) defines none.
+    if (!ranges_allowed(req.ranges) || (req.method != "GET" && req.method != "HEAD")) {
+        current_request().request->ranges.clear();
+        current_request().if_range_ranges.clear();
+    }
     if (req.method == "OPTIONS") { // CORS preflight
         set_route("OPTIONS *");
         res.status = 204;

@@ -578,6 +578,22 @@ class HostileClients(unittest.TestCase):
             self.assertEqual((st, body), (200, full))
             st, h, body = self.get(path, headers={"Range": "bytes=-100"})
             self.assertEqual((st, body), (206, full[-100:]))
+        # So on every route that answers bytes: the page, the spec, a texton's views (these had
+        # 416 with a Content-Range naming bytes past the end).
+        for path in ("/", "/v1/openapi.yaml", f"/v1/textons/{u}/texton.png",
+                     f"/v1/textons/{u}/texton.texton"):
+            st, h, full = self.get(path)
+            st, h, body = self.get(path, headers={"Range": "bytes=99999999-"})
+            self.assertEqual((st, body, h.get("Content-Range")), (200, full, None), path)
+            st, h, body = self.get(path, headers={"Range": "bytes=-100"})
+            self.assertEqual((st, body), (206, full[-100:]), path)
+        # Range is for GET and HEAD (RFC 9110, 14.2): a POST's answer is whole (surface floats).
+        pts = json.dumps({"points": [[i, 0, 0] for i in range(50)],
+                          "normals": [[0, 0, 1]] * 50}).encode()
+        binary = {"Content-Type": "application/json", "Accept": "application/octet-stream"}
+        st, _, full = self.post(f"/v1/textons/{u}/surface", pts, binary)
+        st, h, body = self.post(f"/v1/textons/{u}/surface", pts, {**binary, "Range": "bytes=0-9"})
+        self.assertEqual((st, body, h.get("Content-Range")), (200, full, None))
         # A JSON answer is always whole; a file's Content-Range names what is sent.
         st, h, body = self.get(f"/v1/textons/{u}", headers={"Range": "bytes=0-49"})
         self.assertEqual(st, 200)
