@@ -1,5 +1,7 @@
 #include "core/phase_coherence.h"
 
+#include "core/working_window.h"
+
 #include "core/fft2d.h"
 #include "core/periodic_component.h"
 
@@ -105,6 +107,13 @@ Image box_reduce(const Image& u, int f) {
                 v.at(c, x, y) = s * inv;
             }
     return v;
+}
+
+Image fast_box_reduce(const Image& u, int f, int least) {
+    f = std::max(f, 1);
+    const int w = fast_side(u.width / f, least), h = fast_side(u.height / f, least);
+    if (w == u.width / f && h == u.height / f) return box_reduce(u, f);
+    return box_reduce(centred_part(u, w * f, h * f), f);
 }
 
 double coherence_of(const SharpnessIndex& si) {

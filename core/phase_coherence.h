@@ -35,6 +35,11 @@ Image grey_level(const Image& u);
 
 // Box average over f x f blocks (the remainder rows and columns dropped), every channel.
 Image box_reduce(const Image& u, int f);
+// box_reduce of u's centred part whose reduced sides are fast FFT sizes (fast_side, at least
+// `least`; core/working_window.h): a fast window reduced by 2 or 3 is often not fast (675 / 2 =
+// 337, a prime), and the shape verdict transforms the reduced image once per null sample. u
+// itself, reduced as box_reduce does, where its reduced sides are fast already.
+Image fast_box_reduce(const Image& u, int f, int least = 16);
 
 // The micro/macro verdict. SI alone does not separate the shared photos (README, "Micro or
 // macro"): it grows with the image's size and is dominated by the finest scale, where grain,

@@ -151,7 +151,7 @@ ShapeVerdict shape_verdict(const Image& u, int threads, std::uint64_t seed, int 
     samples = std::max(samples, 1);
     ShapeVerdict out;
     out.factor = std::max(1, std::min(u.width, u.height) / 256);
-    const Image whole = periodic_component(grey_level(box_reduce(u, out.factor)), threads);
+    const Image whole = periodic_component(grey_level(fast_box_reduce(u, out.factor)), threads);
     out.width = whole.width;
     out.height = whole.height;
     out.score = weighted(out.excess); // no excess: a Gaussian texture's score

@@ -6,6 +6,7 @@
 namespace textond::core {
 
 int fast_fft_size(int n) {
+    if (n <= 1) return n;
     for (int m = n; m > 1; --m) {
         int k = m;
         for (int prime : {2, 3, 5, 7})

@@ -40,8 +40,8 @@ Result<std::string> encode_image(core::Image&& image, api::ImageFormat format, i
     if (format == api::ImageFormat::webp || format == api::ImageFormat::avif) {
         // The encoders read 8-bit RGB only: the floats (12 bytes a pixel) go before libaom's
         // frame buffers (about 34 bytes a pixel) come (deploy/README.md "Memory bound").
-        auto rgb = io::to_rgb8(image);
-        render::recycle_image(std::move(image));
+        auto rgb = io::take_rgb8(image);
+        render::recycle_image(std::move(image)); // what is left of it: floats, or nothing
         if (!rgb) return rgb.error();
         if (format == api::ImageFormat::webp)
             return io::encode_webp(std::move(rgb.value()), quality);

@@ -16,13 +16,18 @@ MixService::MixService(store::TextonStore& textons, store::MixStore& mixes, Anal
     : m_textons(textons), m_mixes(mixes), m_pool(pool) {}
 
 Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api::MixRequest& m,
-                                          const api::TextonMeta& mu, const std::string& id) {
+                                          const api::TextonMeta& mu, const std::string& id,
+                                          const std::array<int, 2>& grid) {
     const auto t0 = std::chrono::steady_clock::now();
     auto eu = textons.exemplar_image(m.u);
     if (!eu) return eu.error();
     auto ev = textons.exemplar_image(m.v);
     if (!ev) return ev.error();
     const core::AnalysisParams p = mu.params();
+    if (core::mix_grid(eu.value().width, eu.value().height, ev.value().width, ev.value().height,
+                       2 * p.size) != grid)
+        return make_error(ErrorCode::io, "the stored exemplars of " + m.u + " and " + m.v +
+                                             " disagree in size with their textons' metadata");
     auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads, 2 * p.size);
     if (!pair) return pair.error();
     auto levels = core::mix_levels(pair.value(), p, m.levels);
@@ -88,9 +93,9 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m,
     const std::string id = out.id;
     out.submitted = m_pool.submit(
         "mix:" + id,
-        [textons, mixes, m, mu, id](const core::ProgressFn&) -> Result<AnalysisOutcome> {
+        [textons, mixes, m, mu, id, grid](const core::ProgressFn&) -> Result<AnalysisOutcome> {
             if (mixes->contains(id)) return AnalysisOutcome{mu, false};
-            auto record = analyse(*textons, m, mu, id);
+            auto record = analyse(*textons, m, mu, id, grid);
             if (!record) return record.error();
             auto put = mixes->put(record.value());
             if (!put) return put.error();

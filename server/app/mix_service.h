@@ -11,6 +11,7 @@
 #include "server/store/mix_store.h"
 #include "server/store/texton_store.h"
 
+#include <array>
 #include <functional>
 #include <optional>
 #include <string>
@@ -21,9 +22,12 @@ class MixService {
 public:
     MixService(store::TextonStore& textons, store::MixStore& mixes, AnalysisPool& pool);
 
-    // The stored form of a mix of m.u and m.v with u's analysis parameters (`mu`).
+    // The stored form of a mix of m.u and m.v with u's analysis parameters (`mu`), on `grid`,
+    // the grid its id names (from the textons' metadata): exemplars that decode to another size
+    // are a storage error, never a mix stored under an id it does not hash to.
     static Result<io::MixRecord> analyse(store::TextonStore& textons, const api::MixRequest& m,
-                                         const api::TextonMeta& mu, const std::string& id);
+                                         const api::TextonMeta& mu, const std::string& id,
+                                         const std::array<int, 2>& grid);
 
     struct Started {
         std::string id;

@@ -97,7 +97,7 @@ void OpsRoutes::metrics(Req, Res res) {
     res.set_header("Cache-Control", "no-store");
     std::string text = m_metrics.prometheus_text();
     fit_ranges(res, text.size());
-    res.set_content(std::move(text), "text/plain; version=0.0.4; charset=utf-8");
+    res.set_content(text, "text/plain; version=0.0.4; charset=utf-8");
 }
 
 void OpsRoutes::openapi(Req, Res res) {

@@ -355,7 +355,7 @@ void TextonRoutes::file(Req req, Res res) {
                        "attachment; filename=\"" + id.substr(0, 12) + ".texton\"");
         std::string text = io::texton_v1_text(record.value(), id + ".png");
         fit_ranges(res, text.size());
-        return res.set_content(std::move(text), "text/plain");
+        return res.set_content(text, "text/plain");
     }
     if (ext != "png")
         return send_error(res, {"invalid_format", "texton views are .png, .exr or .texton"});

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace textond::io {
@@ -20,9 +21,9 @@ constexpr int kWebpLossyMethod = 0;
 
 // Interleaved 8-bit RGB, rounded as the PNG encoder rounds (image_io.cpp, interleave).
 std::vector<std::uint8_t> rgb8(const core::Image& u) {
+    if (u.is_bytes() && u.channels == 3) return u.bytes; // rounded already (a GL tile)
     std::vector<std::uint8_t> out(static_cast<std::size_t>(u.width) * u.height * 3);
-    if (u.is_bytes()) { // rounded already (a GL tile's readback): grey repeats its byte
-        if (u.channels == 3) return u.bytes;
+    if (u.is_bytes()) { // grey repeats its byte
         for (std::size_t k = 0; k < u.bytes.size(); ++k)
             out[3 * k] = out[3 * k + 1] = out[3 * k + 2] = u.bytes[k];
         return out;
@@ -53,6 +54,13 @@ std::optional<Error> check_input(const core::Image& u) {
 
 Result<Rgb8> to_rgb8(const core::Image& image) {
     if (auto e = check_input(image)) return *e;
+    return Rgb8{image.width, image.height, rgb8(image)};
+}
+
+Result<Rgb8> take_rgb8(core::Image& image) {
+    if (auto e = check_input(image)) return *e;
+    if (image.is_bytes() && image.channels == 3) // the GL tile's bytes themselves, no copy
+        return Rgb8{image.width, image.height, std::exchange(image.bytes, {})};
     return Rgb8{image.width, image.height, rgb8(image)};
 }
 

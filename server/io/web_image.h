@@ -21,6 +21,9 @@ struct Rgb8 {
     std::vector<std::uint8_t> pixels;
 };
 Result<Rgb8> to_rgb8(const core::Image& image);
+// The same, taking an RGB image's 8-bit bytes (core::Image::bytes: left empty) rather than
+// copying them.
+Result<Rgb8> take_rgb8(core::Image& image);
 
 // `quality` in [1, 100]; 0: lossless.
 Result<std::string> encode_webp(Rgb8 rgb, int quality);
