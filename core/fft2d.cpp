@@ -225,13 +225,16 @@ void RealFft2d::inverse(Spectrum& spec, float* out, std::size_t out_stride, int 
     }
 }
 
+bool is_fft_friendly(int n) {
+    if (n < 1) return false;
+    for (int p : {2, 3, 5, 7})
+        while (n % p == 0) n /= p;
+    return n == 1;
+}
+
 int fft_friendly_size(int n) {
-    for (int m = std::max(1, n);; ++m) {
-        int r = m;
-        for (int p : {2, 3, 5, 7})
-            while (r % p == 0) r /= p;
-        if (r == 1) return m;
-    }
+    for (int m = std::max(1, n);; ++m)
+        if (is_fft_friendly(m)) return m;
 }
 
 } // namespace textond::core

@@ -90,7 +90,9 @@ private:
     std::unique_ptr<Plans> m_plans;
 };
 
-// Smallest size >= n whose only prime factors are 2, 3, 5 and 7 (FFTW's fast codelets).
+// Whether n's only prime factors are 2, 3, 5 and 7 (FFTW's fast codelets).
+bool is_fft_friendly(int n);
+// Smallest such size >= n (spectral synthesis pads to it).
 int fft_friendly_size(int n);
 
 // Threads to use for `requested` (0 = all hardware threads).

@@ -27,7 +27,7 @@ Image centre_crop_rgb(const Image& src, int w, int h, int channels) {
 } // namespace
 
 std::array<int, 2> mix_grid(int uw, int uh, int vw, int vh, int least) {
-    return {fast_side(std::min(uw, vw), least), fast_side(std::min(uh, vh), least)};
+    return window_size(std::min(uw, vw), std::min(uh, vh), kWorkingSide, least);
 }
 
 Result<ModelPair> common_models(const Image& u, const Image& v, bool periodic, int threads,

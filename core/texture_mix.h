@@ -20,9 +20,10 @@ inline constexpr const char* kMixVersion = "textond-mix/1";
 inline constexpr int kDefaultMixLevels = 21; // the paper's R
 inline constexpr int kMaxMixLevels = 64;
 
-// The common grid of exemplars of these sizes: each side the smaller of the two, brought down to
-// a size FFTW transforms fast unless that is under `least`, the analysis' 2r (fast_side,
-// core/working_window.h; each of a mix's levels is an analysis on it).
+// The common grid of exemplars of these sizes: each side the smaller of the two, at most
+// kWorkingSide (the centred window an analysis of a larger exemplar works on, for the same
+// reason), brought down to a size FFTW transforms fast unless that is under `least`, the
+// analysis' 2r (window_size, core/working_window.h; each of a mix's levels is an analysis on it).
 std::array<int, 2> mix_grid(int uw, int uh, int vw, int vh, int least);
 
 // Two models on one grid: both exemplars centre-cropped to mix_grid, a grey one promoted to RGB

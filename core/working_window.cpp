@@ -1,19 +1,16 @@
 #include "core/working_window.h"
 
+#include "core/fft2d.h"
+
 #include <algorithm>
 #include <cstring>
 
 namespace textond::core {
 
 int fast_fft_size(int n) {
-    if (n <= 1) return n;
-    for (int m = n; m > 1; --m) {
-        int k = m;
-        for (int prime : {2, 3, 5, 7})
-            while (k % prime == 0) k /= prime;
-        if (k == 1) return m;
-    }
-    return 1;
+    int m = n;
+    while (m > 1 && !is_fft_friendly(m)) --m;
+    return m;
 }
 
 int fast_side(int n, int least) {

@@ -19,7 +19,7 @@ namespace textond::core {
 
 inline constexpr int kWorkingSide = 1024;
 
-// The largest m <= n of the form 2^a 3^b 5^c 7^d (n itself for n <= 1).
+// The largest m <= n that is_fft_friendly (core/fft2d.h: 2^a 3^b 5^c 7^d; n itself for n <= 1).
 int fast_fft_size(int n);
 // fast_fft_size(n), unless that is under `least` (an analysis' 2r): then n.
 int fast_side(int n, int least);

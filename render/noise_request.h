@@ -18,7 +18,8 @@ inline constexpr std::int64_t kPlaneHalfWidth = std::int64_t{1} << 62;
 
 // The bits the caller keeps of each value: a GL backend rounds on the GPU and reads back only
 // those (as the encoder rounds: clamp to [0, 1], scale, + 0.5, truncate), then hands back floats
-// that encode to the same bytes. The CPU backend always returns full floats.
+// that encode to the same bytes, or at 8 bits the bytes themselves (NoiseRequest::bytes). The CPU
+// backend always returns full floats.
 enum class Precision { f32, u16, u8 };
 
 // gaussian: the noise as it is; exemplar: each pixel mapped onto the exemplar's marginals

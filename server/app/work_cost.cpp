@@ -3,6 +3,7 @@
 #include "core/working_window.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace textond::app {
 
@@ -32,9 +33,10 @@ double analysis_work_s(int width, int height, int channels, int iterations, int 
 }
 
 double mix_work_s(int width, int height, int channels, int iterations, int levels) {
-    constexpr double kMixNs = 3.15, kMixFixedIterations = 13.4; // tests/bench/mix_cost.py
-    const double grid = static_cast<double>(width) * height * channels;
-    return levels * grid * (iterations + kMixFixedIterations) * kMixNs * 1e-9;
+    constexpr double kMixNs = 3.32, kMixFixedIterations = 13.1; // tests/bench/mix_cost.py
+    const double pixels = static_cast<double>(width) * height;
+    return levels * pixels * channels * (iterations + kMixFixedIterations) * kMixNs * 1e-9 *
+           std::log2(std::max(pixels, 2.0)) / 16;
 }
 
 } // namespace textond::app

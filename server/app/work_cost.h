@@ -25,11 +25,13 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
 // --max-request-cpu-s.
 double analysis_work_s(int width, int height, int channels, int iterations, int size);
 // A texture mix (core/texture_mix.h) runs `levels` analyses from a model over the common grid
-// (core::mix_grid: the two exemplars' smaller width and height at fast FFT sizes, the more
-// channels), none of them cut to kWorkingSide: kMixNs
-// of one core a grid channel-pixel, level and iteration, with kMixFixedIterations' worth of fixed
-// work a level (fitted on one half of the shared photos' pairs by tests/bench/mix_cost.py; on the
-// other half the measured CPU is 0.97-1.42x the estimate, a grey pair's the most above it).
+// (core::mix_grid: the two exemplars' smaller width and height, at most 1024, at fast FFT sizes;
+// the more channels): kMixNs of one core a grid channel-pixel, level and iteration, with
+// kMixFixedIterations' worth of fixed work a level, times log2(grid pixels) / 16 (an FFT's cost a
+// pixel grows with the log of its size: 1 at 256 x 256, 1.25 at 1024 x 1024). Form and constants
+// chosen and fitted on one half of the shared photos' pairs, at their own sizes and made
+// 1024 x 1024, by tests/bench/mix_cost.py; on the other half the measured CPU is 0.96-1.44x the
+// estimate, a grey pair's the most above it.
 double mix_work_s(int width, int height, int channels, int iterations, int levels);
 
 } // namespace textond::app

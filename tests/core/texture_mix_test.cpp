@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 namespace textond::test {
@@ -165,6 +166,16 @@ TEST(TextureMix, RampAndMaskFields) {
     EXPECT_DOUBLE_EQ(mask.rho(6, 2), 1.0);
     EXPECT_DOUBLE_EQ(mask.rho(1e6, -1e6), 1.0);
     EXPECT_FALSE(mask.validate().has_value());
+}
+
+// The common grid: each side the smaller of the two, at most the 1024 window an analysis takes
+// (two 2048² exemplars had mixed on their whole grid at 2.8x the estimate), a side with a prime
+// factor over 7 cut to a fast FFT size, never under 2r.
+TEST(TextureMix, TheGridIsTheWindowAnAnalysisWouldTake) {
+    EXPECT_EQ(core::mix_grid(2048, 1500, 4096, 1100, 64), (std::array<int, 2>{1024, 1024}));
+    EXPECT_EQ(core::mix_grid(509, 700, 600, 800, 32), (std::array<int, 2>{504, 700}));
+    EXPECT_EQ(core::mix_grid(256, 512, 512, 256, 64), (std::array<int, 2>{256, 256}));
+    EXPECT_EQ(core::mix_grid(67, 67, 90, 90, 66), (std::array<int, 2>{67, 67})); // 64 < 2r
 }
 
 } // namespace
