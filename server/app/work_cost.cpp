@@ -25,11 +25,19 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
 }
 
 double analysis_work_s(int width, int height, int channels, int iterations, int size) {
-    constexpr double kAnalysisNs = 13; // fitted by tests/bench/analysis_cost.py
+    // tests/bench/analysis_cost.py, its "sides" form
+    constexpr double kIterationNs = 4.37, kChannelPixelNs = 54.03, kPixelNs = 180.31;
+    constexpr double kFixedS = 0.04517, kFactor5 = 0.45, kFactor7 = 1.00;
     const auto [w, h] = core::window_size(width, height, core::kWorkingSide, 2 * size);
-    const double window = static_cast<double>(w) * h * channels;
+    auto side = [](int n) { return (n % 5 == 0 ? kFactor5 : 0.0) + (n % 7 == 0 ? kFactor7 : 0.0); };
+    const double fft = 1 + (side(w) + side(h)) / 2;
+    const double pixels = static_cast<double>(w) * h, channel_pixels = pixels * channels;
     const double whole = static_cast<double>(width) * height * channels;
-    return window * (iterations + 8) * kAnalysisNs * 1e-9 + whole * 10e-9;
+    return fft *
+               (channel_pixels * (iterations * kIterationNs + kChannelPixelNs) +
+                pixels * kPixelNs) *
+               1e-9 +
+           kFixedS + whole * 10e-9;
 }
 
 double mix_work_s(int width, int height, int channels, int iterations, int levels) {

@@ -15,14 +15,18 @@ int taps_of_order(int order); // 1, 4 or 16
 double noise_work_s(std::int64_t pixels, double mni, int order);
 double surface_work_s(std::size_t points, double mni, int order);
 double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, int order);
-// An analysis (core/texton_analysis.h) runs two FFTs of its working window (at most 1024 x 1024
-// and of fast FFT sizes, core::window_size for texton support `size`) a channel and an iteration
-// (alternating projections, texton paper section 4), plus the periodic component, the model, the
-// verdict and the marginals: kAnalysisNs of one core a window channel-pixel and iteration, with 8
-// iterations' worth of fixed work (fitted on a split of the shared photos, core/README.md "Analysis
-// time"), and 10 ns a channel-pixel of the whole exemplar for its id (sha256 of its floats) and the
-// window's copy. The upload is refused (413 work_too_large) before it is queued when over
-// --max-request-cpu-s.
+// An analysis (core/texton_analysis.h) works on its window (at most 1024 x 1024 and of fast FFT
+// sizes, core::window_size for texton support `size`): 4.37 ns of one core a window
+// channel-pixel and iteration (the alternating projections, texton paper section 4), 54 ns a
+// window channel-pixel (periodic component, model, RME, marginals), 180 ns a window pixel (the
+// grey shape verdict and phase coherence), all times 1 + (e(w) + e(h)) / 2 where a side with a
+// factor 5 adds 0.45 and one with a factor 7 1.00 (FFTW's time a pixel), plus 45 ms an analysis
+// and 10 ns a channel-pixel of the whole exemplar for its id (sha256 of its floats) and the
+// window's copy. Form chosen (worst fit-half ratio 1.21, against 2.03 for the form before,
+// linear in iterations + 8) and constants fitted on one half of the shared photos, at their own
+// sizes and made 1024², 1000² and 1008², 20 and 200 iterations, by tests/bench/analysis_cost.py;
+// on the other half the measured CPU is 0.84-1.24x the estimate. The upload is refused (413
+// work_too_large) before it is queued when over --max-request-cpu-s.
 double analysis_work_s(int width, int height, int channels, int iterations, int size);
 // A texture mix (core/texture_mix.h) runs `levels` analyses from a model over the common grid
 // (core::mix_grid: the two exemplars' smaller width and height, at most 1024, at fast FFT sizes;

@@ -4,8 +4,8 @@ import zlib
 
 
 def grey_png(width, height, row_of, colour_type=0):
-    """A PNG whose row y holds the bytes row_of(y): `width` of them (grey), 4 x `width` (RGBA,
-    colour_type 6)."""
+    """A PNG whose row y holds the bytes row_of(y): `width` of them (grey), 3 x `width` (RGB,
+    colour_type 2), 4 x `width` (RGBA, colour_type 6)."""
     def chunk(kind, data):
         return (struct.pack(">I", len(data)) + kind + data +
                 struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
@@ -21,8 +21,13 @@ def pattern_png(width, height, seed):
         ((x * 7 + y * 13 + seed * 31 + (x * y) % 17) * 5) % 256 for x in range(width)))
 
 
-def ramp_png(width, height, period=64):
-    """One repeated ramp: small on the wire whatever size it declares."""
+def ramp_png(width, height, period=64, colour=False):
+    """One repeated ramp: small on the wire whatever size it declares (RGB, colour type 2, with
+    `colour`: its three channels three phases of it)."""
+    if colour:
+        row = bytes((x * 255 // period + 85 * c) % 256 for x in range(period)
+                    for c in range(3)) * (width // period)
+        return grey_png(width, height, lambda y: row, colour_type=2)
     row = bytes((x * 255 // period) % 256 for x in range(period)) * (width // period)
     return grey_png(width, height, lambda y: row)
 
