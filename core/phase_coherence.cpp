@@ -1,9 +1,8 @@
 #include "core/phase_coherence.h"
 
-#include "core/working_window.h"
-
 #include "core/fft2d.h"
 #include "core/periodic_component.h"
+#include "core/working_window.h"
 
 #include <algorithm>
 #include <cmath>

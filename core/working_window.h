@@ -9,7 +9,7 @@
 //
 // A side with a prime factor over 7 is also brought down to the next size FFTW has codelets for
 // (fast_fft_size): every step transforms the window, and an analysis of a 1019 x 1019 exemplar (a
-// prime side) cost 4.3x a pixel what one of 1024 x 1024 does (core/README.md, "FFT sizes"). The
+// prime side) cost 5x what one of 1024 x 1024 does (core/README.md, "FFT sizes"). The
 // crop loses a few rows or columns; a seamless tile of such a size loses its seamlessness.
 #include "core/image.h"
 

@@ -30,8 +30,8 @@ struct MixRecord {
 
 // Content address of a mix: its version, both texton ids, the level count and the canonical
 // field (a mask by the sha256 of its float pixels); and `fft_grid`, the grid, where core::mix_grid
-// brought the exemplars' common size down to a fast FFT size: builds before that crop analysed
-// the common size itself, a different computation, so it must be a different id.
+// cut the exemplars' common size (to the 1024 window or a fast FFT size): builds before that cut
+// analysed the common size itself, a different computation, so it must be a different id.
 std::string mix_id(const std::string& u, const std::string& v, int levels,
                    const core::MixField& field,
                    const std::optional<std::array<int, 2>>& fft_grid = std::nullopt);

@@ -23,21 +23,12 @@ import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from fft_sizes import fast_side  # noqa: E402
+
 BINARY = sys.argv[1] if len(sys.argv) > 1 else "build/release/textond"
 EXEMPLARS = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/exemplars"
 WHOLE_NS = 10e-9
-
-
-def fast_side(n, least):
-    """core::fast_side: the largest m <= n of the form 2^a 3^b 5^c 7^d, unless under least."""
-    for m in range(n, 1, -1):
-        k = m
-        for prime in (2, 3, 5, 7):
-            while k % prime == 0:
-                k //= prime
-        if k == 1:
-            return m if m >= least else n
-    return n
 
 
 def run(path, iterations, size=64):

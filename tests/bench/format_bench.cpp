@@ -7,10 +7,10 @@
 // libwebp and libavif (tests/support/web_decode.h).
 //
 //   format_bench [EXEMPLAR_DIR] [TILES]
-#include "core/texton_analysis.h"
 #include "render/cpu_backend.h"
 #include "server/io/image_io.h"
 #include "server/io/web_image.h"
+#include "tests/bench/bench_texton.h"
 #include "tests/support/test_support.h"
 #include "tests/support/web_decode.h"
 
@@ -54,18 +54,11 @@ int main(int argc, char** argv) {
     std::vector<core::Image> images;
     render::CpuBackend cpu(1);
     for (const char* name : {"etr_sand01.png", "mypaint_HR_Cork.png", "skimage_gravel.png"}) {
-        auto ex = io::decode_image_file(dir + "/" + name);
-        if (!ex) {
-            std::fprintf(stderr, "format_bench: %s\n", ex.error().message.c_str());
+        auto prepared = test::bench_texton(dir + "/" + name, 20);
+        if (!prepared) {
+            std::fprintf(stderr, "format_bench: %s\n", prepared.error().message.c_str());
             return 1;
         }
-        core::AnalysisParams p;
-        p.size = 64;
-        p.iterations = 20;
-        auto t = core::analyze_texton(ex.value(), p);
-        auto prepared = t ? render::PreparedTexton::make(t.value().texton)
-                          : Result<std::shared_ptr<const render::PreparedTexton>>(t.error());
-        if (!prepared) return 1;
         for (int k = 0; k < tiles; ++k) {
             render::NoiseRequest q;
             q.x0 = 256 * k;

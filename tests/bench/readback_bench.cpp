@@ -8,12 +8,12 @@
 // unless both give the same PNG bytes.
 //
 //   readback_bench [EXEMPLAR_DIR] [TILES]
-#include "core/texton_analysis.h"
 #include "render/cpu_backend.h"
 #include "render/gl/batch_plan.h"
 #include "render/gl/noise_window.h"
 #include "render/image_buffers.h"
 #include "server/io/image_io.h"
+#include "tests/bench/bench_texton.h"
 #include "tests/support/test_support.h"
 
 #include <algorithm>
@@ -72,17 +72,7 @@ core::Image copy_out(const std::vector<std::uint32_t>& words, int w, int h, int 
 int main(int argc, char** argv) {
     const std::string dir = argc > 1 ? argv[1] : TEXTOND_EXEMPLARS;
     const int tiles = argc > 2 ? std::max(1, std::atoi(argv[2])) : 400;
-    auto ex = io::decode_image_file(dir + "/etr_sand01.png");
-    if (!ex) {
-        std::fprintf(stderr, "readback_bench: %s\n", ex.error().message.c_str());
-        return 1;
-    }
-    core::AnalysisParams p;
-    p.size = 64;
-    p.iterations = 10;
-    auto texton = core::analyze_texton(ex.value(), p);
-    auto prepared = texton ? render::PreparedTexton::make(texton.value().texton)
-                           : Result<std::shared_ptr<const render::PreparedTexton>>(texton.error());
+    auto prepared = test::bench_texton(dir + "/etr_sand01.png", 10);
     if (!prepared) {
         std::fprintf(stderr, "readback_bench: %s\n", prepared.error().message.c_str());
         return 1;

@@ -37,12 +37,15 @@ import re
 import shutil
 import struct
 import subprocess
+import sys
 import tempfile
 import threading
 import zipfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.join(ROOT, "tests", "support"))
+from fft_sizes import fast_side  # noqa: E402
 WORK = os.path.join(ROOT, "build", "verdict")
 FONT = "/usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf"
 UNZIP = threading.Lock()
@@ -111,18 +114,6 @@ def crop(row, corpus):
     subprocess.run(args, check=True, capture_output=True)
 
 
-def fast_side(n, least=128):
-    """core::fast_side: the largest m <= n of the form 2^a 3^b 5^c 7^d, unless under least."""
-    for m in range(n, 1, -1):
-        k = m
-        for prime in (2, 3, 5, 7):
-            while k % prime == 0:
-                k //= prime
-        if k == 1:
-            return m if m >= least else n
-    return n
-
-
 def native(row, out):
     """The source as the service analyses it (core::window_size at r 64): its centred window of
     at most 1024 pixels a side, each side cut to a fast FFT size."""
@@ -130,7 +121,7 @@ def native(row, out):
     w, h = (int(v) for v in row["source_size"].split("x"))
     ch = "R,G,B" if is_colour(src) else "0"
     args = ["oiiotool", src, "--ch", ch]
-    cw, chh = fast_side(min(w, 1024)), fast_side(min(h, 1024))
+    cw, chh = fast_side(min(w, 1024), 128), fast_side(min(h, 1024), 128)
     if (cw, chh) != (w, h):
         args += ["--cut", f"{cw}x{chh}+{(w - cw) // 2}+{(h - chh) // 2}"]
     # Metadata off: libpng refuses some JPEGs' colour profiles.
