@@ -23,13 +23,14 @@ three corpora, had kept the verdict unchanged.
   tests/verdict/fit_verdict.py - --candidates candidates.tsv shared.tsv
 
 The refit study (core/README.md "Micro or macro"): forward selection over verdict_candidates'
-25 statistics on every texture of the corpora given (a statistic joins while it adds at least
+28 statistics on every texture of the corpora given (a statistic joins while it adds at least
 0.005 of cross-validated balanced accuracy), then each refit, with a band keeping 90% or 92% of
 each class (band_of), compared with the unchanged verdict on those textures and on the nine
 shared photos (a target: they keep their kinds). Run on the first three corpora before the
-fourth was scored, and on all four after. SHARED is a directory holding corpus.tsv (name,
-label, half) and corpus/NAME.jpg, a link to each photo (the decoder reads a PNG by its
-content), as the commands above make it; the kinds are ../shared/data/exemplars/README.md's.
+fourth was scored, on all four after, and on all six once the sixth was scored. SHARED is a
+directory holding corpus.tsv (name, label, half) and corpus/NAME.jpg, a link to each photo (the
+decoder reads a PNG by its content), as the commands above make it; the kinds are
+../shared/data/exemplars/README.md's.
 
 The second scale's offset (core/README.md "Two scales"; scales_study below; needs SHARED
 above, and about 7 GB of packages in build/verdict/):
