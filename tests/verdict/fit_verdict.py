@@ -23,7 +23,7 @@ three corpora, had kept the verdict unchanged.
   tests/verdict/fit_verdict.py - --candidates candidates.tsv shared.tsv
 
 The refit study (core/README.md "Micro or macro"): forward selection over verdict_candidates'
-28 statistics on every texture of the corpora given (a statistic joins while it adds at least
+30 statistics on every texture of the corpora given (a statistic joins while it adds at least
 0.005 of cross-validated balanced accuracy), then each refit, with a band keeping 90% or 92% of
 each class (band_of), compared with the unchanged verdict on those textures and on the nine
 shared photos (a target: they keep their kinds). Run on the first three corpora before the
