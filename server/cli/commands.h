@@ -20,6 +20,9 @@ int probe_command(const Argv& args);
 int sign_command(const Argv& args);
 int export_command(const Argv& args);
 
+// Every log line's form: time, level, message (main sets it; StderrCapture keeps it).
+inline constexpr const char* kLogPattern = "[%H:%M:%S.%e] %^%l%$ %v";
+
 // Prints "textond: <message>" to stderr and returns `code`.
 int fail(int code, const std::string& message);
 

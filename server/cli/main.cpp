@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
     passive_openmp_for_serve(argc, argv);
     // Logs and progress go to stderr; stdout carries only the command's result (JSON, tables).
     spdlog::set_default_logger(spdlog::stderr_color_mt("textond"));
-    spdlog::set_pattern("[%H:%M:%S.%e] %^%l%$ %v");
+    spdlog::set_pattern(textond::cli::kLogPattern);
     if (argc < 2) {
         std::fputs(kUsage, stderr);
         return 2;

@@ -1,6 +1,7 @@
 #include "server/app/build_id.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
+#include "server/cli/stderr_capture.h"
 #include "server/http/config.h"
 #include "server/http/textond_server.h"
 #include "server/store/redis_store.h"
@@ -322,10 +323,20 @@ int serve_command(const Argv& argv) {
 
     const sigset_t stop_signals = block_stop_signals();
 
+    // From here on a library's own line on stderr is logged as a line of the log; a failure to
+    // start is printed as it is, once stderr is back.
+    auto capture = StderrCapture::start();
     auto service = http::TextondServer::create(config.value());
-    if (!service) return fail(1, service.error().message);
+    if (!service) {
+        capture.reset();
+        return fail(1, service.error().message);
+    }
     auto port = service.value()->bind();
-    if (!port) return fail(1, port.error().message);
+    if (!port) {
+        service.value().reset();
+        capture.reset();
+        return fail(1, port.error().message);
+    }
     http::TextondServer& svc = *service.value();
     spdlog::info("backend: {}", svc.backend_description());
     spdlog::info("build: {}", app::build_id());
@@ -350,6 +361,7 @@ int serve_command(const Argv& argv) {
     }
     service.value().reset();
     spdlog::info("stopped");
+    capture.reset();
     return 0;
 }
 

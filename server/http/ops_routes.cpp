@@ -20,9 +20,9 @@
 namespace textond::http {
 
 OpsRoutes::OpsRoutes(const ServeConfig& config, Metrics& metrics, TextonStore& store,
-                     MixStore& mixes, const render::Renderer& renderer,
+                     MixStore& mixes, SplatStore& splats, const render::Renderer& renderer,
                      const std::atomic<bool>& stopping)
-    : m_metrics(metrics), m_store(store), m_mixes(mixes), m_renderer(renderer),
+    : m_metrics(metrics), m_store(store), m_mixes(mixes), m_splats(splats), m_renderer(renderer),
       m_stopping(stopping) {
     namespace fs = std::filesystem;
     const std::string dir = config.web_dir.empty() ? TEXTOND_WEB_DIR : config.web_dir;
@@ -88,7 +88,8 @@ void OpsRoutes::readyz(Req, Res res) {
                 {{"writable", writable},
                  {"textons", m_store.local().count()},
                  {"quarantined", m_store.local().quarantined()},
-                 {"mixes_quarantined", m_mixes.quarantined()}}}},
+                 {"mixes_quarantined", m_mixes.quarantined()},
+                 {"splats_quarantined", m_splats.quarantined()}}}},
               "no-store");
 }
 

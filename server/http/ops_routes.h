@@ -7,6 +7,7 @@
 #include "server/http/config.h"
 #include "server/http/imports.h"
 #include "server/store/mix_store.h"
+#include "server/store/splat_store.h"
 #include "server/store/texton_store.h"
 
 #include <httplib.h>
@@ -21,7 +22,8 @@ class OpsRoutes {
 public:
     // Reads the page's files from --web-dir (or the installed one).
     OpsRoutes(const ServeConfig& config, Metrics& metrics, TextonStore& store, MixStore& mixes,
-              const render::Renderer& renderer, const std::atomic<bool>& stopping);
+              SplatStore& splats, const render::Renderer& renderer,
+              const std::atomic<bool>& stopping);
 
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
@@ -42,6 +44,7 @@ private:
     Metrics& m_metrics;
     TextonStore& m_store;
     MixStore& m_mixes;
+    SplatStore& m_splats;
     const render::Renderer& m_renderer;
     const std::atomic<bool>& m_stopping;
     std::map<std::string, StaticFile> m_web; // "/static/app.js" -> bytes, read once at start

@@ -140,8 +140,8 @@ void TextondServer::make_services() {
     m_surface_routes =
         std::make_unique<SurfaceRoutes>(*m_store, *m_surfaces, m_gate, m_config.api_key);
     m_sign_routes = std::make_unique<SignRoutes>(m_config, m_gate);
-    m_ops_routes = std::make_unique<OpsRoutes>(m_config, m_metrics, *m_store, *m_mixes, *m_renderer,
-                                               m_stopping);
+    m_ops_routes = std::make_unique<OpsRoutes>(m_config, m_metrics, *m_store, *m_mixes, *m_splats,
+                                               *m_renderer, m_stopping);
 }
 
 void TextondServer::add_gauges() {
@@ -180,14 +180,15 @@ void TextondServer::add_gauges() {
             count([store] { return store->local().count(); }));
     m.gauge("textond_store_bytes", "Bytes of texton files in the store.",
             count([store] { return store->local().bytes(); }));
-    m.gauge("textond_store_quarantined", "Damaged texton files moved aside since start.",
+    m.gauge("textond_store_quarantined", "Damaged texton files in the quarantine directory.",
             count([store] { return store->local().quarantined().size(); }));
     const MixStore* mixes = m_mixes.get();
-    m.gauge("textond_mixes_quarantined", "Mixes refused at load (damaged or invalid) since start.",
+    m.gauge("textond_mixes_quarantined",
+            "Mixes refused at load (damaged or invalid), in quarantine.",
             count([mixes] { return mixes->quarantined().size(); }));
     const SplatStore* splats = m_splats.get();
     m.gauge("textond_splats_quarantined",
-            "Splats refused at load (damaged or invalid) since start.",
+            "Splats refused at load (damaged or invalid), in quarantine.",
             count([splats] { return splats->quarantined().size(); }));
     const ImageCache* cache = &m_cache;
     m.gauge("textond_image_cache_bytes", "Bytes held by the image cache.",

@@ -30,7 +30,8 @@ std::size_t level_bytes(const std::vector<core::Texton>& levels) {
 } // namespace
 
 MixStore::MixStore(std::string dir, RedisStore* shared, std::chrono::milliseconds recheck)
-    : m_dir(std::move(dir)), m_shared(shared, "mix", m_dir, mix_files(), recheck) {}
+    : m_dir(std::move(dir)), m_shared(shared, "mix", m_dir, mix_files(), recheck),
+      m_quarantined(quarantined_on_disk(m_dir, true)) {}
 
 Result<std::unique_ptr<MixStore>> MixStore::open(const std::string& data_dir, RedisStore* shared,
                                                  std::chrono::milliseconds recheck) {

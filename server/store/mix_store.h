@@ -35,7 +35,7 @@ public:
     // Writes the files (atomically); false when the mix was already there.
     Result<bool> put(const io::MixRecord& record);
     // Mixes whose files were damaged or failed today's validation at load, moved to
-    // <data>/mixes/quarantine/ instead of being rendered.
+    // <data>/mixes/quarantine/ instead of being rendered (by this run or an earlier one).
     std::vector<std::string> quarantined() const;
 
 private:

@@ -1,5 +1,6 @@
 #include "server/store/quarantine.h"
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 
@@ -22,6 +23,21 @@ std::string quarantine_files(const std::string& dir, const std::string& id,
         if (ec) fs::remove(from, ec); // never leave it where it could be rendered
     }
     return to.string();
+}
+
+std::vector<std::string> quarantined_on_disk(const std::string& dir, bool ids) {
+    namespace fs = std::filesystem;
+    std::vector<std::string> out;
+    std::error_code ec;
+    for (fs::directory_iterator it(fs::path(dir) / "quarantine", ec), end; !ec && it != end;
+         it.increment(ec)) {
+        std::string name = it->path().filename().string();
+        if (ids) name = name.substr(0, name.find('.'));
+        out.push_back(std::move(name));
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
 }
 
 } // namespace textond::store

@@ -3,6 +3,7 @@
 // never deleted: <dir>/quarantine/<id><suffix>.<milliseconds>.
 #include <initializer_list>
 #include <string>
+#include <vector>
 
 namespace textond::store {
 
@@ -10,5 +11,9 @@ namespace textond::store {
 // quarantine directory.
 std::string quarantine_files(const std::string& dir, const std::string& id,
                              std::initializer_list<const char*> suffixes);
+
+// What <dir>/quarantine/ holds, by name, so that a restart still reports what earlier runs
+// moved aside: every file's name, or (`ids`) the ids that begin them, each once.
+std::vector<std::string> quarantined_on_disk(const std::string& dir, bool ids);
 
 } // namespace textond::store

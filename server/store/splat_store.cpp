@@ -26,7 +26,8 @@ std::vector<SharedObjects::File> splat_files() {
 
 SplatStore::SplatStore(std::string dir, TextonStore& textons, std::chrono::milliseconds recheck)
     : m_dir(std::move(dir)), m_textons(textons),
-      m_shared(textons.shared(), "splat", m_dir, splat_files(), recheck) {}
+      m_shared(textons.shared(), "splat", m_dir, splat_files(), recheck),
+      m_quarantined(quarantined_on_disk(m_dir, true)) {}
 
 Result<std::unique_ptr<SplatStore>> SplatStore::open(const std::string& data_dir,
                                                      TextonStore& textons,

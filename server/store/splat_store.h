@@ -42,7 +42,7 @@ public:
     // Writes the files (atomically); false when the splat was already there.
     Result<bool> put(const io::SplatRecord& record);
     // Splats whose files were damaged or failed today's rules at load, moved to
-    // <data>/splats/quarantine/.
+    // <data>/splats/quarantine/ (by this run or an earlier one).
     std::vector<std::string> quarantined() const;
 
 private:

@@ -3,6 +3,7 @@
 #include "api/requests.h"
 #include "server/io/crash_point.h"
 #include "server/io/image_io.h"
+#include "server/store/quarantine.h"
 
 #include <spdlog/spdlog.h>
 
@@ -73,6 +74,7 @@ Result<std::unique_ptr<TextonDirectory>> TextonDirectory::open(const std::string
     fs::directory_iterator probe(d->m_dir, list_ec);
     if (list_ec)
         return make_error(ErrorCode::io, "cannot list " + d->m_dir + ": " + list_ec.message());
+    d->m_quarantined = quarantined_on_disk(data_dir, false);
     d->m_scanner = std::thread([p = d.get()] { p->scan(); });
     return d;
 }

@@ -76,7 +76,8 @@ public:
     std::vector<std::string> ids(const std::string& after, int limit) const;
     std::size_t count() const; // so far, while the scan runs
     std::uint64_t bytes() const;
-    std::vector<std::string> quarantined() const; // file names moved aside since start
+    // Names of the files in <data>/quarantine/, moved aside by this run or an earlier one.
+    std::vector<std::string> quarantined() const;
     // Can we create a file here right now? (readiness probe)
     bool writable() const;
     const std::string& path() const { return m_dir; }

@@ -9,6 +9,7 @@ Prints one line per case and "N passed, M failed"; exits non-zero on any failure
 import http.client
 import json
 import os
+import re
 import shutil
 import socket
 import struct
@@ -239,6 +240,11 @@ class HostileClients(unittest.TestCase):
             self.assertFalse(os.path.exists(os.path.join(s2.data, "mixes", mix + ".exr")))
             st, _, body = s2.request("GET", "/readyz")
             self.assertIn(mix, json.loads(body)["store"]["mixes_quarantined"])
+            # A restart still lists it: the list is what mixes/quarantine/ holds.
+            s2.stop()
+            s2 = Server(s2.data)
+            st, _, body = s2.request("GET", "/readyz")
+            self.assertEqual(json.loads(body)["store"]["mixes_quarantined"], [mix])
         finally:
             s2.stop()
             shutil.rmtree(s2.data, ignore_errors=True)
@@ -273,6 +279,26 @@ class HostileClients(unittest.TestCase):
             lines = f.read().splitlines()
         self.assertFalse(any(l.startswith(b"FORGED") for l in lines))
         self.assertTrue(any(b"\\x0aFORGED" in l for l in lines))
+
+    def test_a_librarys_own_stderr_lines_are_log_lines(self):
+        # A PNG whose IDAT stream breaks mid-way: libpng's default handler prints "libpng error:"
+        # to descriptor 2 before OpenImageIO reports it.
+        png = bytearray(ramp_png(300, 300))
+        idat = png.index(b"IDAT")
+        png[idat + 40] ^= 0xFF
+        st, _, body = self.post("/v1/textons", bytes(png), {"Content-Type": "image/png"})
+        self.assertEqual(st, 422, body)
+        self.assertEqual(json.loads(body)["error"]["code"], "invalid_image")
+        stamp = re.compile(rb"^\[\d\d:\d\d:\d\d\.\d{3}\] (trace|debug|info|warning|error|critical) ")
+        for _ in range(50):
+            time.sleep(0.1)
+            self.s.log.flush()
+            with open(self.s.log.name, "rb") as f:
+                lines = f.read().splitlines()
+            if any(b"stderr: libpng error" in l for l in lines):
+                break
+        self.assertTrue(any(b"warning stderr: libpng error" in l for l in lines), lines[-5:])
+        self.assertEqual([l for l in lines if not stamp.match(l)], [])
 
     # 3. Limits that hold for every transfer encoding; headers; framing; pipelining.
     def chunked(self, path, total, content_type="application/octet-stream"):

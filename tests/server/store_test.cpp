@@ -104,6 +104,13 @@ TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
     int status = 0;
     EXPECT_EQ(upload(c, "etr_sand01.png", "?size=16&iterations=5", &status), id);
     EXPECT_EQ(status, 201);
+    ASSERT_EQ(server.terminate(10000), 0);
+    // A restart still reports what the quarantine directory holds.
+    ServerProcess again(data);
+    auto c2 = again.client();
+    const json r2 = json::parse(c2.Get("/readyz")->body);
+    ASSERT_EQ(r2["store"]["quarantined"], r["store"]["quarantined"]);
+    EXPECT_NE(c2.Get("/metrics")->body.find("textond_store_quarantined 1"), std::string::npos);
 }
 
 // An exemplar damaged on disk (cut short) is the store's error, not the client's: 500
