@@ -15,25 +15,61 @@ namespace textond::app {
 MixService::MixService(store::TextonStore& textons, store::MixStore& mixes, AnalysisPool& pool)
     : m_textons(textons), m_mixes(mixes), m_pool(pool) {}
 
+std::string MixService::Siblings::key(const api::MixRequest& m, const std::array<int, 2>& grid) {
+    return m.u + "/" + m.v + "/" + std::to_string(m.levels) + "/" + std::to_string(grid[0]) + "x" +
+           std::to_string(grid[1]);
+}
+
+std::optional<std::string> MixService::Siblings::find(const std::string& key) const {
+    std::lock_guard lock(m_mutex);
+    auto it = m_ids.find(key);
+    if (it == m_ids.end()) return std::nullopt;
+    return it->second;
+}
+
+void MixService::Siblings::remember(const std::string& key, const std::string& id) {
+    std::lock_guard lock(m_mutex);
+    if (m_ids.size() >= kSiblings && m_ids.count(key) == 0) m_ids.erase(m_ids.begin());
+    m_ids[key] = id;
+}
+
+namespace {
+// Whether a stored mix's levels are the ones an analysis of `m` on `grid` would make: the same
+// textons (their ids name their parameters), level count, grid and mix version.
+bool same_levels(const api::MixMeta& s, const api::MixRequest& m, const std::array<int, 2>& grid) {
+    return s.version == core::kMixVersion && s.u == m.u && s.v == m.v && s.levels == m.levels &&
+           s.grid == grid;
+}
+} // namespace
+
 Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api::MixRequest& m,
                                           const api::TextonMeta& mu, const std::string& id,
-                                          const std::array<int, 2>& grid) {
+                                          const std::array<int, 2>& grid, io::MixRecord* sibling) {
     const auto t0 = std::chrono::steady_clock::now();
-    auto eu = textons.exemplar_image(m.u);
-    if (!eu) return eu.error();
-    auto ev = textons.exemplar_image(m.v);
-    if (!ev) return ev.error();
     const core::AnalysisParams p = mu.params();
-    if (core::mix_grid(eu.value().width, eu.value().height, ev.value().width, ev.value().height,
-                       2 * p.size) != grid)
-        return make_error(ErrorCode::io, "the stored exemplars of " + m.u + " and " + m.v +
-                                             " disagree in size with their textons' metadata");
-    auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads, 2 * p.size);
-    if (!pair) return pair.error();
-    auto levels = core::mix_levels(pair.value(), p, m.levels);
-    if (!levels) return levels.error();
     io::MixRecord record;
-    record.levels = levels.value().levels;
+    std::vector<double> rme;
+    std::array<int, 2> made_grid = grid;
+    if (sibling != nullptr && same_levels(sibling->meta, m, grid)) {
+        record.levels = std::move(sibling->levels);
+        rme = sibling->meta.rme;
+    } else {
+        auto eu = textons.exemplar_image(m.u);
+        if (!eu) return eu.error();
+        auto ev = textons.exemplar_image(m.v);
+        if (!ev) return ev.error();
+        if (core::mix_grid(eu.value().width, eu.value().height, ev.value().width, ev.value().height,
+                           2 * p.size) != grid)
+            return make_error(ErrorCode::io, "the stored exemplars of " + m.u + " and " + m.v +
+                                                 " disagree in size with their textons' metadata");
+        auto pair = core::common_models(eu.value(), ev.value(), p.periodic, p.threads, 2 * p.size);
+        if (!pair) return pair.error();
+        auto levels = core::mix_levels(pair.value(), p, m.levels);
+        if (!levels) return levels.error();
+        record.levels = std::move(levels.value().levels);
+        rme = levels.value().rme;
+        made_grid = {pair.value().u.width, pair.value().u.height};
+    }
     record.field = m.field;
     api::MixMeta& meta = record.meta;
     meta.id = id;
@@ -47,10 +83,10 @@ Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api
     meta.iterations = p.iterations;
     meta.seed = p.seed;
     meta.periodic = p.periodic;
-    meta.grid = {pair.value().u.width, pair.value().u.height};
+    meta.grid = made_grid;
     for (const auto& t : record.levels)
         meta.means.emplace_back(t.mean.begin(), t.mean.begin() + t.channels);
-    meta.rme = levels.value().rme;
+    meta.rme = std::move(rme);
     meta.field = io::field_json(m.field);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -93,14 +129,23 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m,
     const std::string id = out.id;
     out.submitted = m_pool.submit(
         "mix:" + id,
-        [textons, mixes, m, mu, id, grid](const core::ProgressFn&) -> Result<AnalysisOutcome> {
+        [textons, mixes, siblings = m_siblings, m, mu, id,
+         grid](const core::ProgressFn&) -> Result<AnalysisOutcome> {
             if (mixes->contains(id)) return AnalysisOutcome{mu, false};
-            auto record = analyse(*textons, m, mu, id, grid);
+            const std::string key = Siblings::key(m, grid);
+            // A sibling deleted since, or unreadable, is no loss: the analysis runs.
+            std::optional<io::MixRecord> sibling;
+            if (auto sid = siblings->find(key); sid && *sid != id)
+                if (auto r = mixes->levels(*sid); r && same_levels(r.value().meta, m, grid))
+                    sibling = std::move(r.value());
+            auto record = analyse(*textons, m, mu, id, grid, sibling ? &*sibling : nullptr);
             if (!record) return record.error();
             auto put = mixes->put(record.value());
             if (!put) return put.error();
-            spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms", id, m.u.substr(0, 12),
-                         m.v.substr(0, 12), m.levels, record.value().meta.analysis_ms.value_or(0));
+            siblings->remember(key, id);
+            spdlog::info("mixed {}: {} -> {}, {} levels, {:.0f} ms{}", id, m.u.substr(0, 12),
+                         m.v.substr(0, 12), m.levels, record.value().meta.analysis_ms.value_or(0),
+                         sibling ? ", the levels of " + sibling->meta.id : std::string());
             return AnalysisOutcome{mu, put.value()};
         });
     return out;

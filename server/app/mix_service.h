@@ -2,7 +2,9 @@
 // The texture-mix workflow without HTTP (texton-noise section 7): both textons must be stored;
 // a mix stored already is answered at once; any other runs on the analysis pool (single flight
 // per id, like a texton), which re-reads both exemplars, takes their common models and the R
-// optimal-transport barycentres, and stores the levels.
+// optimal-transport barycentres, and stores the levels. The levels do not depend on the field:
+// a mix of a pair, level count and grid that this process stored already lends its levels to
+// every other field of them (a ramp turned, another mask), which is stored without analysis.
 #include "api/mix_meta.h"
 #include "api/requests.h"
 #include "core/result.h"
@@ -13,8 +15,11 @@
 
 #include <array>
 #include <functional>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 
 namespace textond::app {
 
@@ -25,9 +30,12 @@ public:
     // The stored form of a mix of m.u and m.v with u's analysis parameters (`mu`), on `grid`,
     // the grid its id names (from the textons' metadata): exemplars that decode to another size
     // are a storage error, never a mix stored under an id it does not hash to.
+    // With `sibling` (a stored mix of the same u, v, levels and grid), its levels, moved out of
+    // it, instead of an analysis.
     static Result<io::MixRecord> analyse(store::TextonStore& textons, const api::MixRequest& m,
                                          const api::TextonMeta& mu, const std::string& id,
-                                         const std::array<int, 2>& grid);
+                                         const std::array<int, 2>& grid,
+                                         io::MixRecord* sibling = nullptr);
 
     struct Started {
         std::string id;
@@ -39,10 +47,25 @@ public:
     // only if `admit` takes its estimated CPU seconds (work_cost.h, mix_work_s).
     Result<Started> start(const api::MixRequest& m, const std::function<bool(double)>& admit);
 
+    // Mixes stored here by levels key (u, v, levels, grid): one id each, at most kSiblings.
+    class Siblings {
+    public:
+        static std::string key(const api::MixRequest& m, const std::array<int, 2>& grid);
+        std::optional<std::string> find(const std::string& key) const;
+        void remember(const std::string& key, const std::string& id);
+
+    private:
+        static constexpr std::size_t kSiblings = 4096;
+        mutable std::mutex m_mutex;
+        std::unordered_map<std::string, std::string> m_ids;
+    };
+
 private:
     store::TextonStore& m_textons;
     store::MixStore& m_mixes;
     AnalysisPool& m_pool;
+    // Shared with the jobs, which may outlive a call of start().
+    std::shared_ptr<Siblings> m_siblings = std::make_shared<Siblings>();
 };
 
 } // namespace textond::app

@@ -122,7 +122,7 @@ Result<core::MixField> field_of(const nlohmann::json& f, const std::string& mask
 
 } // namespace
 
-Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) {
+Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id, bool levels_only) {
     const std::string path = dir + "/" + id + ".exr";
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec))
@@ -148,6 +148,7 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id) 
         if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
             return bad(path, in->geterror());
         r.levels = levels_of(buf, r.meta);
+        if (levels_only) return r;
         auto field = field_of(r.meta.field, dir + "/" + id + ".mask.exr");
         if (!field) return bad(path, field.error().message);
         r.field = std::move(field.value());

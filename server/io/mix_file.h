@@ -39,6 +39,9 @@ std::string mix_id(const std::string& u, const std::string& v, int levels,
 nlohmann::json field_json(const core::MixField& field);
 
 Result<bool> write_mix_files(const std::string& dir, const MixRecord& record);
-Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id);
+// `levels_only`: the metadata and levels, without the field (no mask decoded) and so without the
+// check that the content hashes to the id; for a field variant that reuses them (mix_service.h).
+Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id,
+                                 bool levels_only = false);
 
 } // namespace textond::io

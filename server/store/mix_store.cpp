@@ -46,6 +46,11 @@ bool MixStore::contains(const std::string& id) {
     return m_shared.contains(id, [&] { forget(id); });
 }
 
+Result<io::MixRecord> MixStore::levels(const std::string& id) {
+    if (!contains(id)) return make_error(ErrorCode::not_found, "no mix " + id);
+    return io::read_mix_files(m_dir, id, true);
+}
+
 void MixStore::forget(const std::string& id) {
     std::lock_guard<std::mutex> lock(m_mutex);
     m_kept.erase(id);

@@ -32,6 +32,9 @@ public:
     Result<bool> remove(const std::string& id);
     Result<api::MixMeta> meta(const std::string& id);
     Result<std::shared_ptr<const render::PreparedMix>> prepared(const std::string& id);
+    // The metadata and levels of a mix held here or fetched, read from its files without its
+    // field, neither prepared nor kept (io::read_mix_files with levels_only).
+    Result<io::MixRecord> levels(const std::string& id);
     // Writes the files (atomically); false when the mix was already there.
     Result<bool> put(const io::MixRecord& record);
     // Mixes whose files were damaged or failed today's validation at load, moved to

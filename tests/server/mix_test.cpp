@@ -12,6 +12,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
+
 namespace textond::test {
 namespace {
 
@@ -223,6 +225,42 @@ TEST(Mixes, PrimeSidedExemplarsAreMixedOnAFastFftGrid) {
     auto after = c2.Get(path.c_str());
     ASSERT_TRUE(after && after->status == 200) << (after ? after->body : "");
     EXPECT_TRUE(after->body == before);
+}
+
+// A field variant of a mix stored here takes its levels from it: created with both exemplars
+// gone from the disk (an analysis would need them), and the same levels and tiles as the variant
+// analysed afresh on another server.
+TEST(Mixes, AFieldVariantTakesTheLevelsOfAMixOfTheSamePair) {
+    TestServer server;
+    auto c = server.client();
+    const std::string u = upload(c, "etr_sand01.png", "?size=16&iterations=10");
+    const std::string v = upload(c, "etr_pebbles04.png", "?size=16&iterations=10");
+    const std::string q = "?u=" + u + "&v=" + v + "&levels=4";
+    const std::string first = post_mix(c, q + "&dx=1", "", 201);
+    ASSERT_EQ(first.size(), 64u);
+    for (const std::string& id : {u, v})
+        ASSERT_TRUE(std::filesystem::remove(server.data_dir() + "/exemplars/" + id + ".png"));
+    const std::string variant = post_mix(c, q + "&dy=1&width=200", "", 201);
+    ASSERT_EQ(variant.size(), 64u);
+    // Another level count is not a variant: it needs the exemplars.
+    post_mix(c, "?u=" + u + "&v=" + v + "&levels=3", "", 404);
+
+    TestServer fresh;
+    auto f = fresh.client();
+    ASSERT_EQ(upload(f, "etr_sand01.png", "?size=16&iterations=10"), u);
+    ASSERT_EQ(upload(f, "etr_pebbles04.png", "?size=16&iterations=10"), v);
+    ASSERT_EQ(post_mix(f, q + "&dy=1&width=200", "", 201), variant);
+    auto reused = io::read_mix_files(server.data_dir() + "/mixes", variant);
+    auto analysed = io::read_mix_files(fresh.data_dir() + "/mixes", variant);
+    ASSERT_TRUE(reused.ok() && analysed.ok());
+    EXPECT_EQ(reused.value().meta.rme, analysed.value().meta.rme);
+    EXPECT_EQ(reused.value().meta.grid, analysed.value().meta.grid);
+    ASSERT_EQ(reused.value().levels.size(), 4u);
+    for (std::size_t l = 0; l < 4; ++l)
+        EXPECT_TRUE(reused.value().levels[l].alpha.data == analysed.value().levels[l].alpha.data)
+            << "level " << l;
+    const std::string tile = "/v1/mixes/" + variant + "/tiles/0/0/0.png?seed=5";
+    EXPECT_TRUE(c.Get(tile.c_str())->body == f.Get(tile.c_str())->body);
 }
 
 } // namespace
