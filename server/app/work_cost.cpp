@@ -24,13 +24,19 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
            surface_work_s(static_cast<std::size_t>(pixels), mni, order);
 }
 
+double fft_sides_factor(int width, int height) {
+    // tests/bench/analysis_cost.py, its "sides" form
+    constexpr double kFactor5 = 0.45, kFactor7 = 1.00;
+    auto side = [](int n) { return (n % 5 == 0 ? kFactor5 : 0.0) + (n % 7 == 0 ? kFactor7 : 0.0); };
+    return 1 + (side(width) + side(height)) / 2;
+}
+
 double analysis_work_s(int width, int height, int channels, int iterations, int size) {
     // tests/bench/analysis_cost.py, its "sides" form
     constexpr double kIterationNs = 4.37, kChannelPixelNs = 54.03, kPixelNs = 180.31;
-    constexpr double kFixedS = 0.04517, kFactor5 = 0.45, kFactor7 = 1.00;
+    constexpr double kFixedS = 0.04517;
     const auto [w, h] = core::window_size(width, height, core::kWorkingSide, 2 * size);
-    auto side = [](int n) { return (n % 5 == 0 ? kFactor5 : 0.0) + (n % 7 == 0 ? kFactor7 : 0.0); };
-    const double fft = 1 + (side(w) + side(h)) / 2;
+    const double fft = fft_sides_factor(w, h);
     const double pixels = static_cast<double>(w) * h, channel_pixels = pixels * channels;
     const double whole = static_cast<double>(width) * height * channels;
     return fft *
@@ -44,7 +50,7 @@ double mix_work_s(int width, int height, int channels, int iterations, int level
     constexpr double kMixNs = 3.32, kMixFixedIterations = 13.1; // tests/bench/mix_cost.py
     const double pixels = static_cast<double>(width) * height;
     return levels * pixels * channels * (iterations + kMixFixedIterations) * kMixNs * 1e-9 *
-           std::log2(std::max(pixels, 2.0)) / 16;
+           std::log2(std::max(pixels, 2.0)) / 16 * fft_sides_factor(width, height);
 }
 
 } // namespace textond::app

@@ -28,6 +28,10 @@ double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, 
 // on the other half the measured CPU is 0.84-1.24x the estimate. The upload is refused (413
 // work_too_large) before it is queued when over --max-request-cpu-s.
 double analysis_work_s(int width, int height, int channels, int iterations, int size);
+// What a side with a factor 5 or 7 costs an FFT of width x height against a power of two's
+// (1 + (e(width) + e(height)) / 2, e = 0.45 for a 5 and 1.00 for a 7), as analysis_cost.py
+// fitted it for analyses; mixes take it as it is.
+double fft_sides_factor(int width, int height);
 // A texture mix (core/texture_mix.h) runs `levels` analyses from a model over the common grid
 // (core::mix_grid: the two exemplars' smaller width and height, at most 1024, at fast FFT sizes;
 // the more channels): kMixNs of one core a grid channel-pixel, level and iteration, with
@@ -35,7 +39,10 @@ double analysis_work_s(int width, int height, int channels, int iterations, int 
 // pixel grows with the log of its size: 1 at 256 x 256, 1.25 at 1024 x 1024). Form and constants
 // chosen and fitted on one half of the shared photos' pairs, at their own sizes and made
 // 1024 x 1024, by tests/bench/mix_cost.py; on the other half the measured CPU is 0.96-1.44x the
-// estimate, a grey pair's the most above it.
+// estimate, a grey pair's the most above it. Times fft_sides_factor of the grid, taken from the
+// analyses' fit and not refitted: without it a 1008 x 1008 grid took 1.9-2.2x the estimate and
+// 1000 x 1000 1.4-1.7x, with it 0.94-1.18x (pave + pebbles and brick + grass made 1008², 1000²,
+// 4 levels, 20 iterations, one thread; 1024²: 1.07 and 1.39).
 double mix_work_s(int width, int height, int channels, int iterations, int levels);
 
 } // namespace textond::app

@@ -9,7 +9,9 @@ name, photos 2k and 2k + 1 form pair k, each pair at its own size and both made 
 iterations, from the ratio of its CPU at 20 and at 100 iterations), choose the form (the one
 whose worst fit-half ratio is nearer 1) and fit a (the mean of CPU / units), odd pairs report
 measured / model. One thread, levels 4 and 8 (4 at 1024), iterations 20 and 100, texton size 32;
-analysis time only (`textond mix`'s analysis_ms). Prints a table.
+analysis time only (`textond mix`'s analysis_ms). Prints a table. The shared photos' sides are
+powers of two; work_cost.cpp multiplies the model by fft_sides_factor for grids with a side
+divisible by 5 or 7 (taken from analysis_cost.py's fit, not refitted here).
 
   tests/bench/mix_cost.py [BINARY] [EXEMPLARS]
 """

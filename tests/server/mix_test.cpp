@@ -4,6 +4,7 @@
 #include "core/working_window.h"
 #include "render/cpu_backend.h"
 #include "render/gl/osmesa_backend.h"
+#include "server/app/work_cost.h"
 #include "server/io/image_io.h"
 #include "server/io/mix_file.h"
 #include "tests/server/server_fixture.h"
@@ -190,6 +191,20 @@ TEST(Mixes, OneOverTheCpuBudgetIsRefusedBeforeItRuns) {
     EXPECT_NE(metrics.find("textond_not_admitted_total{reason=\"too_large\"} 1"), std::string::npos)
         << metrics;
     EXPECT_EQ(post_mix(c, base + "&levels=3", "", 201).size(), 64u);
+}
+
+// A grid with a side divisible by 7 (or 5) costs an analysis more a pixel than a power of two's
+// (FFTW's radix-7 codelets): measured 1.56-1.76x a 1024 x 1024 grid's CPU a pixel at 1008 x 1008,
+// 1.23-1.32x at 1000 x 1000 (server/app/work_cost.h). Admission must not take it at the price of
+// a power of two.
+TEST(Mixes, GridsWithSidesOfFiveOrSevenAreEstimatedAtTheirCost) {
+    auto per_pixel = [](int side) {
+        return app::mix_work_s(side, side, 3, 20, 4) / (static_cast<double>(side) * side);
+    };
+    EXPECT_GT(per_pixel(1008) / per_pixel(1024), 1.5);
+    EXPECT_LT(per_pixel(1008) / per_pixel(1024), 2.5);
+    EXPECT_GT(per_pixel(1000) / per_pixel(1024), 1.2);
+    EXPECT_LT(per_pixel(1000) / per_pixel(1024), 1.8);
 }
 
 // Exemplars of 509 x 509 (a prime side) are mixed on a 504 x 504 grid (core::mix_grid: FFTW's
