@@ -34,11 +34,14 @@ void MixService::Siblings::remember(const std::string& key, const std::string& i
 }
 
 namespace {
-// Whether a stored mix's levels are the ones an analysis of `m` on `grid` would make: the same
-// textons (their ids name their parameters), level count, grid and mix version.
-bool same_levels(const api::MixMeta& s, const api::MixRequest& m, const std::array<int, 2>& grid) {
+// Whether a stored mix's levels are the ones an analysis of `m` on `grid` with parameters `p`
+// would make: the same textons, level count, grid, mix version and analysis parameters (the
+// texton ids name their parameters; checked again, as a file on disk may say otherwise).
+bool same_levels(const api::MixMeta& s, const api::MixRequest& m, const std::array<int, 2>& grid,
+                 const core::AnalysisParams& p) {
     return s.version == core::kMixVersion && s.u == m.u && s.v == m.v && s.levels == m.levels &&
-           s.grid == grid;
+           s.grid == grid && s.size == p.size && s.order == p.order &&
+           s.iterations == p.iterations && s.seed == p.seed && s.periodic == p.periodic;
 }
 } // namespace
 
@@ -50,7 +53,7 @@ Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api
     io::MixRecord record;
     std::vector<double> rme;
     std::array<int, 2> made_grid = grid;
-    if (sibling != nullptr && same_levels(sibling->meta, m, grid)) {
+    if (sibling != nullptr && same_levels(sibling->meta, m, grid, p)) {
         record.levels = std::move(sibling->levels);
         rme = sibling->meta.rme;
     } else {
@@ -136,7 +139,8 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m,
             // A sibling deleted since, or unreadable, is no loss: the analysis runs.
             std::optional<io::MixRecord> sibling;
             if (auto sid = siblings->find(key); sid && *sid != id)
-                if (auto r = mixes->levels(*sid); r && same_levels(r.value().meta, m, grid))
+                if (auto r = mixes->levels(*sid);
+                    r && same_levels(r.value().meta, m, grid, mu.params()))
                     sibling = std::move(r.value());
             auto record = analyse(*textons, m, mu, id, grid, sibling ? &*sibling : nullptr);
             if (!record) return record.error();

@@ -2,33 +2,36 @@
 // Libraries under `serve` write to file descriptor 2 on their own: libpng's default error handler
 // prints "libpng error: ..." for a corrupt upload that OpenImageIO then reports properly, Mesa's
 // loader prints its warnings. Such a line has no time or level, and a log reader takes it for a
-// broken log. While a StderrCapture lives, descriptor 2 is a pipe: each line written there is
-// logged as a warning, "stderr: " and the line made printable, and the logger writes to the
-// original stderr.
+// broken log. While a StderrCapture lives, descriptor 2 is a pipe read by a child process, which
+// logs each line as a warning, "stderr: " and the line made printable (at any --log-level), to
+// the original stderr; the server's own logger writes there directly.
+//
+// A child and not a thread: what the server writes just before it dies (an uncaught exception's
+// "terminate called...", glibc's "malloc(): corrupted ...", an LLVM error before exit) is still
+// in the pipe when the process is gone, and only a reader outside it can pass it on. The child
+// reads until the last write end closes, when the server exits however it exits.
 #include <cstdio>
 #include <memory>
-#include <thread>
+#include <sys/types.h>
 
 namespace textond::cli {
 
 class StderrCapture {
 public:
-    // nullptr where the pipe or the descriptors cannot be made: stderr then stays as it was.
+    // nullptr where the pipe, the descriptors or the child cannot be made: stderr then stays as
+    // it was. Call it while the process has one thread (the child is a fork).
     static std::unique_ptr<StderrCapture> start();
-    // Logs what the pipe still held, restores descriptor 2 and the logger's stderr. Only once
-    // the threads that log are gone.
+    // Restores descriptor 2 and the logger's stderr, and waits (at most 2 s) for the child to
+    // pass on what the pipe still held. Only once the threads that log are gone.
     ~StderrCapture();
     StderrCapture(const StderrCapture&) = delete;
     StderrCapture& operator=(const StderrCapture&) = delete;
 
 private:
-    StderrCapture(int read_end, int saved_stderr, std::FILE* log_file);
+    StderrCapture(pid_t child, std::FILE* log_file) : m_child(child), m_log_file(log_file) {}
     static void log_to(std::FILE* file);
-    void forward_lines();
-    int m_read_end;
-    int m_saved_stderr;    // the original stderr, put back on descriptor 2 at the end
-    std::FILE* m_log_file; // another copy of it, where the logger writes meanwhile
-    std::thread m_reader;
+    pid_t m_child;
+    std::FILE* m_log_file; // a copy of the original stderr, where the logger writes meanwhile
 };
 
 } // namespace textond::cli

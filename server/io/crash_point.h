@@ -1,7 +1,8 @@
 #pragma once
 // Fault injection for the crash tests: with TEXTOND_CRASH_POINT=<name> in its
 // environment the process ends at once (_exit(86): no destructor, no flush, like kill -9) when it
-// reaches that point of the write path. The points:
+// reaches that point of the write path, with one line on descriptor 2, "textond: crash point
+// <name>", as a process dying of an uncaught exception or a failed check writes one. The points:
 //   <ext>-written   write_file_atomic: the temporary is written and fsynced, not yet renamed
 //   <ext>-renamed   write_file_atomic: renamed, its directory not yet fsynced
 //   texton-synced   TextonDirectory::write: the texton's directory fsynced, not yet indexed

@@ -39,7 +39,7 @@ if [ -z "${URL:-}" ]; then
     server_pid=$!
     URL=$(server_url "$log") || { cat "$log"; exit 1; }
 fi
-pid=${server_pid:-$(pgrep -f "textond serve" | head -1 || true)}
+pid=${server_pid:-$(pgrep -o -f "textond serve" || true)} # the oldest: not its stderr reader
 
 id=$(curl -sf -X POST -H 'Content-Type: image/png' --data-binary @"$EXEMPLAR" "$URL/v1/textons" |
      sed -n 's/.*"id": "\([0-9a-f]\{64\}\)".*/\1/p')

@@ -300,6 +300,38 @@ class HostileClients(unittest.TestCase):
         self.assertTrue(any(b"warning stderr: libpng error" in l for l in lines), lines[-5:])
         self.assertEqual([l for l in lines if not stamp.match(l)], [])
 
+    def test_what_a_dying_server_writes_on_stderr_is_still_logged(self):
+        # The capture's reader is a child process: a line written just before _exit (here a
+        # crash point's; an uncaught exception's "terminate called..." alike) is passed on.
+        data = tempfile.mkdtemp(prefix="textond-security-crash-")
+        try:
+            log = open(os.path.join(data, "stderr.log"), "w+")
+            env = {**os.environ, "TEXTOND_CRASH_POINT": "exr-written"}
+            proc = subprocess.Popen([BINARY, "serve", "--port", "0", "--data", data, *ARGS],
+                                    stdout=subprocess.PIPE, stderr=log, env=env)
+            port = int(proc.stdout.readline().decode().rsplit(":", 1)[1].strip("/\n "))
+            with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
+                body = f.read()
+            try:
+                c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+                c.request("POST", "/v1/textons?size=16&iterations=5", body,
+                          {"Content-Type": "image/png"})
+                c.getresponse()
+            except (OSError, http.client.HTTPException):
+                pass  # the server died mid-request, as it should
+            self.assertEqual(proc.wait(30), 86)
+            proc.stdout.close()
+            for _ in range(50):
+                log.seek(0)
+                text = log.read()
+                if "crash point" in text:
+                    break
+                time.sleep(0.1)
+            log.close()
+            self.assertIn("] warning stderr: textond: crash point exr-written", text)
+        finally:
+            shutil.rmtree(data, ignore_errors=True)
+
     # 3. Limits that hold for every transfer encoding; headers; framing; pipelining.
     def chunked(self, path, total, content_type="application/octet-stream"):
         head = (f"POST {path} HTTP/1.1\r\nHost: x\r\nContent-Type: {content_type}\r\n"
