@@ -37,6 +37,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"body_timeout", 408},
         {"client_gone", 408},
         {"length_required", 411},
+        {"precondition_failed", 412},
         {"payload_too_large", 413},
         {"work_too_large", 413},
         {"image_too_large", 413},

@@ -82,6 +82,12 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         res.set_header("ETag", etag);
         res.set_header("Cache-Control", cache_control);
     };
+    // If-Match first (RFC 9110 13.2.2); a client that holds one rendering's tag and not this
+    // one's (another build, another backend) is told so rather than sent other bytes.
+    if (!if_match_holds(req.get_header_value("If-Match"), etag))
+        return send_error(
+            res, {"precondition_failed",
+                  "If-Match names no entity tag of this image (its ETag is " + etag + ")"});
     if (etag_matches(req.get_header_value("If-None-Match"), etag)) {
         validators();
         res.status = 304;

@@ -112,6 +112,8 @@ void MixRoutes::remove(Req req, Res res) {
     const std::string id = req.matches[1].str();
     if (!authorised(m_config.api_key, req, res)) return;
     if (auto e = api::check_mix_id(id)) return send_error(res, *e);
+    if (!if_match_holds(req.get_header_value("If-Match"), "") && m_mixes.contains(id))
+        return send_error(res, no_entity_tag("mix"));
     auto r = m_mixes.remove(id);
     if (!r) return send_error(res, to_api_error(r.error()));
     m_cache.erase_texton(id); // its images, by their source's id

@@ -118,6 +118,28 @@ bool etag_matches(std::string_view header, std::string_view etag) {
     return false;
 }
 
+bool if_match_holds(std::string_view header, std::string_view etag) {
+    if (header.empty()) return true;
+    std::size_t pos = 0;
+    while (pos < header.size()) {
+        std::size_t end = header.find(',', pos);
+        if (end == std::string_view::npos) end = header.size();
+        std::string_view tag = header.substr(pos, end - pos);
+        while (!tag.empty() && (tag.front() == ' ' || tag.front() == '\t')) tag.remove_prefix(1);
+        while (!tag.empty() && (tag.back() == ' ' || tag.back() == '\t')) tag.remove_suffix(1);
+        if (tag == "*") return true;
+        if (!etag.empty() && etag.substr(0, 2) != "W/" && tag == etag) return true;
+        pos = end + 1;
+    }
+    return false;
+}
+
+api::ApiError no_entity_tag(const char* what) {
+    return {"precondition_failed", std::string("If-Match names entity tags, and a ") + what +
+                                       " has none (content addressed, it never changes): "
+                                       "send If-Match: * or no If-Match"};
+}
+
 const std::vector<std::pair<const char*, const char*>>& security_headers() {
     static const std::vector<std::pair<const char*, const char*>> headers = {
         {"X-Content-Type-Options", "nosniff"},

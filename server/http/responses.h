@@ -43,6 +43,13 @@ bool takes_no_query(const httplib::Request& req, httplib::Response& res);
 
 // RFC 9110 If-None-Match: a list of strong or weak tags, or "*".
 bool etag_matches(std::string_view if_none_match, std::string_view etag);
+// RFC 9110 If-Match (13.1.1) on a resource that exists: true when absent or "*", else when one
+// tag of the list is `etag` by the strong comparison (a weak tag never matches; an empty `etag`,
+// a resource without one, matches nothing). False: 412, and the method is not performed.
+bool if_match_holds(std::string_view if_match, std::string_view etag);
+// A DELETE's If-Match that names tags: a texton, mix or splat has none (content addressed, it
+// never changes), so only "*" holds where it exists.
+api::ApiError no_entity_tag(const char* what);
 
 // The headers every answer carries (the page framed or sniffed; deploy/README.md "Hostile
 // clients"), the connection's own canned answers included.

@@ -116,6 +116,8 @@ void SplatRoutes::remove(Req req, Res res) {
     const std::string id = req.matches[1].str();
     if (!authorised(m_config.api_key, req, res)) return;
     if (auto e = api::check_splat_id(id)) return send_error(res, *e);
+    if (!if_match_holds(req.get_header_value("If-Match"), "") && m_splats.contains(id))
+        return send_error(res, no_entity_tag("splat"));
     auto r = m_splats.remove(id);
     if (!r) return send_error(res, to_api_error(r.error()));
     m_cache.erase_texton(id); // its images, by their source's id

@@ -308,8 +308,9 @@ httplib::Server::HandlerResponse TextondServer::pre_route(const httplib::Request
         res.status = 204;
         if (!m_config.cors_origin.empty()) {
             res.set_header("Access-Control-Allow-Methods", "GET, HEAD, POST, DELETE, OPTIONS");
-            res.set_header("Access-Control-Allow-Headers",
-                           "Authorization, Content-Type, If-None-Match, Prefer, X-Request-Id");
+            res.set_header(
+                "Access-Control-Allow-Headers",
+                "Authorization, Content-Type, If-Match, If-None-Match, Prefer, X-Request-Id");
             res.set_header("Access-Control-Max-Age", "600");
         }
         return httplib::Server::HandlerResponse::Handled;

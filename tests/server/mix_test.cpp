@@ -193,6 +193,30 @@ TEST(Mixes, OneOverTheCpuBudgetIsRefusedBeforeItRuns) {
     EXPECT_EQ(post_mix(c, base + "&levels=3", "", 201).size(), 64u);
 }
 
+// If-Match on a DELETE (RFC 9110 13.1.1): textons and mixes have no entity tag (content
+// addressed, they never change), so a tag list never holds (412, nothing deleted) and "*" holds
+// where the resource is; where it is not, 404 whatever If-Match says.
+TEST(Mixes, DeletesHonourIfMatch) {
+    TestServer server;
+    auto c = server.client();
+    const std::string u = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    const std::string v = upload(c, "etr_pebbles04.png", "?size=16&iterations=5");
+    const std::string mix = post_mix(c, "?u=" + u + "&v=" + v + "&levels=2", "", 201);
+    ASSERT_EQ(mix.size(), 64u);
+    for (const std::string& path : {"/v1/mixes/" + mix, "/v1/textons/" + u}) {
+        for (const char* im : {"\"x\"", "W/\"x\"", "\"a\", \"b\""}) {
+            auto r = c.Delete(path.c_str(), {{"If-Match", im}});
+            ASSERT_TRUE(r);
+            EXPECT_EQ(r->status, 412) << path << " " << im;
+            EXPECT_EQ(nlohmann::json::parse(r->body)["error"]["code"], "precondition_failed");
+            EXPECT_EQ(c.Get(path.c_str())->status, 200) << path << " was deleted";
+        }
+        EXPECT_EQ(c.Delete(path.c_str(), {{"If-Match", "*"}})->status, 204) << path;
+        EXPECT_EQ(c.Delete(path.c_str(), {{"If-Match", "\"x\""}})->status, 404) << path;
+    }
+    EXPECT_EQ(c.Delete(("/v1/textons/" + v).c_str())->status, 204);
+}
+
 // A grid with a side divisible by 7 (or 5) costs an analysis more a pixel than a power of two's
 // (FFTW's radix-7 codelets): measured 1.56-1.76x a 1024 x 1024 grid's CPU a pixel at 1008 x 1008,
 // 1.23-1.32x at 1000 x 1000 (server/app/work_cost.h). Admission must not take it at the price of

@@ -312,6 +312,19 @@ TEST_F(Tiles, EtagNotModifiedCacheHeadersCorsAndHead) {
         EXPECT_EQ(nm->get_header_value("ETag"), etag);
     }
     EXPECT_EQ(c.Get(path.c_str(), {{"If-None-Match", "\"other\""}})->status, 200);
+    // If-Match (RFC 9110 13.1.1): the image only when the tag names it, by the strong comparison.
+    for (const std::string& im : {etag, "\"nope\", " + etag, std::string("*")}) {
+        auto m = c.Get(path.c_str(), {{"If-Match", im}});
+        ASSERT_TRUE(m);
+        EXPECT_EQ(m->status, 200) << im;
+        EXPECT_EQ(m->body, first->body) << im;
+    }
+    for (const std::string& im : {std::string("\"other\""), "W/" + etag}) {
+        auto m = c.Get(path.c_str(), {{"If-Match", im}});
+        ASSERT_TRUE(m);
+        EXPECT_EQ(m->status, 412) << im;
+        EXPECT_EQ(nlohmann::json::parse(m->body)["error"]["code"], "precondition_failed");
+    }
     // Another seed is another image with another tag.
     auto other = c.Get(("/v1/textons/" + id + "/tiles/3/-5/8.png?seed=13").c_str());
     EXPECT_NE(other->get_header_value("ETag"), etag);
