@@ -139,8 +139,8 @@ Result<MixService::Started> MixService::start(const api::MixRequest& m,
             // A sibling deleted since, or unreadable, is no loss: the analysis runs.
             std::optional<io::MixRecord> sibling;
             if (auto sid = siblings->find(key); sid && *sid != id)
-                if (auto r = mixes->levels(*sid);
-                    r && same_levels(r.value().meta, m, grid, mu.params()))
+                if (auto r = mixes->levels(*sid); r && r.value().levels_verified &&
+                                                  same_levels(r.value().meta, m, grid, mu.params()))
                     sibling = std::move(r.value());
             auto record = analyse(*textons, m, mu, id, grid, sibling ? &*sibling : nullptr);
             if (!record) return record.error();

@@ -181,15 +181,15 @@ void TextondServer::add_gauges() {
     m.gauge("textond_store_bytes", "Bytes of texton files in the store.",
             count([store] { return store->local().bytes(); }));
     m.gauge("textond_store_quarantined", "Damaged texton files in the quarantine directory.",
-            count([store] { return store->local().quarantined().size(); }));
+            count([store] { return store->local().quarantined_count(); }));
     const MixStore* mixes = m_mixes.get();
     m.gauge("textond_mixes_quarantined",
             "Mixes refused at load (damaged or invalid), in quarantine.",
-            count([mixes] { return mixes->quarantined().size(); }));
+            count([mixes] { return mixes->quarantined_count(); }));
     const SplatStore* splats = m_splats.get();
     m.gauge("textond_splats_quarantined",
             "Splats refused at load (damaged or invalid), in quarantine.",
-            count([splats] { return splats->quarantined().size(); }));
+            count([splats] { return splats->quarantined_count(); }));
     const ImageCache* cache = &m_cache;
     m.gauge("textond_image_cache_bytes", "Bytes held by the image cache.",
             count([cache] { return cache->bytes(); }));

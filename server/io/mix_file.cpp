@@ -52,6 +52,18 @@ std::string mix_id(const std::string& u, const std::string& v, int levels, const
     return h.hex();
 }
 
+namespace {
+// The levels' floats as the file stores them (level by level, rows, pixels, channels) and the
+// means and RME of the metadata.
+std::string levels_digest(const std::vector<float>& interleaved, const api::MixMeta& meta) {
+    std::string data(reinterpret_cast<const char*>(interleaved.data()),
+                     interleaved.size() * sizeof(float));
+    data += nlohmann::json(meta.means).dump();
+    data += nlohmann::json(meta.rme).dump();
+    return sha256_hex(data);
+}
+} // namespace
+
 Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
     const std::string& id = r.meta.id;
     if (r.field.kind == core::MixField::Kind::mask) {
@@ -67,8 +79,16 @@ Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
                 for (int x = 0; x < n; ++x)
                     stack.at(c, x, l * n + y) =
                         r.levels[static_cast<std::size_t>(l)].alpha.at(c, x, y);
-    auto bytes =
-        encode_image_memory(stack, Encoding::exr, {{kMixAttribute, nlohmann::json(r.meta).dump()}});
+    std::vector<float> interleaved(static_cast<std::size_t>(n) * n * nl * first.channels);
+    for (int l = 0; l < nl; ++l)
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x)
+                for (int c = 0; c < first.channels; ++c)
+                    interleaved[((static_cast<std::size_t>(l) * n + y) * n + x) * first.channels +
+                                c] = stack.at(c, x, l * n + y);
+    auto bytes = encode_image_memory(stack, Encoding::exr,
+                                     {{kMixAttribute, nlohmann::json(r.meta).dump()},
+                                      {kMixLevelsAttribute, levels_digest(interleaved, r.meta)}});
     if (!bytes) return bytes.error();
     return write_file_atomic(dir + "/" + id + ".exr", bytes.value());
 }
@@ -147,6 +167,12 @@ Result<MixRecord> read_mix_files(const std::string& dir, const std::string& id, 
         std::vector<float> buf(static_cast<std::size_t>(n) * n * nl * nc);
         if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
             return bad(path, in->geterror());
+        const std::string digest = spec.get_string_attribute(kMixLevelsAttribute);
+        if (!digest.empty()) {
+            if (digest != levels_digest(buf, r.meta))
+                return bad(path, "levels or their means and RME differ from their checksum");
+            r.levels_verified = true;
+        }
         r.levels = levels_of(buf, r.meta);
         if (levels_only) return r;
         auto field = field_of(r.meta.field, dir + "/" + id + ".mask.exr");

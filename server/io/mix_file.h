@@ -18,6 +18,9 @@
 namespace textond::io {
 
 inline constexpr const char* kMixAttribute = "textond:mix";
+// The sha256 of the levels' floats and of the means and RME the metadata gives them: a file
+// changed on disk is refused, never lent to a variant under another id.
+inline constexpr const char* kMixLevelsAttribute = "textond:mix_levels_sha256";
 
 // MixMeta's field is an nlohmann::json, whose noexcept move calls its invariant check, which
 // clang-tidy takes for a throw.
@@ -26,6 +29,9 @@ struct MixRecord {
     api::MixMeta meta;
     std::vector<core::Texton> levels;
     core::MixField field;
+    // Read from a file that carries kMixLevelsAttribute and matches it (files of older builds do
+    // not carry it): only such levels are lent to a field variant.
+    bool levels_verified = false;
 };
 
 // Content address of a mix: its version, both texton ids, the level count and the canonical

@@ -148,13 +148,17 @@ void MixStore::quarantine(const std::string& id, const std::string& why) {
     const std::string dir = quarantine_files(m_dir, id, {".exr", ".mask.exr"});
     spdlog::error("mixes: {} refused at load ({}); moved to {}", id, why, dir);
     std::lock_guard<std::mutex> lock(m_mutex);
-    if (std::find(m_quarantined.begin(), m_quarantined.end(), id) == m_quarantined.end())
-        m_quarantined.push_back(id);
+    m_quarantined.add(id);
+}
+
+std::size_t MixStore::quarantined_count() const {
+    std::lock_guard lock(m_mutex);
+    return m_quarantined.count();
 }
 
 std::vector<std::string> MixStore::quarantined() const {
     std::lock_guard<std::mutex> lock(m_mutex);
-    return m_quarantined;
+    return m_quarantined.names();
 }
 
 Result<bool> MixStore::put(const io::MixRecord& record) {

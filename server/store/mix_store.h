@@ -8,6 +8,7 @@
 #include "server/io/mix_file.h"
 #include "server/store/bounded_lru.h"
 #include "server/store/load_limit.h"
+#include "server/store/quarantine.h"
 #include "server/store/shared_objects.h"
 #include "server/store/single_flight.h"
 
@@ -39,7 +40,8 @@ public:
     Result<bool> put(const io::MixRecord& record);
     // Mixes whose files were damaged or failed today's validation at load, moved to
     // <data>/mixes/quarantine/ instead of being rendered (by this run or an earlier one).
-    std::vector<std::string> quarantined() const;
+    std::vector<std::string> quarantined() const; // the first QuarantineList::kListed by name
+    std::size_t quarantined_count() const;
 
 private:
     struct Entry {
@@ -57,7 +59,7 @@ private:
     std::string m_dir;
     SharedObjects m_shared;
     mutable std::mutex m_mutex;
-    std::vector<std::string> m_quarantined;
+    QuarantineList m_quarantined;
     BoundedLru<Entry> m_kept{kCapacity, kBudgetBytes}; // prepared, in memory
     SingleFlight<Result<Entry>> m_loads;
     LoadLimit m_limit{1}; // one mask decoded at a time (16 bytes a pixel, 256 MiB at most)

@@ -25,18 +25,33 @@ std::string quarantine_files(const std::string& dir, const std::string& id,
     return to.string();
 }
 
-std::vector<std::string> quarantined_on_disk(const std::string& dir, bool ids) {
+void QuarantineList::add(const std::string& name) {
+    const auto at = std::lower_bound(m_names.begin(), m_names.end(), name);
+    if (at != m_names.end() && *at == name) return;
+    ++m_count;
+    if (at == m_names.end() && m_names.size() >= kListed) return;
+    m_names.insert(at, name);
+    if (m_names.size() > kListed) m_names.pop_back();
+}
+
+QuarantineList quarantined_on_disk(const std::string& dir, bool ids) {
     namespace fs = std::filesystem;
-    std::vector<std::string> out;
+    std::vector<std::string> names;
     std::error_code ec;
     for (fs::directory_iterator it(fs::path(dir) / "quarantine", ec), end; !ec && it != end;
          it.increment(ec)) {
+        std::error_code type_ec;
+        if (!it->is_regular_file(type_ec)) continue;
         std::string name = it->path().filename().string();
+        if (name.empty() || name.front() == '.') continue;
         if (ids) name = name.substr(0, name.find('.'));
-        out.push_back(std::move(name));
+        names.push_back(std::move(name));
     }
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
+    // Sorted and unique before counting: a mix's two files are one quarantined mix.
+    std::sort(names.begin(), names.end());
+    names.erase(std::unique(names.begin(), names.end()), names.end());
+    QuarantineList out;
+    for (const std::string& n : names) out.add(n);
     return out;
 }
 

@@ -203,13 +203,17 @@ void SplatStore::quarantine(const std::string& id, const std::string& why) {
         m_dir, id, {".json", ".weights.exr", ".weights.upload", ".weights2.upload"});
     spdlog::error("splats: {} refused at load ({}); moved to {}", id, why, dir);
     std::lock_guard<std::mutex> lock(m_mutex);
-    if (std::find(m_quarantined.begin(), m_quarantined.end(), id) == m_quarantined.end())
-        m_quarantined.push_back(id);
+    m_quarantined.add(id);
+}
+
+std::size_t SplatStore::quarantined_count() const {
+    std::lock_guard lock(m_mutex);
+    return m_quarantined.count();
 }
 
 std::vector<std::string> SplatStore::quarantined() const {
     std::lock_guard<std::mutex> lock(m_mutex);
-    return m_quarantined;
+    return m_quarantined.names();
 }
 
 Result<bool> SplatStore::put(const io::SplatRecord& record) {

@@ -11,6 +11,7 @@
 #include "server/io/splat_file.h"
 #include "server/store/bounded_lru.h"
 #include "server/store/load_limit.h"
+#include "server/store/quarantine.h"
 #include "server/store/shared_objects.h"
 #include "server/store/single_flight.h"
 #include "server/store/texton_store.h"
@@ -43,7 +44,8 @@ public:
     Result<bool> put(const io::SplatRecord& record);
     // Splats whose files were damaged or failed today's rules at load, moved to
     // <data>/splats/quarantine/ (by this run or an earlier one).
-    std::vector<std::string> quarantined() const;
+    std::vector<std::string> quarantined() const; // the first QuarantineList::kListed by name
+    std::size_t quarantined_count() const;
 
 private:
     struct Entry {
@@ -65,7 +67,7 @@ private:
     SharedObjects m_shared;
     mutable std::mutex m_mutex;
     std::mutex m_put_mutex;
-    std::vector<std::string> m_quarantined;
+    QuarantineList m_quarantined;
     BoundedLru<Entry> m_kept{kCapacity, kBudgetBytes}; // prepared, in memory
     SingleFlight<Result<Entry>> m_loads;
     LoadLimit m_limit{1}; // one splat's weight images decoded at a time (192 MiB at most)

@@ -221,7 +221,7 @@ void TextonDirectory::quarantine_locked(const std::string& id, const std::string
     fs::remove(file_of(m_exemplars, id, ".png"), ec);
     fs::remove(file_of(m_provenance, id, ".json"), ec);
     drop_locked(id);
-    m_quarantined.push_back(name);
+    m_quarantined.add(name);
     spdlog::error("store: texton {} is damaged ({}); moved to {}/{}", id, why, m_quarantine, name);
 }
 
@@ -399,9 +399,14 @@ std::uint64_t TextonDirectory::bytes() const {
     return m_bytes;
 }
 
+std::size_t TextonDirectory::quarantined_count() const {
+    std::lock_guard lock(m_mutex);
+    return m_quarantined.count();
+}
+
 std::vector<std::string> TextonDirectory::quarantined() const {
     std::lock_guard lock(m_mutex);
-    return m_quarantined;
+    return m_quarantined.names();
 }
 
 bool TextonDirectory::writable() const {

@@ -19,6 +19,7 @@
 #include "api/texton_meta.h"
 #include "core/result.h"
 #include "server/io/texton_file.h"
+#include "server/store/quarantine.h"
 
 #include <nlohmann/json.hpp>
 
@@ -77,7 +78,8 @@ public:
     std::size_t count() const; // so far, while the scan runs
     std::uint64_t bytes() const;
     // Names of the files in <data>/quarantine/, moved aside by this run or an earlier one.
-    std::vector<std::string> quarantined() const;
+    std::vector<std::string> quarantined() const; // the first QuarantineList::kListed by name
+    std::size_t quarantined_count() const;
     // Can we create a file here right now? (readiness probe)
     bool writable() const;
     const std::string& path() const { return m_dir; }
@@ -117,7 +119,7 @@ private:
     };
     std::unordered_map<std::string, Cached> m_meta;
     std::list<std::string> m_ages; // most recently used first
-    std::vector<std::string> m_quarantined;
+    QuarantineList m_quarantined;
     bool m_indexed = false, m_stopping = false;
     std::optional<std::filesystem::file_time_type> m_opened; // the scan's start, on disk
     mutable std::condition_variable m_indexed_cv;

@@ -249,6 +249,30 @@ class HostileClients(unittest.TestCase):
             s2.stop()
             shutil.rmtree(s2.data, ignore_errors=True)
 
+    def test_a_mix_changed_on_disk_lends_no_levels_to_a_variant(self):
+        # A field variant takes the levels of a stored mix of the same pair, but only from a
+        # file whose levels, means and RME match their checksum: this one's means were edited.
+        u, v = self.ids
+        st, _, body = self.post(f"/v1/mixes?u={u}&v={v}&levels=3&dx=1&width=300")
+        first = json.loads(body)
+        path = os.path.join(self.dir, "mixes", first["id"] + ".exr")
+        info = subprocess.run(["oiiotool", "--info", "-v", path], capture_output=True, text=True)
+        line = next(l for l in info.stdout.splitlines() if "textond:mix:" in l)
+        meta = json.loads(line.split(': "', 1)[1].rsplit('"', 1)[0])
+        meta["means"][0][0] += 0.5
+        edited = path + ".edited.exr"
+        subprocess.run(["oiiotool", path, "--attrib", "textond:mix", json.dumps(meta), "-o",
+                        edited], check=True)
+        info = subprocess.run(["oiiotool", "--info", "-v", edited], capture_output=True,
+                              text=True)
+        self.assertIn("textond:mix_levels_sha256", info.stdout)  # the checksum stays, stale
+        os.replace(edited, path)
+        st, _, body = self.post(f"/v1/mixes?u={u}&v={v}&levels=3&dy=1&width=300")
+        self.assertEqual(st, 201, body)
+        variant = json.loads(body)
+        self.assertEqual(variant["means"], first["means"])
+        self.assertEqual(variant["rme"], first["rme"])
+
     # 2. Invalid UTF-8 everywhere a message echoes the input: 400, valid JSON, never 500.
     def test_invalid_utf8_gets_400_with_valid_json(self):
         u = self.ids[0]

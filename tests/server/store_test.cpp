@@ -3,13 +3,16 @@
 // served; SIGTERM lets a request in flight finish.
 #include "server/io/image_io.h"
 #include "server/io/texton_file.h"
+#include "server/store/quarantine.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -65,6 +68,35 @@ TEST(Store, KillDuringUploadsLeavesCompleteOrAbsentTextons) {
         // An exemplar written just before the kill, without its texton, is gone too.
         EXPECT_EQ(files_in(data + "/exemplars"), static_cast<int>(list["items"].size()));
     }
+}
+
+// Quarantine directories only grow: what /readyz and /metrics read of one is its first 100
+// names and a count, however many files it holds (300,000 had made each /readyz copy and sort
+// them all). Regular files only, dot-files aside; a mix's two files are one mix.
+TEST(Store, QuarantineListsKeepTheirFirstNamesAndCountAll) {
+    const std::string dir = fresh_dir("store-quarantine-list");
+    fs::create_directories(dir + "/quarantine/sub");
+    for (int i = 0; i < 150; ++i) {
+        char id[65];
+        std::snprintf(id, sizeof id, "%064x", 150 - i);
+        std::ofstream(dir + "/quarantine/" + id + ".exr.1");
+        std::ofstream(dir + "/quarantine/" + id + ".mask.exr.1");
+    }
+    std::ofstream(dir + "/quarantine/.hidden");
+    const store::QuarantineList files = store::quarantined_on_disk(dir, false);
+    EXPECT_EQ(files.count(), 300u);
+    EXPECT_EQ(files.names().size(), store::QuarantineList::kListed);
+    store::QuarantineList ids = store::quarantined_on_disk(dir, true);
+    EXPECT_EQ(ids.count(), 150u);
+    ASSERT_EQ(ids.names().size(), 100u);
+    EXPECT_EQ(ids.names().front(), std::string(63, '0') + "1");
+    EXPECT_TRUE(std::is_sorted(ids.names().begin(), ids.names().end()));
+    ids.add(ids.names().front()); // listed already: not counted again
+    EXPECT_EQ(ids.count(), 150u);
+    ids.add(std::string(64, '0')); // first by name: listed, the last listed one drops
+    EXPECT_EQ(ids.count(), 151u);
+    EXPECT_EQ(ids.names().front(), std::string(64, '0'));
+    EXPECT_EQ(ids.names().size(), 100u);
 }
 
 TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
