@@ -371,6 +371,14 @@ void TextondServer::install_hooks() {
 }
 
 Result<int> TextondServer::bind() {
+    // cpp-httplib 0.11 binds with SO_REUSEPORT alone: a second server on a port in use bound it
+    // too, and the kernel split the connections between two processes (perhaps on two data
+    // directories) without a word. SO_REUSEADDR alone still binds at once after a restart, past
+    // the old socket's TIME_WAIT.
+    m_http.set_socket_options([](socket_t sock) {
+        const int yes = 1;
+        ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
     const int port = m_config.port == 0
                          ? m_http.bind_to_any_port(m_config.host)
                          : (m_http.bind_to_port(m_config.host, m_config.port) ? m_config.port : -1);

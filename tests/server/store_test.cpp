@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sys/wait.h>
 #include <thread>
 
 namespace textond::test {
@@ -359,6 +360,27 @@ TEST(Store, CliAndUploadWriteTheSameTextonFileAndProvenanceSurvivesARestart) {
     // Deleting the texton deletes its provenance.
     ASSERT_EQ(c.Delete(("/v1/textons/" + id).c_str())->status, 204);
     EXPECT_EQ(files_in(data + "/provenance"), 0);
+}
+
+// A second server on a port in use is refused, as it says: cpp-httplib's own socket options
+// (SO_REUSEPORT) had let it bind too, and the kernel split the connections between the two.
+TEST(Serve, ASecondServerOnAPortInUseIsRefused) {
+    ServerProcess first(fresh_dir("serve-port-first"));
+    const std::string command = std::string("timeout 20 ") + TEXTOND_BINARY + " serve --port " +
+                                std::to_string(first.port()) + " --data " +
+                                fresh_dir("serve-port-second") + " --backend cpu 2>&1";
+    FILE* p = ::popen(command.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string out;
+    char buf[256];
+    while (std::fgets(buf, sizeof buf, p) != nullptr) out += buf;
+    const int status = ::pclose(p);
+    ASSERT_TRUE(WIFEXITED(status)) << out;
+    EXPECT_EQ(WEXITSTATUS(status), 1) << out; // 124: it listened until timeout killed it
+    EXPECT_NE(out.find("cannot listen on 127.0.0.1:" + std::to_string(first.port())),
+              std::string::npos)
+        << out;
+    EXPECT_EQ(first.client().Get("/healthz")->status, 200);
 }
 
 TEST(Serve, EnvironmentConfiguresAndFlagsWin) {
