@@ -53,7 +53,7 @@ Result<io::MixRecord> MixService::analyse(store::TextonStore& textons, const api
     io::MixRecord record;
     std::vector<double> rme;
     std::array<int, 2> made_grid = grid;
-    if (sibling != nullptr && same_levels(sibling->meta, m, grid, p)) {
+    if (sibling != nullptr) {
         record.levels = std::move(sibling->levels);
         rme = sibling->meta.rme;
     } else {

@@ -30,8 +30,9 @@ public:
     // The stored form of a mix of m.u and m.v with u's analysis parameters (`mu`), on `grid`,
     // the grid its id names (from the textons' metadata): exemplars that decode to another size
     // are a storage error, never a mix stored under an id it does not hash to.
-    // With `sibling` (a stored mix of the same u, v, levels and grid), its levels, moved out of
-    // it, instead of an analysis.
+    // With `sibling` (a stored mix whose levels are the ones this analysis would make: the same
+    // u, v, levels, grid and parameters, checked by the caller), its levels, moved out of it,
+    // instead of an analysis.
     static Result<io::MixRecord> analyse(store::TextonStore& textons, const api::MixRequest& m,
                                          const api::TextonMeta& mu, const std::string& id,
                                          const std::array<int, 2>& grid,

@@ -9,11 +9,9 @@
 
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <string_view>
-#include <vector>
 
 #ifndef TEXTOND_WEB_DIR
 #define TEXTOND_WEB_DIR "web"
@@ -56,18 +54,6 @@ void OpsRoutes::healthz(Req, Res res) {
     send_json(res, 200, {{"status", "ok"}, {"build", build_id()}}, "no-store");
 }
 
-namespace {
-// Quarantine directories only grow (files are moved there, never deleted): /readyz names the
-// first kListedQuarantine of each, and the /metrics gauges count them all.
-constexpr std::size_t kListedQuarantine = 100;
-
-std::vector<std::string> listed(std::vector<std::string> names) {
-    std::sort(names.begin(), names.end());
-    if (names.size() > kListedQuarantine) names.resize(kListedQuarantine);
-    return names;
-}
-} // namespace
-
 void OpsRoutes::readyz(Req, Res res) {
     set_route("/readyz");
     const bool writable = m_store.local().writable();
@@ -101,9 +87,10 @@ void OpsRoutes::readyz(Req, Res res) {
                {"store",
                 {{"writable", writable},
                  {"textons", m_store.local().count()},
-                 {"quarantined", listed(m_store.local().quarantined())},
-                 {"mixes_quarantined", listed(m_mixes.quarantined())},
-                 {"splats_quarantined", listed(m_splats.quarantined())}}}},
+                 // The first store::QuarantineList::kListed names of each, by name.
+                 {"quarantined", m_store.local().quarantined()},
+                 {"mixes_quarantined", m_mixes.quarantined()},
+                 {"splats_quarantined", m_splats.quarantined()}}}},
               "no-store");
 }
 

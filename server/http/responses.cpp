@@ -98,11 +98,10 @@ api::ApiError content_error(const Error& e, const char* invalid, const char* too
     }
 }
 
-bool etag_matches(std::string_view header, std::string_view etag) {
-    if (header.empty()) return false;
-    // Weak comparison (RFC 9110 13.1.2): W/"x" matches "x".
-    std::string_view bare = etag;
-    if (bare.substr(0, 2) == "W/") bare.remove_prefix(2);
+namespace {
+// Whether `pred` holds for one entity tag of an If-Match or If-None-Match list (RFC 9110 13.1),
+// each trimmed of spaces and tabs.
+template <typename Pred> bool any_tag(std::string_view header, Pred pred) {
     std::size_t pos = 0;
     while (pos < header.size()) {
         std::size_t end = header.find(',', pos);
@@ -110,28 +109,30 @@ bool etag_matches(std::string_view header, std::string_view etag) {
         std::string_view tag = header.substr(pos, end - pos);
         while (!tag.empty() && (tag.front() == ' ' || tag.front() == '\t')) tag.remove_prefix(1);
         while (!tag.empty() && (tag.back() == ' ' || tag.back() == '\t')) tag.remove_suffix(1);
-        if (tag == "*") return true;
-        if (tag.substr(0, 2) == "W/") tag.remove_prefix(2);
-        if (tag == bare) return true;
+        if (pred(tag)) return true;
         pos = end + 1;
     }
     return false;
 }
 
+std::string_view without_weak(std::string_view tag) {
+    return tag.substr(0, 2) == "W/" ? tag.substr(2) : tag;
+}
+} // namespace
+
+bool etag_matches(std::string_view header, std::string_view etag) {
+    // Weak comparison (RFC 9110 13.1.2): W/"x" matches "x".
+    const std::string_view bare = without_weak(etag);
+    return any_tag(header,
+                   [&](std::string_view tag) { return tag == "*" || without_weak(tag) == bare; });
+}
+
 bool if_match_holds(std::string_view header, std::string_view etag) {
     if (header.empty()) return true;
-    std::size_t pos = 0;
-    while (pos < header.size()) {
-        std::size_t end = header.find(',', pos);
-        if (end == std::string_view::npos) end = header.size();
-        std::string_view tag = header.substr(pos, end - pos);
-        while (!tag.empty() && (tag.front() == ' ' || tag.front() == '\t')) tag.remove_prefix(1);
-        while (!tag.empty() && (tag.back() == ' ' || tag.back() == '\t')) tag.remove_suffix(1);
-        if (tag == "*") return true;
-        if (!etag.empty() && etag.substr(0, 2) != "W/" && tag == etag) return true;
-        pos = end + 1;
-    }
-    return false;
+    // Strong comparison: a weak tag never matches, nor anything when there is no tag.
+    const bool strong = !etag.empty() && etag.substr(0, 2) != "W/";
+    return any_tag(header,
+                   [&](std::string_view tag) { return tag == "*" || (strong && tag == etag); });
 }
 
 api::ApiError no_entity_tag(const char* what) {

@@ -134,30 +134,23 @@ struct Filters {
         };
         dog1 = dog(1, 2);
         dog2 = dog(2, 4);
-        // Long line filters: across at sigma 1 (or 2), along at 16 times that, 8 orientations.
-        for (int k = 0; k < 8; ++k) {
-            const double th = kPi * k / 8, c = std::cos(th), s = std::sin(th);
-            for (double sc : {1.0, 2.0}) {
-                (sc == 1.0 ? long1 : long2)
-                    .push_back(core::sampled_transfer(w, h, [=](double wx, double wy) {
-                        const double across = wx * c + wy * s, along = -wx * s + wy * c;
-                        const double g =
-                            std::exp(-0.5 * sc * sc * (across * across + 256.0 * along * along));
-                        return cfloat(0.0f, static_cast<float>(across * g));
-                    }));
-            }
+        // A line filter: the derivative across at sigma `sc`, a Gaussian along at `length` times
+        // that, at angle `th`.
+        auto line = [&](double th, double sc, double length) {
+            const double c = std::cos(th), s = std::sin(th), l2 = length * length;
+            return core::sampled_transfer(w, h, [=](double wx, double wy) {
+                const double across = wx * c + wy * s, along = -wx * s + wy * c;
+                const double g = std::exp(-0.5 * sc * sc * (across * across + l2 * along * along));
+                return cfloat(0.0f, static_cast<float>(across * g));
+            });
+        };
+        for (int k = 0; k < 8; ++k) { // long: along at 16 times across, 8 orientations
+            long1.push_back(line(kPi * k / 8, 1.0, 16.0));
+            long2.push_back(line(kPi * k / 8, 2.0, 16.0));
         }
         for (int k = 0; k < 4; ++k) {
-            const double th = kPi * k / 4, c = std::cos(th), s = std::sin(th);
-            for (double sc : {1.0, 2.0}) {
-                (sc == 1.0 ? lines1 : lines2)
-                    .push_back(core::sampled_transfer(w, h, [=](double wx, double wy) {
-                        const double across = wx * c + wy * s, along = -wx * s + wy * c;
-                        const double g =
-                            std::exp(-0.5 * sc * sc * (across * across + 16.0 * along * along));
-                        return cfloat(0.0f, static_cast<float>(across * g));
-                    }));
-            }
+            lines1.push_back(line(kPi * k / 4, 1.0, 4.0));
+            lines2.push_back(line(kPi * k / 4, 2.0, 4.0));
         }
     }
 };
