@@ -44,6 +44,7 @@ const std::vector<ErrorStatus>& error_table() {
         {"too_large", 413},
         {"uri_too_long", 414},
         {"unsupported_media_type", 415},
+        {"range_not_satisfiable", 416},
         // The content.
         {"invalid_image", 422},
         {"invalid_mask", 422},

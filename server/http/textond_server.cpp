@@ -260,6 +260,12 @@ httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
     if (res.status == 404) e = {"not_found", "no such endpoint"};
     if (res.status == 413) e = {"payload_too_large", "request body is over the upload limit"};
     if (res.status == 414) e = {"uri_too_long", "request URI is too long"};
+    // cpp-httplib parses Range before any route runs and answers 416 for one it cannot read; the
+    // length is not known yet, so no Content-Range can be sent with it.
+    if (res.status == 416)
+        e = {"range_not_satisfiable",
+             "the Range header is not bytes=FIRST-LAST[,...] with FIRST <= LAST (RFC 9110, "
+             "14.1.2); send none for the whole answer"};
     // Any other status keeps cpp-httplib's number under the code http_error.
     send_error(res, e, e.code == "http_error" ? res.status : 0);
     return httplib::Server::HandlerResponse::Handled;

@@ -567,6 +567,15 @@ class HostileClients(unittest.TestCase):
             self.assertNotIn(b"openapi:", answer)
             self.assertIn(b"Connection: close", answer.split(b"\r\n\r\n")[0], answer[:400])
             self.assertNotIn(b"Keep-Alive", answer.split(b"\r\n\r\n")[0])
+        # The 416 says what a Range must be, under a code of its own, whatever the method.
+        for method, path, value in (("GET", "/healthz", "bytes=5-2"), ("GET", "/v1/openapi.yaml", "garbage"),
+                                    ("HEAD", "/healthz", "bytes=x-")):
+            st, h, body = self.s.request(method, path, headers={"Range": value})
+            self.assertEqual(st, 416, (method, path, value))
+            if method == "GET":
+                err = json.loads(body)["error"]
+                self.assertEqual(err["code"], "range_not_satisfiable")
+                self.assertIn("bytes=FIRST-LAST", err["message"])
 
     def test_a_request_the_library_cannot_parse_closes_the_connection(self):
         # One header line over cpp-httplib's 8 KiB line limit: 400, then nothing more is read.
