@@ -4,9 +4,11 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <fcntl.h>
 #include <iostream>
 #include <string>
 #include <unistd.h>
@@ -51,9 +53,24 @@ void passive_openmp_for_serve(int argc, char** argv) {
     ::execv("/proc/self/exe", argv);
     // exec failed: carry on with the active policy (slower under load, still correct)
 }
+
+// Started with a standard descriptor closed (`2>&-`), the process would hand that number to the
+// next file it opens: the listening socket or a client's connection would become stderr, and a
+// library's error line would be written to a client. /dev/null takes each closed one first.
+void open_closed_standard_descriptors() {
+    for (int fd = 0; fd <= 2; ++fd) {
+        if (::fcntl(fd, F_GETFD) != -1 || errno != EBADF) continue;
+        const int null = ::open("/dev/null", O_RDWR); // the lowest free number: fd itself
+        if (null >= 0 && null != fd) {
+            ::dup2(null, fd);
+            ::close(null);
+        }
+    }
+}
 } // namespace
 
 int main(int argc, char** argv) {
+    open_closed_standard_descriptors();
     passive_openmp_for_serve(argc, argv);
     // Logs and progress go to stderr; stdout carries only the command's result (JSON, tables).
     spdlog::set_default_logger(spdlog::stderr_color_mt("textond"));

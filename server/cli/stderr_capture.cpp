@@ -99,10 +99,37 @@ std::unique_ptr<StderrCapture> StderrCapture::start() {
     }
     ::close(ends[1]);
     log_to(log_file);
-    return std::unique_ptr<StderrCapture>(new StderrCapture(child, log_file));
+    std::unique_ptr<StderrCapture> capture(new StderrCapture(child, log_file));
+    capture->m_watcher = std::thread([c = capture.get()] { c->watch_child(); });
+    return capture;
+}
+
+void StderrCapture::watch_child() {
+    std::unique_lock<std::mutex> lock(m_mutex);
+    while (!m_stopping) {
+        int status = 0;
+        if (::waitpid(m_child, &status, WNOHANG) == m_child) {
+            m_reaped = true;
+            ::dup2(::fileno(m_log_file), 2);
+            const std::string how = WIFSIGNALED(status)
+                                        ? "killed by signal " + std::to_string(WTERMSIG(status))
+                                        : "exit " + std::to_string(WEXITSTATUS(status));
+            spdlog::warn("stderr: its reader textond-stderr (pid {}) ended ({}); a library's lines "
+                         "go to stderr as they are from now on",
+                         m_child, how);
+            return;
+        }
+        m_wake.wait_for(lock, std::chrono::milliseconds(200));
+    }
 }
 
 StderrCapture::~StderrCapture() {
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        m_stopping = true;
+    }
+    m_wake.notify_all();
+    m_watcher.join();
     std::fflush(stderr);
     // Descriptor 2 was the pipe's one write end here: putting stderr back closes it, and the
     // child passes on what was written before and exits.
@@ -112,7 +139,8 @@ StderrCapture::~StderrCapture() {
     // A descendant that kept the write end would keep the child reading: it is not waited for
     // past 2 s (it exits when that end closes, and init reaps it).
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-    while (::waitpid(m_child, nullptr, WNOHANG) == 0 && std::chrono::steady_clock::now() < until)
+    while (!m_reaped && ::waitpid(m_child, nullptr, WNOHANG) == 0 &&
+           std::chrono::steady_clock::now() < until)
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
 }
 

@@ -10,9 +10,16 @@
 // "terminate called...", glibc's "malloc(): corrupted ...", an LLVM error before exit) is still
 // in the pipe when the process is gone, and only a reader outside it can pass it on. The child
 // reads until the last write end closes, when the server exits however it exits.
+//
+// A child killed on its own (an operator's kill, the OOM killer) is reaped within 0.2 s, a warning
+// says so, and descriptor 2 is the original stderr again: a library's lines go there as they are
+// rather than into a pipe nobody reads.
+#include <condition_variable>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <sys/types.h>
+#include <thread>
 
 namespace textond::cli {
 
@@ -30,8 +37,14 @@ public:
 private:
     StderrCapture(pid_t child, std::FILE* log_file) : m_child(child), m_log_file(log_file) {}
     static void log_to(std::FILE* file);
+    void watch_child();
     pid_t m_child;
     std::FILE* m_log_file; // a copy of the original stderr, where the logger writes meanwhile
+    std::mutex m_mutex;
+    std::condition_variable m_wake;
+    bool m_stopping = false;
+    bool m_reaped = false;
+    std::thread m_watcher;
 };
 
 } // namespace textond::cli

@@ -356,6 +356,81 @@ class HostileClients(unittest.TestCase):
         finally:
             shutil.rmtree(data, ignore_errors=True)
 
+    def own_server(self, data, log, **popen):
+        proc = subprocess.Popen([BINARY, "serve", "--port", "0", "--data", data, *ARGS],
+                                stdout=subprocess.PIPE, stderr=log, **popen)
+        port = int(proc.stdout.readline().decode().rsplit(":", 1)[1].strip("/\n "))
+        return proc, port
+
+    @staticmethod
+    def corrupt_png():
+        png = bytearray(ramp_png(300, 300))
+        png[png.index(b"IDAT") + 40] ^= 0xFF  # libpng prints "libpng error: ..." on descriptor 2
+        return bytes(png)
+
+    def test_a_killed_stderr_reader_is_reaped_and_stderr_restored(self):
+        data = tempfile.mkdtemp(prefix="textond-security-reader-")
+        try:
+            log = open(os.path.join(data, "stderr.log"), "w+")
+            proc, port = self.own_server(data, log)
+            try:
+                kids = open(f"/proc/{proc.pid}/task/{proc.pid}/children").read().split()
+                reader = [k for k in kids if open(f"/proc/{k}/comm").read().strip() == "textond-stderr"]
+                self.assertEqual(len(reader), 1, kids)
+                os.kill(int(reader[0]), 9)
+                for _ in range(50):  # reaped: no zombie left under the server
+                    time.sleep(0.1)
+                    if not os.path.exists(f"/proc/{reader[0]}"):
+                        break
+                self.assertFalse(os.path.exists(f"/proc/{reader[0]}"), "the reader is a zombie")
+                c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+                c.request("POST", "/v1/textons", self.corrupt_png(), {"Content-Type": "image/png"})
+                self.assertEqual(c.getresponse().status, 422)
+                for _ in range(50):
+                    log.seek(0)
+                    text = log.read()
+                    if "libpng error" in text:
+                        break
+                    time.sleep(0.1)
+                self.assertIn("stderr: its reader textond-stderr (pid %s) ended (killed by signal 9)"
+                              % reader[0], text)
+                # The library's line is not lost in a pipe nobody reads: stderr has it as it is.
+                self.assertIn("\nlibpng error: ", text)
+            finally:
+                proc.terminate()
+                self.assertEqual(proc.wait(30), 0)
+                proc.stdout.close()
+                log.close()
+        finally:
+            shutil.rmtree(data, ignore_errors=True)
+
+    def test_a_server_started_with_stderr_closed_writes_no_library_line_to_a_socket(self):
+        # With descriptor 2 closed the listening socket had taken its number, so a library's
+        # line went to whatever that descriptor became. /dev/null takes it first.
+        data = tempfile.mkdtemp(prefix="textond-security-closed-")
+        try:
+            proc = subprocess.Popen([BINARY, "serve", "--port", "0", "--data", data, *ARGS],
+                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                    preexec_fn=lambda: os.close(2))
+            port = int(proc.stdout.readline().decode().rsplit(":", 1)[1].strip("/\n "))
+            try:
+                for fd in (0, 1, 2):
+                    target = os.readlink(f"/proc/{proc.pid}/fd/{fd}")
+                    self.assertFalse(target.startswith("socket:"), (fd, target))
+                c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+                c.request("POST", "/v1/textons", self.corrupt_png(), {"Content-Type": "image/png"})
+                r = c.getresponse()
+                self.assertEqual((r.status, json.loads(r.read())["error"]["code"]),
+                                 (422, "invalid_image"))
+                c.request("GET", "/healthz")
+                self.assertEqual(c.getresponse().status, 200)
+            finally:
+                proc.terminate()
+                self.assertEqual(proc.wait(30), 0)
+                proc.stdout.close()
+        finally:
+            shutil.rmtree(data, ignore_errors=True)
+
     # 3. Limits that hold for every transfer encoding; headers; framing; pipelining.
     def chunked(self, path, total, content_type="application/octet-stream"):
         head = (f"POST {path} HTTP/1.1\r\nHost: x\r\nContent-Type: {content_type}\r\n"
