@@ -1,6 +1,7 @@
 #include "server/io/image_io.h"
 
 #include "server/io/atomic_file.h"
+#include "server/io/quantise.h"
 #include "server/io/sha256.h"
 
 #include <OpenImageIO/filesystem.h>
@@ -22,7 +23,6 @@
 #include <sstream>
 #include <stdexcept>
 #include <sys/stat.h>
-#include <type_traits>
 #include <unistd.h>
 #include <vector>
 
@@ -507,25 +507,20 @@ struct EncodeInput {
     const unsigned char* pixels; // interleaved, in `type`
 };
 
-template <class T> void interleave(const core::Image& image, float scale, T* out) {
+void interleave_floats(const core::Image& image, float* out) {
     const std::size_t n = image.plane_size();
     const int nc = image.channels;
     if (nc < 1 || nc > 8) throw std::invalid_argument("encode: 1 to 8 channels");
-    const float* planes[8] = {};
-    for (int c = 0; c < nc; ++c) planes[c] = image.plane(c);
     // Pixel-major, so the writes are sequential (channel-major strided stores were 10% of a cold
     // tile's CPU time).
     for (std::size_t k = 0; k < n; ++k)
-        for (int c = 0; c < nc; ++c) {
-            const float v = planes[c][k];
-            if constexpr (std::is_same_v<T, float>)
-                out[k * nc + c] = v;
-            else // round to nearest, as OpenImageIO's own conversion does (and the GL shader:
-                 // the same bits on every backend); never negative here, so +0.5 is right
-                // NOLINTBEGIN(bugprone-incorrect-roundings)
-                out[k * nc + c] = static_cast<T>(std::clamp(v, 0.0f, 1.0f) * scale + 0.5f);
-            // NOLINTEND(bugprone-incorrect-roundings)
-        }
+        for (int c = 0; c < nc; ++c) out[k * nc + c] = image.plane(c)[k];
+}
+
+template <class T> void interleave_quantised(const core::Image& image, T* out) {
+    const float* planes[4] = {};
+    for (int c = 0; c < image.channels; ++c) planes[c] = image.plane(c);
+    quantise_interleaved(planes, image.channels, image.plane_size(), out);
 }
 
 // The pixels are converted here, not by OpenImageIO: its conversion of a small image fans out
@@ -556,11 +551,11 @@ EncodeInput prepare_encode(const core::Image& image, Encoding e, const Attribute
     }
     pixels.resize(image.data.size() * type.size());
     if (e == Encoding::png8)
-        interleave(image, 255.0f, pixels.data());
+        interleave_quantised(image, pixels.data());
     else if (e == Encoding::png16)
-        interleave(image, 65535.0f, reinterpret_cast<std::uint16_t*>(pixels.data()));
+        interleave_quantised(image, reinterpret_cast<std::uint16_t*>(pixels.data()));
     else
-        interleave(image, 1.0f, reinterpret_cast<float*>(pixels.data()));
+        interleave_floats(image, reinterpret_cast<float*>(pixels.data()));
     in.pixels = pixels.data();
     return in;
 }

@@ -1,9 +1,10 @@
 #include "server/io/web_image.h"
 
+#include "server/io/quantise.h"
+
 #include <avif/avif.h>
 #include <webp/encode.h>
 
-#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -19,7 +20,7 @@ namespace {
 constexpr int kWebpLosslessLevel = 0;
 constexpr int kWebpLossyMethod = 0;
 
-// Interleaved 8-bit RGB, rounded as the PNG encoder rounds (image_io.cpp, interleave).
+// Interleaved 8-bit RGB, rounded as the PNG encoder rounds (quantise.h).
 std::vector<std::uint8_t> rgb8(const core::Image& u) {
     if (u.is_bytes() && u.channels == 3) return u.bytes; // rounded already (a GL tile)
     std::vector<std::uint8_t> out(static_cast<std::size_t>(u.width) * u.height * 3);
@@ -28,16 +29,9 @@ std::vector<std::uint8_t> rgb8(const core::Image& u) {
             out[3 * k] = out[3 * k + 1] = out[3 * k + 2] = u.bytes[k];
         return out;
     }
-    for (int y = 0; y < u.height; ++y)
-        for (int x = 0; x < u.width; ++x)
-            for (int c = 0; c < 3; ++c) {
-                const float v = u.at(u.channels == 1 ? 0 : c, x, y);
-                // Never negative here, so +0.5 rounds to nearest, as the PNG encoder does.
-                // NOLINTBEGIN(bugprone-incorrect-roundings)
-                out[(static_cast<std::size_t>(y) * u.width + x) * 3 + static_cast<std::size_t>(c)] =
-                    static_cast<std::uint8_t>(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f);
-                // NOLINTEND(bugprone-incorrect-roundings)
-            }
+    const float* planes[3] = {u.plane(0), u.plane(u.channels == 1 ? 0 : 1),
+                              u.plane(u.channels == 1 ? 0 : 2)};
+    quantise_interleaved(planes, 3, u.plane_size(), out.data());
     return out;
 }
 
