@@ -129,7 +129,7 @@ StderrCapture::~StderrCapture() {
         m_stopping = true;
     }
     m_wake.notify_all();
-    m_watcher.join();
+    if (m_watcher.joinable()) m_watcher.join(); // not when its thread could not be made
     std::fflush(stderr);
     // Descriptor 2 was the pipe's one write end here: putting stderr back closes it, and the
     // child passes on what was written before and exits.

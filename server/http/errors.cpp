@@ -7,7 +7,7 @@
 namespace textond::http {
 
 namespace {
-// A constant array: no initialisation order to mind for a lookup made before main.
+// Kept as a constant array so the function that lends it out as a vector stays short.
 constexpr ErrorStatus kTable[] = {
     // The request as sent (api/requests.cpp and the routes).
     {"invalid_parameter", 400},

@@ -251,8 +251,12 @@ void apply_security_headers(httplib::Response& res) {
     for (const auto& [name, value] : security_headers()) res.set_header(name, value);
 }
 
-httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
+httplib::Server::HandlerResponse answer_http_error(const httplib::Request& req,
                                                    httplib::Response& res) {
+    // An error is answered whole. The library keeps the ranges it read before a bad one
+    // (`bytes=0-5,5-2`) and would cut this body into them; pre_route, which caps and clears
+    // ranges, has not run.
+    const_cast<httplib::Request&>(req).ranges.clear();
     if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
     api::ApiError e{"http_error", "HTTP error " + std::to_string(res.status)};
     close_after_library_error(res.status);
@@ -264,8 +268,9 @@ httplib::Server::HandlerResponse answer_http_error(const httplib::Request&,
     // length is not known yet, so no Content-Range can be sent with it.
     if (res.status == 416)
         e = {"range_not_satisfiable",
-             "the Range header is not bytes=FIRST-LAST[,...] with FIRST <= LAST (RFC 9110, "
-             "14.1.2); send none for the whole answer"};
+             "the Range header cannot be read: it must be bytes=FIRST-LAST[,...] with "
+             "FIRST <= LAST, or bytes=-SUFFIX (RFC 9110, 14.1.2); send none for the whole "
+             "answer"};
     // Any other status keeps cpp-httplib's number under the code http_error.
     send_error(res, e, e.code == "http_error" ? res.status : 0);
     return httplib::Server::HandlerResponse::Handled;

@@ -513,11 +513,15 @@ void interleave_floats(const core::Image& image, float* out) {
     if (nc < 1 || nc > 8) throw std::invalid_argument("encode: 1 to 8 channels");
     // Pixel-major, so the writes are sequential (channel-major strided stores were 10% of a cold
     // tile's CPU time).
+    const float* planes[8] = {};
+    for (int c = 0; c < nc; ++c) planes[c] = image.plane(c);
     for (std::size_t k = 0; k < n; ++k)
-        for (int c = 0; c < nc; ++c) out[k * nc + c] = image.plane(c)[k];
+        for (int c = 0; c < nc; ++c) out[k * nc + c] = planes[c][k];
 }
 
 template <class T> void interleave_quantised(const core::Image& image, T* out) {
+    if (image.channels < 1 || image.channels > 4)
+        throw std::invalid_argument("encode: 1 to 4 channels for 8 or 16 bits");
     const float* planes[4] = {};
     for (int c = 0; c < image.channels; ++c) planes[c] = image.plane(c);
     quantise_interleaved(planes, image.channels, image.plane_size(), out);

@@ -19,8 +19,8 @@ void quantise_plane(const float* __restrict in, std::size_t m, T* __restrict out
     constexpr float kMax = std::numeric_limits<T>::max();
     for (std::size_t i = 0; i < m; ++i) {
         float v = in[i];
-        v = v < 0.0f ? 0.0f : v;
-        v = v > 1.0f ? 1.0f : v;
+        v = v > 0.0f ? v : 0.0f; // NaN fails the test: 0, defined before the conversion
+        v = v < 1.0f ? v : 1.0f;
         // Never negative here, so +0.5 rounds to nearest.
         // NOLINTNEXTLINE(bugprone-incorrect-roundings)
         out[i] = static_cast<T>(static_cast<std::int32_t>(v * kMax + 0.5f));

@@ -31,8 +31,8 @@ template <class T> std::vector<float> values() {
                             std::numeric_limits<float>::infinity(),
                             -std::numeric_limits<float>::infinity(),
                             std::numeric_limits<float>::quiet_NaN()};
-    for (int k = 0; k < 256; ++k) {
-        const float step = static_cast<float>(k) * (kMax / 255.0f);
+    for (int k = 0; k <= static_cast<int>(kMax); ++k) {
+        const float step = static_cast<float>(k);
         const float mid = (step + 0.5f) / kMax;
         v.insert(v.end(), {step / kMax, mid, std::nextafter(mid, 0.0f), std::nextafter(mid, 2.0f)});
     }
@@ -41,11 +41,11 @@ template <class T> std::vector<float> values() {
 
 template <class T> void check_all_channel_counts() {
     const std::vector<float> base = values<T>();
-    const std::size_t n = 3 * 2048 + 37; // crosses the chunks, and not a multiple of them
+    const std::size_t n = base.size() + 37; // crosses the chunks, and not a multiple of them
     std::vector<std::vector<float>> planes(4, std::vector<float>(n));
     for (int c = 0; c < 4; ++c)
         for (std::size_t k = 0; k < n; ++k)
-            planes[c][k] = base[(k * 7 + static_cast<std::size_t>(c) * 13) % base.size()];
+            planes[c][k] = base[(k + static_cast<std::size_t>(c) * 13) % base.size()];
     for (int nc = 1; nc <= 4; ++nc) {
         SCOPED_TRACE(nc);
         const float* p[4] = {planes[0].data(), planes[1].data(), planes[2].data(),
