@@ -501,6 +501,35 @@ struct Scratch {
     std::vector<unsigned char> bytes;
 };
 
+// The encoder writes straight into the string that is returned: OpenImageIO's IOVecOutput
+// zero-fills what each write adds before copying it in, under a mutex, and its vector was then
+// copied once more into a string (2.2% and part of 2.2% of a cold CPU tile's server time).
+class StringOutput final : public OIIO::Filesystem::IOProxy {
+public:
+    explicit StringOutput(std::string& out) : IOProxy("", Write), m_out(out) {}
+    const char* proxytype() const override { return "textond-string"; }
+    std::size_t write(const void* buf, std::size_t size) override {
+        const std::size_t n = pwrite(buf, size, m_pos);
+        m_pos += static_cast<std::int64_t>(n);
+        return n;
+    }
+    std::size_t pwrite(const void* buf, std::size_t size, std::int64_t offset) override {
+        const auto at = static_cast<std::size_t>(offset);
+        const char* bytes = static_cast<const char*>(buf);
+        if (at == m_out.size()) { // the usual case: appended, one copy
+            m_out.append(bytes, size);
+        } else { // a writer that seeks back (or past the end) to fill in an offset table
+            if (at + size > m_out.size()) m_out.resize(at + size);
+            std::memcpy(m_out.data() + at, bytes, size);
+        }
+        return size;
+    }
+    std::size_t size() const override { return m_out.size(); }
+
+private:
+    std::string& m_out;
+};
+
 struct EncodeInput {
     ImageSpec spec;
     TypeDesc type;
@@ -570,7 +599,7 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
                                         const Attributes& attributes, int png_compression,
                                         const std::vector<std::string>& channel_names) {
     if (image.empty()) return make_error(ErrorCode::invalid_argument, "nothing to encode");
-    Scratch pixels, encoded;
+    Scratch pixels;
     EncodeInput in = prepare_encode(image, e, attributes, pixels.bytes, channel_names);
     if (e != Encoding::exr) {
         in.spec.attribute("png:compressionLevel", png_compression);
@@ -580,11 +609,11 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
         in.spec.attribute("png:filter", png_compression == 0 ? 8 /* PNG_FILTER_NONE */
                                                              : 64 /* PNG_FILTER_AVG */);
     }
-    std::vector<unsigned char>& buffer = encoded.bytes;
+    std::string bytes = g_encoded.take();
     const std::size_t raw =
         image.plane_size() * static_cast<std::size_t>(image.channels) * in.type.size();
-    buffer.reserve(raw + raw / 64 + 4096); // stored PNG, no regrowth
-    OIIO::Filesystem::IOVecOutput proxy(buffer);
+    bytes.reserve(raw + raw / 64 + 4096); // stored PNG, no regrowth
+    StringOutput proxy(bytes);
     void* proxy_ptr = &proxy;
     in.spec.attribute("oiio:ioproxy", TypeDesc::PTR, static_cast<const void*>(&proxy_ptr));
     // One encoder per thread and format, reused: creating one looks up the plugin each time.
@@ -599,10 +628,9 @@ Result<std::string> encode_image_memory(const core::Image& image, Encoding e,
     if (!ok) {
         const std::string err = oiio_message(out->geterror());
         out.reset(); // never reuse an encoder in an unknown state
+        g_encoded.give(std::move(bytes));
         return make_error(ErrorCode::internal, "cannot encode: " + err);
     }
-    std::string bytes = g_encoded.take();
-    bytes.assign(reinterpret_cast<const char*>(buffer.data()), buffer.size());
     return bytes;
 }
 
