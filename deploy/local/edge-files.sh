@@ -21,7 +21,8 @@ if [ "${LOAD_TEST:-0}" = 1 ]; then
         -e "s|rate=500r/s;|rate=1000000r/s;|" "$dir/edge.conf"
 fi
 cp "$root/deploy/base/nginx/settings.conf" "$dir/settings.conf"
-for upstream in "$@"; do echo "server $upstream;"; done >"$dir/upstream-servers.conf"
+# max_fails=0, as deploy/base/nginx/upstream-servers.conf says why.
+for upstream in "$@"; do echo "server $upstream max_fails=0;"; done >"$dir/upstream-servers.conf"
 cat >"$dir/nginx.conf" <<CONF
 pid $dir/nginx.pid;
 error_log ${ERROR_LOG:-$dir/error.log} warn;

@@ -325,13 +325,21 @@ class Manifests(unittest.TestCase):
         self.assertRegex(edge["edge.conf"], r"hash \$texton_id consistent;")
         headless = find(docs, "Service", "textond-headless")
         self.assertEqual(headless["spec"]["clusterIP"], "None")
-        m = re.search(r"server (\S+):(\d+) resolve;", edge["upstream-servers.conf"])
+        m = re.search(r"server (\S+):(\d+) resolve max_fails=0;", edge["upstream-servers.conf"])
         self.assertEqual(m.group(1), f"textond-headless.textond.svc.cluster.local")
         self.assertEqual(int(m.group(2)), headless["spec"]["ports"][0]["port"])
         dep = find(docs, "Deployment", "textond-edge")
         mounts = {v["subPath"] for v in dep["spec"]["template"]["spec"]["containers"][0]["volumeMounts"]
                   if "subPath" in v}
         self.assertEqual(mounts, set(edge))
+
+    def test_edge_keeps_upstream_connections_less_long_than_textond(self):
+        edge = find(self.rendered["base"], "ConfigMap", "textond-edge")["data"]["edge.conf"]
+        upstream = re.search(r"upstream textond \{(.*?)\}", edge, re.S).group(1)
+        nginx_s = int(re.search(r"keepalive_timeout (\d+)s;", upstream).group(1))
+        help_text = subprocess.run([BINARY, "serve", "--help"], capture_output=True, text=True).stdout
+        textond_s = int(re.search(r"--keep-alive-timeout.*\[(\d+)\]", help_text).group(1))
+        self.assertLess(nginx_s, textond_s)
 
     def test_edge_config_passes_nginx_t(self):
         docs = self.rendered["base"]

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """The deployment's shape on this machine, without containers: Redis, two textond replicas on it
 (--store) and the nginx edge of deploy/base (deploy/local/edge-files.sh), then
-shared_objects_check.py through the edge and against each replica, and
-the readiness probe of a replica that never wrote against a full Redis (item 8).
+shared_objects_check.py through the edge and against each replica,
+the readiness probe of a replica that never wrote against a full Redis (item 8), damaged values
+in Redis, and last a Redis outage behind the edge.
 
   edge_replicas_test.py TEXTOND EXEMPLARS_DIR
 Prints what it checked and "N passed, M failed"; exits non-zero on a failure.
@@ -179,6 +180,29 @@ def damaged_values(rport, edge, replicas, tmp, exemplars, b_pid):
     print("an id index of another type: list 500, upload 500 with nothing written; fixed: 201")
 
 
+def redis_outage(redis_proc, edge, replicas, exemplars):
+    """Redis away: a list answers 503 on both replicas, and that answer does not take them out of
+    the edge's ring (it had: every request, tiles of textons both replicas hold, 502 for 10 s)."""
+    a, b = replicas
+    with open(os.path.join(exemplars, "etr_sand01.png"), "rb") as f:
+        st, body = http(f"{a}/v1/textons?size=16&iterations=5&seed=61", "POST", f.read(),
+                        {"Content-Type": "image/png"})
+    assert st in (200, 201), body
+    tid = json.loads(body)["id"]
+    wait("both replicas hold the texton",
+         lambda: all(http(f"{r}/v1/textons/{tid}")[0] == 200 for r in replicas))
+    redis_proc.terminate()
+    redis_proc.wait(20)
+    for _ in range(3):  # nginx counts a 503 as a failure on every try but the last
+        st, got = http(f"{edge}/v1/textons")
+        assert st == 503 and b"store_unavailable" in got, (st, got[:200])
+    sts = [http(f"{edge}/v1/textons/{tid}/tiles/0/{x}/3.png")[0] for x in range(8)]
+    assert sts == [200] * 8, sts
+    assert http(f"{edge}/healthz")[0] == 200
+    print("Redis away: the list 503 through the edge three times, then 8 cold tiles 200 (no "
+          "replica left the ring)")
+
+
 def get_json(url):
     with urllib.request.urlopen(url, timeout=10) as r:
         return json.loads(r.read())
@@ -257,6 +281,12 @@ def main():
             passed += 1
         except AssertionError as e:
             print(f"FAIL: damaged values in the shared store: {e}")
+            failed += 1
+        try:  # last: it stops Redis
+            redis_outage(procs[0], edge, replicas, exemplars)
+            passed += 1
+        except AssertionError as e:
+            print(f"FAIL: a Redis outage behind the edge: {e}")
             failed += 1
     finally:
         if os.path.exists(os.path.join(tmp, "edge", "nginx.pid")):

@@ -85,7 +85,7 @@ def headless_service_as_addresses(configmap, addresses, port):
     """The edge's upstream list: the headless Service's records, which a cluster's DNS serves."""
     configmap["data"]["upstream-servers.conf"] = (
         "# kube_play_test.py: the textond pods, in place of the headless Service's DNS records\n"
-        + "".join(f"server {ip}:{port};\n" for ip in addresses))
+        + "".join(f"server {ip}:{port} max_fails=0;\n" for ip in addresses))
 
 
 def local_images(doc):
