@@ -47,6 +47,16 @@ redis.call('DEL', KEYS[3])
 return 1
 )lua";
 
+// A repair rewrites a texton's values only while it is there and not deleted: a delete that
+// lands between the caller's look and this write must win (a plain HSET had brought a deleted
+// texton back, unlisted and beside its tombstone, and every replica served it).
+constexpr const char* kRepairScript = R"lua(
+if redis.call('EXISTS', KEYS[1]) == 0 or redis.call('EXISTS', KEYS[2]) == 1 then return 0 end
+redis.call('HSET', KEYS[1], 'file', ARGV[1], 'sha256', ARGV[2], 'meta', ARGV[3],
+           'exemplar', ARGV[4], 'exemplar_sha256', ARGV[5])
+return 1
+)lua";
+
 // Splats and mixes: the same write-once rule, with any number of fields.
 constexpr const char* kPutObjectScript = R"lua(
 if redis.call('EXISTS', KEYS[1]) == 1 then return 0 end
@@ -376,10 +386,8 @@ Result<bool> RedisStore::repair_if_differs(const std::string& id, const std::str
         if (!stored) return stored.error();
         if (Reply::string(stored.value()->r) == sha) return false;
     }
-    auto w = command({"HSET", texton_key(id), "file", file, "sha256", sha, "meta", meta_json,
-                      "exemplar", exemplar_png, "exemplar_sha256", io::sha256_hex(exemplar_png)});
-    if (!w) return w.error();
-    return true;
+    return write_script({"EVAL", kRepairScript, "2", texton_key(id), tombstone_key(id), file, sha,
+                         meta_json, exemplar_png, io::sha256_hex(exemplar_png)});
 }
 
 long long RedisStore::exemplar_cap(long long width, long long height) {
@@ -428,39 +436,62 @@ Result<std::unique_ptr<RedisStore::FetchLease>> RedisStore::reserve_fetch(std::s
 
 // A texton's fields sized before any value is read: its values' lengths, its checksums (64
 // bytes each, read once sized) and what identifies them together (the refusal memory's key).
+// One script, so the sizes and checksums are of one version of the texton: as separate
+// commands, a delete and a new upload between them gave sizes without checksums, and a sound
+// texton was refused as damaged.
+constexpr const char* kProbeScript = R"lua(
+local k = KEYS[1]
+if redis.call('EXISTS', k) == 0 then return {0} end
+if redis.call('TYPE', k)['ok'] ~= 'hash' then return {-1} end
+local out = {1, redis.call('HSTRLEN', k, 'file'), redis.call('HSTRLEN', k, 'exemplar'),
+             redis.call('HSTRLEN', k, 'meta'), redis.call('HSTRLEN', k, 'sha256'),
+             redis.call('HSTRLEN', k, 'exemplar_sha256'), redis.call('HLEN', k), false, false}
+if out[5] <= 64 and out[6] <= 64 and out[7] <= 5 then
+  out[8] = redis.call('HGET', k, 'sha256')
+  out[9] = redis.call('HGET', k, 'exemplar_sha256')
+end
+return out
+)lua";
+
 Result<RedisStore::TextonProbe> RedisStore::probe_texton(const std::string& id) {
-    const std::string key = texton_key(id);
-    auto sizes = pipeline({{"HSTRLEN", key, "file"},
-                           {"HSTRLEN", key, "exemplar"},
-                           {"HSTRLEN", key, "meta"},
-                           {"EXISTS", key},
-                           {"HSTRLEN", key, "sha256"},
-                           {"HSTRLEN", key, "exemplar_sha256"},
-                           {"HLEN", key}});
-    if (!sizes) return sizes.error();
-    const auto& z = sizes.value();
-    TextonProbe p;
-    p.exists = z[3]->integer() == 1;
-    if (!p.exists) return p;
+    auto r = command({"EVAL", kProbeScript, "1", texton_key(id)});
+    if (!r) return r.error();
+    const redisReply* z = r.value()->r;
     const std::string what = "texton " + id + " in the shared store";
-    for (const auto& r : z)
-        if (r->r->type == REDIS_REPLY_ERROR)
-            return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
-    for (int i = 0; i < 3; ++i) p.len[i] = z[static_cast<std::size_t>(i)]->integer();
-    if (z[4]->integer() > 64 || z[5]->integer() > 64 || z[6]->integer() > 5)
+    if (z->type != REDIS_REPLY_ARRAY || z->elements < 1 ||
+        z->element[0]->type != REDIS_REPLY_INTEGER)
+        return make_error(ErrorCode::io, "unexpected Redis reply to the texton probe");
+    TextonProbe p;
+    if (z->element[0]->integer == 0) return p;
+    if (z->element[0]->integer < 0)
+        return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
+    if (z->elements != 9) return make_error(ErrorCode::io, "unexpected Redis reply to the probe");
+    p.exists = true;
+    for (std::size_t i = 0; i < 3; ++i) p.len[i] = z->element[i + 1]->integer;
+    if (z->element[4]->integer > 64 || z->element[5]->integer > 64 || z->element[6]->integer > 5)
         return make_error(ErrorCode::io, what + " has a checksum over 64 bytes or more than a "
                                                 "texton's 5 fields; it is not read");
-    auto shas = command({"HMGET", key, "sha256", "exemplar_sha256"}); // 128 bytes at most
-    if (!shas) return shas.error();
-    const redisReply* h = shas.value()->r;
-    if (h->type != REDIS_REPLY_ARRAY || h->elements != 2)
-        return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-    p.file_sha = Reply::string(h->element[0]);
-    p.png_sha = Reply::string(h->element[1]);
+    p.file_sha = Reply::string(z->element[7]);
+    p.png_sha = Reply::string(z->element[8]);
     p.signature = std::to_string(p.len[0]) + ":" + std::to_string(p.len[1]) + ":" +
                   std::to_string(p.len[2]) + ":" + p.file_sha.value_or("-") + ":" +
                   p.png_sha.value_or("-");
     return p;
+}
+
+// A texton is read in several commands: a value gone between them (nil) was deleted meanwhile,
+// perhaps stored again; that is no damage (it had been refused and remembered for a minute). One
+// that fails its checksum is refused only while the texton is still what was probed.
+Result<std::optional<RedisStore::Texton>>
+RedisStore::reprobe(const std::string& id, const TextonProbe& p, const std::string& why) {
+    auto again = probe_texton(id);
+    if (!again) return again.error();
+    if (!again.value().exists) return std::optional<Texton>{};
+    const std::string what = "texton " + id + " in the shared store";
+    if (why.empty() || again.value().signature != p.signature)
+        return make_error(ErrorCode::unavailable, what + " changed while it was read; retry");
+    remember_refused(id, p.signature);
+    return make_error(ErrorCode::io, what + " " + why);
 }
 
 Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id) {
@@ -476,14 +507,13 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
     if (refused_before(id, p.signature))
         return make_error(ErrorCode::io, what + " was refused before and has not changed; it is "
                                                 "not read again");
-    auto refuse = [&](const std::string& why) {
-        remember_refused(id, p.signature);
-        return make_error(ErrorCode::io, what + " " + why);
-    };
+    auto gone_meanwhile = [&] { return reprobe(id, p, ""); };
+    auto refuse = [&](const std::string& why) { return reprobe(id, p, why); };
     auto too_big = [&](const char* name, long long n, long long cap) {
-        return refuse("has a " + std::string(name) + " of " + std::to_string(n) +
-                      " bytes, more than it can hold (" + std::to_string(cap) +
-                      "); it is not read");
+        remember_refused(id, p.signature);
+        return make_error(ErrorCode::io, what + " has a " + std::string(name) + " of " +
+                                             std::to_string(n) + " bytes, more than it can hold (" +
+                                             std::to_string(cap) + "); it is not read");
     };
     if (p.len[0] > kMaxFileBytes) return too_big("file", p.len[0], kMaxFileBytes);
     if (p.len[2] > kMaxMetaBytes) return too_big("meta", p.len[2], kMaxMetaBytes);
@@ -499,7 +529,8 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
     auto file = Reply::string(a->element[0]);
     std::string meta = Reply::string(a->element[1]).value_or("");
     r.value().reset();
-    if (!file || !p.file_sha || io::sha256_hex(*file) != *p.file_sha)
+    if (!file) return gone_meanwhile();
+    if (!p.file_sha || io::sha256_hex(*file) != *p.file_sha)
         return refuse("fails its file checksum (damaged or half-written); it is not served");
     long long cap = 0;
     try {
@@ -510,6 +541,7 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
     }
     if (p.len[1] > cap) return too_big("exemplar", p.len[1], cap);
     auto exemplar = read_exemplar(key, p, cap);
+    if (!exemplar && exemplar.error().code == ErrorCode::not_found) return gone_meanwhile();
     if (!exemplar) return exemplar.error();
     if (!*exemplar.value())
         return refuse("fails its exemplar checksum (damaged, half-written or changed while "
@@ -518,7 +550,8 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
         Texton{std::move(*file), std::move(**exemplar.value()), std::move(meta), p.signature}};
 }
 
-// The exemplar of a probed texton, `cap` bytes at most; nullopt when it fails its checksum.
+// The exemplar of a probed texton, `cap` bytes at most; nullopt when it fails its checksum,
+// not_found when it is gone (deleted since the probe).
 Result<std::unique_ptr<std::optional<std::string>>>
 RedisStore::read_exemplar(const std::string& key, const TextonProbe& p, long long cap) {
     auto out = std::make_unique<std::optional<std::string>>(std::string());
@@ -529,7 +562,8 @@ RedisStore::read_exemplar(const std::string& key, const TextonProbe& p, long lon
     if (!e) return e.error();
     auto png = Reply::string(e.value()->r);
     e.value().reset();
-    if (!png || static_cast<long long>(png->size()) > cap || !p.png_sha ||
+    if (!png) return make_error(ErrorCode::not_found, "the exemplar is gone"); // deleted meanwhile
+    if (static_cast<long long>(png->size()) > cap || !p.png_sha ||
         io::sha256_hex(*png) != *p.png_sha)
         out->reset();
     else

@@ -186,6 +186,10 @@ private:
         std::string signature;
     };
     Result<TextonProbe> probe_texton(const std::string& id);
+    // After a read that found a value gone (`why` empty) or failing its checksum (`why`):
+    // absent, changed while read (unavailable), or refused as damaged.
+    Result<std::optional<Texton>> reprobe(const std::string& id, const TextonProbe& p,
+                                          const std::string& why);
     struct ObjectProbe {
         std::vector<std::string> present, sums; // the files stored, and their checksums
         std::size_t total = 0;

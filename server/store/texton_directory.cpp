@@ -284,6 +284,17 @@ Result<std::string> TextonDirectory::exemplar(const std::string& id) const {
     return io::read_file(file_of(m_exemplars, id, ".png"));
 }
 
+TextonDirectory::WritingMark::WritingMark(TextonDirectory& d, const std::string& id)
+    : m_d(d), m_id(id) {
+    std::lock_guard lock(m_d.m_mutex);
+    m_d.m_writing.push_back(m_id);
+}
+
+TextonDirectory::WritingMark::~WritingMark() {
+    std::lock_guard lock(m_d.m_mutex);
+    m_d.m_writing.erase(std::find(m_d.m_writing.begin(), m_d.m_writing.end(), m_id));
+}
+
 Result<bool> TextonDirectory::write(const std::string& id, const std::string& file,
                                     const std::string* exemplar_png,
                                     const nlohmann::json& provenance) {
@@ -291,18 +302,7 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
     const std::string exemplar = file_of(m_exemplars, id, ".png");
     const std::string told = file_of(m_provenance, id, ".json");
     std::error_code ec;
-    {
-        std::lock_guard lock(m_mutex);
-        m_writing.push_back(id); // the scan's clean-up leaves its exemplar and provenance be
-    }
-    struct Done {
-        TextonDirectory& d;
-        const std::string& id;
-        ~Done() {
-            std::lock_guard lock(d.m_mutex);
-            d.m_writing.erase(std::find(d.m_writing.begin(), d.m_writing.end(), id));
-        }
-    } done{*this, id};
+    const WritingMark writing(*this, id);
     auto undo = [&] {
         fs::remove(exemplar, ec);
         fs::remove(told, ec);
@@ -333,7 +333,8 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
         undo();
         spdlog::error("store: texton {} fails verification: {}", id,
                       r ? "its metadata names another id" : r.error().message);
-        return make_error(ErrorCode::io, "texton " + id + " fails verification; it is not served");
+        return make_error(ErrorCode::unprocessable, // the bytes, not this disk
+                          "texton " + id + " fails verification; it is not served");
     }
     api::TextonMeta meta = std::move(r.value().meta);
     api::read_provenance(provenance, meta);

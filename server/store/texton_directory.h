@@ -62,7 +62,8 @@ public:
     Result<std::string> exemplar(const std::string& id) const;
 
     // Writes a texton file (its exemplar and provenance first), verifies it like every load, then
-    // indexes it. An empty `provenance` removes an older one.
+    // indexes it. An empty `provenance` removes an older one. A file that fails verification is
+    // unprocessable (the bytes are at fault); the disk's own failures are io or no_space.
     Result<bool> write(const std::string& id, const std::string& file,
                        const std::string* exemplar_png, const nlohmann::json& provenance);
     // Removes the texton and what came with it; false when it was not held. When its file
@@ -112,6 +113,18 @@ private:
     std::map<std::string, File> m_files;
     std::uint64_t m_generations = 0;
     std::vector<std::string> m_writing; // ids whose files are being written now
+    // An id in m_writing for a scope: the scan's clean-up leaves its exemplar and provenance be.
+    class WritingMark {
+    public:
+        WritingMark(TextonDirectory& d, const std::string& id);
+        ~WritingMark();
+        WritingMark(const WritingMark&) = delete;
+        WritingMark& operator=(const WritingMark&) = delete;
+
+    private:
+        TextonDirectory& m_d;
+        const std::string& m_id;
+    };
     std::uint64_t m_bytes = 0;
     struct Cached {
         api::TextonMeta meta;

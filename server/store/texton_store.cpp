@@ -160,9 +160,12 @@ Result<api::TextonMeta> TextonStore::fetch_shared_once(const std::string& id) {
     auto w = m_local->write(id, got.value()->file, &got.value()->exemplar_png, provenance);
     if (!w) {
         // Values that pass their checksums but fail the file's own checks (another id's
-        // metadata, coefficients that disagree): not read again while they stay the same.
-        if (w.error().code != ErrorCode::unavailable) m_shared->refuse_texton(id, signature);
-        return w.error();
+        // metadata, coefficients that disagree): not read again while they stay the same. A
+        // full or failing disk here says nothing of them (it had got a valid texton refused on
+        // this replica for a minute after the disk had room again).
+        if (w.error().code != ErrorCode::unprocessable) return w.error();
+        m_shared->refuse_texton(id, signature);
+        return make_error(ErrorCode::io, w.error().message);
     }
     const std::size_t exemplar_bytes = got.value()->exemplar_png.size();
     got.value().reset();
@@ -241,18 +244,22 @@ Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exempl
     }
     auto file = io::texton_file_bytes(record);
     if (!file) return file.error();
+    // Here first, then the shared store: an upload this disk cannot hold (507) leaves nothing
+    // for the other replicas to serve; it had been stored for them all the same.
+    auto w = m_local->write(id, file.value(), &png, api::provenance_json(record.meta));
+    if (!w) return w.error();
     if (m_shared) {
         const nlohmann::json meta = record.meta;
         auto stored = m_shared->put(id, file.value(), meta.dump(), png);
-        if (!stored) return stored.error();
-        if (!stored.value()) { // another replica stored it first: adopt that one
-            auto adopted = fetch_shared(id);
+        if (!stored || !stored.value()) {
+            (void)m_local->erase(id);
+            forget(id);
+            if (!stored) return stored.error();
+            auto adopted = fetch_shared(id); // another replica stored it first: adopt that one
             if (!adopted) return adopted.error();
             return false;
         }
     }
-    auto w = m_local->write(id, file.value(), &png, api::provenance_json(record.meta));
-    if (!w) return w.error();
     std::lock_guard lock(m_mutex);
     m_checked[id] = std::chrono::steady_clock::now();
     return true;

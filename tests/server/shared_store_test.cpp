@@ -506,5 +506,83 @@ TEST(SharedStore, AFlushedRedisGetsBackEveryHeldTextonUnasked) {
         EXPECT_EQ(status_of(c, "/v1/textons/" + id + "/tiles/0/0/0.png"), 200);
 }
 
+// A repair runs after the replica saw the texton present; a delete landing between must win. The
+// race reduced to its order: present, then deleted (tombstone), then the repair's write. It had
+// brought the texton back beside its tombstone and out of the list, served by every replica.
+TEST(RedisStore, ARepairAfterADeleteDoesNotBringTheTextonBack) {
+    RedisProcess redis(fresh_dir("shared-r-redis"));
+    store::RedisStore shared(store::parse_redis_url(redis.url()).value(),
+                             std::chrono::milliseconds(2000));
+    const std::string id(64, 'a');
+    ASSERT_TRUE(shared.put(id, "file bytes", "{}", "").value());
+    ASSERT_EQ(shared.presence(id).value(), store::RedisStore::Presence::present);
+    // Damaged in place: the repair rewrites it while it is there.
+    redis.cli({"HSET", texton_key(id), "file", "damaged"});
+    EXPECT_TRUE(shared.repair_if_differs(id, "file bytes", "{}", "").value());
+    EXPECT_EQ(redis.cli({"HGET", texton_key(id), "file"}), "file bytes\n");
+    ASSERT_TRUE(shared.remove(id).value());
+    EXPECT_FALSE(shared.repair_if_differs(id, "file bytes", "{}", "").value());
+    EXPECT_EQ(redis.cli({"EXISTS", texton_key(id)}), "0\n");
+    EXPECT_EQ(shared.presence(id).value(), store::RedisStore::Presence::deleted);
+}
+
+// A texton is read in several commands: deleted or stored again between them, it is not damage
+// (it had been refused as "fails its file checksum", 500, and remembered for a minute).
+TEST(RedisStore, AReadRacingDeletesAndUploadsIsNeverCalledDamaged) {
+    RedisProcess redis(fresh_dir("shared-t-redis"));
+    const auto address = store::parse_redis_url(redis.url()).value();
+    store::RedisStore writer(address, std::chrono::milliseconds(2000));
+    store::RedisStore reader(address, std::chrono::milliseconds(2000));
+    const std::string id(64, 'b');
+    const std::string file(200'000, 'f'); // long enough that a read spans a write
+    std::atomic<bool> stop{false};
+    std::thread churn([&] {
+        while (!stop) {
+            (void)writer.put(id, file, "{}", "");
+            (void)writer.remove(id);
+        }
+    });
+    int damaged = 0, read = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+    while (std::chrono::steady_clock::now() < end) {
+        auto got = reader.get(id);
+        if (got && got.value()) ++read;
+        if (!got && got.error().code == ErrorCode::io) {
+            ++damaged;
+            ADD_FAILURE() << got.error().message;
+            break;
+        }
+    }
+    stop = true;
+    churn.join();
+    EXPECT_EQ(damaged, 0);
+    EXPECT_GT(read, 0) << "the reader never saw the texton: the race was not run";
+}
+
+// A replica whose disk is full: a texton it cannot copy from Redis answers 507 each time, never
+// 500 "refused before" (its values are sound), and an upload it cannot hold is not stored for
+// the other replicas either.
+TEST(SharedStore, AFullDiskOnOneReplicaRefusesNothingInTheSharedStore) {
+    RedisProcess redis(fresh_dir("shared-d-redis"));
+    ServerProcess a(fresh_dir("shared-d-1"), replica_args(redis));
+    ServerProcess b(fresh_dir("shared-d-2"), replica_args(redis), 40'000);
+    auto ca = a.client();
+    const std::string id = upload(ca, "etr_sand01.png", "?size=16&iterations=5");
+    for (int i = 0; i < 3; ++i) {
+        auto r = get(b, "/v1/textons/" + id);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 507) << i << ": " << r->body;
+    }
+    const std::string before = redis.cli({"ZCARD", "textond:v1:ids"});
+    auto cb = b.client();
+    auto up = cb.Post("/v1/textons?size=16&iterations=5",
+                      read_file(exemplar_path("etr_pave02.png")), "image/png");
+    ASSERT_TRUE(up);
+    EXPECT_EQ(up->status, 507) << up->body;
+    EXPECT_EQ(redis.cli({"ZCARD", "textond:v1:ids"}), before);
+    EXPECT_EQ(redis.cli({"KEYS", "textond:v1:texton:*"}), texton_key(id) + "\n");
+    EXPECT_EQ(json::parse(get(a, "/v1/textons")->body).at("total"), 1);
+}
+
 } // namespace
 } // namespace textond::test
