@@ -684,27 +684,53 @@ Result<bool> RedisStore::put_object(const std::string& kind, const std::string& 
 
 // An object's known files sized, with their checksums' sizes, and the field count (no field name
 // is read: a 200 MB name is as costly as a value), before anything is read; then the checksums.
+// A splat's or mix's fields sized, and their checksums read, by one script (one version of the
+// object, as the texton probe): the count of fields, then for each suffix its length, its
+// checksum's length and the checksum (nil when absent or over 64 bytes).
+constexpr const char* kProbeObjectScript = R"lua(
+local k = KEYS[1]
+if redis.call('EXISTS', k) == 0 then return {0} end
+if redis.call('TYPE', k)['ok'] ~= 'hash' then return {-1} end
+local out = {1, redis.call('HLEN', k)}
+for _, s in ipairs(ARGV) do
+  local n, m = redis.call('HSTRLEN', k, s), redis.call('HSTRLEN', k, s .. '.sha256')
+  out[#out + 1] = n
+  out[#out + 1] = m
+  if n > 0 and m > 0 and m <= 64 then
+    out[#out + 1] = redis.call('HGET', k, s .. '.sha256')
+  else
+    out[#out + 1] = false
+  end
+end
+return out
+)lua";
+
 Result<RedisStore::ObjectProbe>
 RedisStore::probe_object(const std::string& key, const std::string& what,
                          const std::map<std::string, long long>& caps) {
+    std::vector<std::string> argv = {"EVAL", kProbeObjectScript, "1", key};
     std::vector<std::string> suffixes;
-    std::vector<std::vector<std::string>> lengths = {{"HLEN", key}};
     for (const auto& [suffix, cap] : caps) {
         suffixes.push_back(suffix);
-        lengths.push_back({"HSTRLEN", key, suffix});
-        lengths.push_back({"HSTRLEN", key, suffix + ".sha256"});
+        argv.push_back(suffix);
     }
-    auto sizes = pipeline(lengths);
-    if (!sizes) return sizes.error();
-    for (const auto& r : sizes.value())
-        if (r->r->type == REDIS_REPLY_ERROR)
-            return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
+    auto r = command(argv);
+    if (!r) return r.error();
+    const redisReply* z = r.value()->r;
+    if (z->type != REDIS_REPLY_ARRAY || z->elements < 1 ||
+        z->element[0]->type != REDIS_REPLY_INTEGER)
+        return make_error(ErrorCode::io, "unexpected Redis reply to the object probe");
     ObjectProbe p;
-    const long long fields = sizes.value()[0]->integer();
+    if (z->element[0]->integer == 0) return p;
+    if (z->element[0]->integer < 0)
+        return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
+    if (z->elements != 2 + 3 * suffixes.size())
+        return make_error(ErrorCode::io, "unexpected Redis reply to the object probe");
+    const long long fields = z->element[1]->integer;
     long long counted = 0;
     for (std::size_t i = 0; i < suffixes.size(); ++i) {
-        const long long n = sizes.value()[1 + 2 * i]->integer();
-        const long long sha = sizes.value()[2 + 2 * i]->integer();
+        const long long n = z->element[2 + 3 * i]->integer;
+        const long long sha = z->element[3 + 3 * i]->integer;
         counted += (n > 0) + (sha > 0);
         if (n <= 0) continue;
         if (n > caps.at(suffixes[i]) || sha > 64)
@@ -715,23 +741,12 @@ RedisStore::probe_object(const std::string& key, const std::string& what,
                                   std::to_string(caps.at(suffixes[i])) + "); it is not read");
         p.present.push_back(suffixes[i]);
         p.total += static_cast<std::size_t>(n);
-        p.signature += suffixes[i] + "=" + std::to_string(n) + ";";
+        p.sums.push_back(Reply::string(z->element[4 + 3 * i]).value_or(""));
+        p.signature += suffixes[i] + "=" + std::to_string(n) + ";" + p.sums.back() + ";";
     }
     if (counted != fields)
         return make_error(ErrorCode::io, what + " has " + std::to_string(fields - counted) +
                                              " fields it cannot hold; it is not read");
-    if (p.present.empty()) return p;
-    std::vector<std::string> sha_argv = {"HMGET", key};
-    for (const std::string& suffix : p.present) sha_argv.push_back(suffix + ".sha256");
-    auto shas = command(sha_argv); // 64 bytes each, checked above
-    if (!shas) return shas.error();
-    const redisReply* h = shas.value()->r;
-    if (h->type != REDIS_REPLY_ARRAY || h->elements != p.present.size())
-        return make_error(ErrorCode::io, "unexpected Redis reply to HMGET");
-    for (std::size_t i = 0; i < p.present.size(); ++i) {
-        p.sums.push_back(Reply::string(h->element[i]).value_or(""));
-        p.signature += p.sums.back() + ";";
-    }
     return p;
 }
 
@@ -760,6 +775,12 @@ RedisStore::get_object(const std::string& kind, const std::string& id,
         if (!bytes) return std::optional<Files>{}; // removed meanwhile
         if (static_cast<long long>(bytes->size()) > caps.at(p.present[i]) ||
             io::sha256_hex(*bytes) != p.sums[i]) {
+            // Stored again between the probe and this read: no damage.
+            auto again = probe_object(key, what, caps);
+            if (again && again.value().present.empty()) return std::optional<Files>{};
+            if (again && again.value().signature != p.signature)
+                return make_error(ErrorCode::unavailable,
+                                  what + " changed while it was read; retry");
             remember_refused(memo, p.signature);
             return make_error(ErrorCode::io, what + " fails its " + p.present[i] +
                                                  " checksum (damaged or half-written); it is "

@@ -559,6 +559,44 @@ TEST(RedisStore, AReadRacingDeletesAndUploadsIsNeverCalledDamaged) {
     EXPECT_GT(read, 0) << "the reader never saw the texton: the race was not run";
 }
 
+// Splats and mixes alike: their probe had read the field count, the sizes and the checksums in
+// separate commands, so a delete and a new put between them refused a sound object.
+TEST(RedisStore, AnObjectReadRacingDeletesAndPutsIsNeverCalledDamaged) {
+    RedisProcess redis(fresh_dir("shared-u-redis"));
+    const auto address = store::parse_redis_url(redis.url()).value();
+    store::RedisStore writer(address, std::chrono::milliseconds(2000));
+    store::RedisStore reader(address, std::chrono::milliseconds(2000));
+    const std::string id(64, 'c');
+    const store::RedisStore::Files files = {{".json", std::string(1000, 'j')},
+                                            {".exr", std::string(200'000, 'e')}};
+    const std::map<std::string, long long> caps = {{".json", 1 << 20}, {".exr", 1 << 20}};
+    std::atomic<bool> stop{false};
+    std::thread churn([&] {
+        while (!stop) {
+            (void)writer.put_object("mix", id, files);
+            (void)writer.remove_object("mix", id);
+        }
+    });
+    int damaged = 0, read = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+    while (std::chrono::steady_clock::now() < end) {
+        auto got = reader.get_object("mix", id, caps);
+        if (got && got.value()) {
+            ++read;
+            EXPECT_TRUE(*got.value() == files);
+        }
+        if (!got && got.error().code == ErrorCode::io) {
+            ++damaged;
+            ADD_FAILURE() << got.error().message;
+            break;
+        }
+    }
+    stop = true;
+    churn.join();
+    EXPECT_EQ(damaged, 0);
+    EXPECT_GT(read, 0) << "the reader never saw the object: the race was not run";
+}
+
 // A replica whose disk is full: a texton it cannot copy from Redis answers 507 each time, never
 // 500 "refused before" (its values are sound), and an upload it cannot hold is not stored for
 // the other replicas either.
