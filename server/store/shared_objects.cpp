@@ -12,7 +12,47 @@ namespace textond::store {
 SharedObjects::SharedObjects(RedisStore* shared, std::string kind, std::string dir,
                              std::vector<File> files, std::chrono::milliseconds recheck)
     : m_shared(shared), m_kind(std::move(kind)), m_dir(std::move(dir)), m_files(std::move(files)),
-      m_recheck(recheck) {}
+      m_recheck(recheck) {
+    if (m_shared) m_sweeper = std::thread([this] { sweep_loop(); });
+}
+
+SharedObjects::~SharedObjects() {
+    {
+        std::lock_guard lock(m_sweep_mutex);
+        m_stopping = true;
+    }
+    m_sweep_cv.notify_all();
+    if (m_sweeper.joinable()) m_sweeper.join();
+}
+
+void SharedObjects::sweep_loop() {
+    std::unique_lock lock(m_sweep_mutex);
+    while (!m_sweep_cv.wait_for(lock, m_recheck, [this] { return m_stopping; })) {
+        lock.unlock();
+        sweep();
+        lock.lock();
+    }
+}
+
+// Each held object's presence, at most once an interval (deleted_elsewhere's own clock, which
+// requests share): one absent from the store is written back there. One deleted there is left
+// to the next request for it, which drops it with what the store prepared of it.
+void SharedObjects::sweep() {
+    const std::string& main = m_files.back().suffix;
+    std::error_code ec;
+    for (std::filesystem::directory_iterator it(m_dir, ec), end; !ec && it != end;
+         it.increment(ec)) {
+        {
+            std::lock_guard lock(m_sweep_mutex);
+            if (m_stopping) return;
+        }
+        const std::string name = it->path().filename().string();
+        if (name.size() != 64 + main.size() || name.compare(64, main.size(), main) != 0) continue;
+        const std::string id = name.substr(0, 64);
+        if (id.find_first_not_of("0123456789abcdef") != std::string::npos) continue;
+        (void)deleted_elsewhere(id); // the store down: nothing done, tried again next round
+    }
+}
 
 bool SharedObjects::held(const std::string& id) const {
     std::error_code ec;

@@ -10,12 +10,14 @@
 #include "server/store/single_flight.h"
 
 #include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace textond::store {
@@ -27,8 +29,14 @@ public:
         long long cap;      // most bytes it can hold
     };
     // `files` in writing order: the last is the one whose presence says the object is whole.
+    // With a shared store, a thread looks at every held object once a recheck interval and
+    // writes back those the store has lost (a flushed Redis), as TextonStore's sweep does: a
+    // replica that was never asked for one had left it 404 on every other replica.
     SharedObjects(RedisStore* shared, std::string kind, std::string dir, std::vector<File> files,
                   std::chrono::milliseconds recheck);
+    ~SharedObjects();
+    SharedObjects(const SharedObjects&) = delete;
+    SharedObjects& operator=(const SharedObjects&) = delete;
 
     bool enabled() const { return m_shared != nullptr; }
     // This replica's copy is whole (its main file, the last of `files`, is there).
@@ -57,6 +65,8 @@ public:
 
 private:
     Result<bool> fetch_once(const std::string& id);
+    void sweep_loop();
+    void sweep();
     RedisStore* const m_shared;
     const std::string m_kind, m_dir;
     const std::vector<File> m_files;
@@ -65,6 +75,10 @@ private:
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked;
     SingleFlight<Result<bool>> m_fetches;
     std::map<std::string, std::string> m_fetched_signature; // of the values last fetched, by id
+    std::mutex m_sweep_mutex;
+    std::condition_variable m_sweep_cv;
+    bool m_stopping = false;
+    std::thread m_sweeper; // with a shared store only
 };
 
 } // namespace textond::store

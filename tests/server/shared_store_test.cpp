@@ -3,6 +3,7 @@
 // once; Redis stopped mid-run costs uploads (503) but not the tiles of textons held locally, and
 // coming back needs no restart; a damaged value in Redis is never served; deletes reach every
 // replica; a flushed Redis is refilled by the replicas.
+#include "server/io/image_io.h"
 #include "server/io/sha256.h"
 #include "server/store/redis_store.h"
 #include "tests/server/server_fixture.h"
@@ -557,6 +558,39 @@ TEST(RedisStore, AReadRacingDeletesAndUploadsIsNeverCalledDamaged) {
     churn.join();
     EXPECT_EQ(damaged, 0);
     EXPECT_GT(read, 0) << "the reader never saw the texton: the race was not run";
+}
+
+// Splats and mixes too are written back after FLUSHALL by the replica that holds them, unasked
+// (only one that was asked used to write back; another replica answered 404 meanwhile).
+TEST(SharedStore, AFlushedRedisGetsBackEveryHeldSplatAndMixUnasked) {
+    RedisProcess redis(fresh_dir("shared-g-redis"));
+    ServerProcess a(fresh_dir("shared-g-1"), replica_args(redis));
+    auto ca = a.client();
+    const std::string u = upload(ca, "etr_sand01.png", "?size=16&iterations=5");
+    const std::string v = upload(ca, "etr_pebbles04.png", "?size=16&iterations=5");
+    auto mix = ca.Post(("/v1/mixes?u=" + u + "&v=" + v + "&levels=2").c_str());
+    ASSERT_TRUE(mix);
+    ASSERT_EQ(mix->status, 201) << mix->body;
+    const std::string mid = json::parse(mix->body).at("id");
+    const std::string weights =
+        io::encode_image_memory(test::white_noise(8, 8, 3, 3), io::Encoding::png8).value();
+    const httplib::MultipartFormDataItems form = {{"textons", u + "," + v, "", ""},
+                                                  {"weights", weights, "w.png", "image/png"}};
+    auto splat = ca.Post("/v1/splats", form);
+    ASSERT_TRUE(splat);
+    ASSERT_EQ(splat->status, 201) << splat->body;
+    const std::string sid = json::parse(splat->body).at("id");
+    redis.cli({"FLUSHALL"});
+    EXPECT_TRUE(eventually(
+        [&] {
+            return redis.cli({"EXISTS", "textond:v1:mix:" + mid}) == "1\n" &&
+                   redis.cli({"EXISTS", "textond:v1:splat:" + sid}) == "1\n";
+        },
+        5.0))
+        << "the mix and the splat were not written back";
+    ServerProcess c(fresh_dir("shared-g-3"), replica_args(redis));
+    EXPECT_EQ(status_of(c, "/v1/mixes/" + mid), 200);
+    EXPECT_EQ(status_of(c, "/v1/splats/" + sid + "/tiles/0/0/0.png"), 200);
 }
 
 // Splats and mixes alike: their probe had read the field count, the sizes and the checksums in
