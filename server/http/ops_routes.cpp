@@ -5,10 +5,12 @@
 #include "server/http/request_context.h"
 #include "server/http/responses.h"
 #include "server/http/textond_server.h"
+#include "server/io/atomic_file.h"
 #include "server/io/image_io.h"
 
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -57,6 +59,8 @@ void OpsRoutes::healthz(Req, Res res) {
 void OpsRoutes::readyz(Req, Res res) {
     set_route("/readyz");
     const bool writable = m_store.local().writable();
+    const auto free = m_store.local().free_bytes();
+    const auto no_space = io::recent_no_space(std::chrono::minutes(1));
     const bool ready = !m_stopping && writable;
     // A replica whose shared store is down still serves the textons it holds, so it stays in
     // the load balancer (were it to leave, every replica would leave at once) and says it is
@@ -86,6 +90,10 @@ void OpsRoutes::readyz(Req, Res res) {
                  {"calibration", calibration}}},
                {"store",
                 {{"writable", writable},
+                 {"free_bytes", free ? nlohmann::json(*free) : nlohmann::json(nullptr)},
+                 // A file write refused for lack of space in the last minute: the probe above
+                 // writes two bytes, which a disk too full for a texton still holds.
+                 {"no_space", no_space ? nlohmann::json(*no_space) : nlohmann::json(nullptr)},
                  {"textons", m_store.local().count()},
                  // The first store::QuarantineList::kListed names of each, by name.
                  {"quarantined", m_store.local().quarantined()},

@@ -4,11 +4,18 @@
 // outputs too large to hold in memory (tile archives); write_file_atomic is the one-piece case.
 #include "core/result.h"
 
+#include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
 namespace textond::io {
+
+// The message of the last write (of any AtomicFile, so of every stored file) refused for lack of
+// space (ENOSPC, EDQUOT, EFBIG) within `within`; /readyz says it, since its own probe of a few
+// bytes still fits on a disk too full for a texton.
+std::optional<std::string> recent_no_space(std::chrono::seconds within);
 
 class AtomicFile {
 public:
@@ -26,7 +33,7 @@ public:
 
 private:
     AtomicFile(std::string path, std::string tmp, int fd);
-    Error failure(int err) const;
+    static Error failure(const std::string& path, int err);
     std::string m_path, m_tmp;
     int m_fd = -1;
     std::uint64_t m_size = 0;

@@ -12,6 +12,7 @@
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 namespace textond::store {
@@ -418,6 +419,12 @@ bool TextonDirectory::writable() const {
     ::close(fd);
     ::unlink(probe.c_str());
     return ok;
+}
+
+std::optional<std::uint64_t> TextonDirectory::free_bytes() const {
+    struct statvfs v {};
+    if (::statvfs(m_dir.c_str(), &v) != 0) return std::nullopt;
+    return static_cast<std::uint64_t>(v.f_bavail) * v.f_frsize;
 }
 
 } // namespace textond::store

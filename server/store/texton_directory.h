@@ -83,6 +83,8 @@ public:
     std::size_t quarantined_count() const;
     // Can we create a file here right now? (readiness probe)
     bool writable() const;
+    // Bytes the data directory's filesystem has left for us (statvfs); nullopt when it cannot say.
+    std::optional<std::uint64_t> free_bytes() const;
     const std::string& path() const { return m_dir; }
 
 private:

@@ -290,6 +290,9 @@ TEST(Store, FullDiskAnswers507AndLosesNothing) {
     ASSERT_TRUE(first);
     ASSERT_EQ(first->status, 201) << first->body;
     const std::string small = json::parse(first->body).at("id");
+    const json ready = json::parse(c.Get("/readyz")->body).at("store");
+    EXPECT_TRUE(ready.at("no_space").is_null()) << ready.dump();
+    EXPECT_GT(ready.at("free_bytes").get<std::uint64_t>(), 0u);
     auto full = c.Post("/v1/textons?size=96&iterations=5",
                        read_file(exemplar_path("etr_sand01.png")), "image/png");
     ASSERT_TRUE(full);
@@ -302,6 +305,11 @@ TEST(Store, FullDiskAnswers507AndLosesNothing) {
     EXPECT_EQ(c.Get(("/v1/textons/" + small + "/tiles/0/0/0.png").c_str())->status, 200);
     EXPECT_EQ(json::parse(c.Get("/v1/textons")->body).at("total"), 1);
     EXPECT_EQ(c.Get("/healthz")->status, 200);
+    // Readiness cannot see it by its two-byte probe; it says the write that was refused.
+    const json after = json::parse(c.Get("/readyz")->body).at("store");
+    EXPECT_TRUE(after.at("writable").get<bool>());
+    EXPECT_NE(after.at("no_space").get<std::string>().find("File too large"), std::string::npos)
+        << after.dump();
 }
 
 TEST(Store, SameTileSameBytesAndEtagAfterARestart) {
