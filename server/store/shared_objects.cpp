@@ -34,9 +34,10 @@ void SharedObjects::sweep_loop() {
     }
 }
 
-// Each held object's presence, at most once an interval (deleted_elsewhere's own clock, which
-// requests share): one absent from the store is written back there. One deleted there is left
-// to the next request for it, which drops it with what the store prepared of it.
+// Each held object's presence, once an interval: one absent from the store is written back
+// there. One deleted there is left to the next request for it, which drops it with what the
+// store prepared of it; so the sweep keeps off the requests' recheck clock (deleted_elsewhere's:
+// had it taken an interval's look, a request within it would have served a deleted splat).
 void SharedObjects::sweep() {
     const std::string& main = m_files.back().suffix;
     std::error_code ec;
@@ -50,7 +51,12 @@ void SharedObjects::sweep() {
         if (name.size() != 64 + main.size() || name.compare(64, main.size(), main) != 0) continue;
         const std::string id = name.substr(0, 64);
         if (id.find_first_not_of("0123456789abcdef") != std::string::npos) continue;
-        (void)deleted_elsewhere(id); // the store down: nothing done, tried again next round
+        auto presence = m_shared->object_presence(m_kind, id);
+        if (!presence) return; // the store down: tried again next round
+        if (presence.value() != RedisStore::Presence::unknown) continue;
+        if (auto put = publish(id); put && put.value())
+            spdlog::warn("store: {} {} was missing from the shared store; written back", m_kind,
+                         id);
     }
 }
 
