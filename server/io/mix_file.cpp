@@ -66,8 +66,9 @@ std::string levels_digest(const std::vector<float>& interleaved, const api::MixM
 
 Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
     const std::string& id = r.meta.id;
+    const std::string mask = dir + "/" + id + ".mask.exr";
     if (r.field.kind == core::MixField::Kind::mask) {
-        auto ok = encode_image_file(r.field.mask, dir + "/" + id + ".mask.exr", Encoding::exr);
+        auto ok = encode_image_file(r.field.mask, mask, Encoding::exr);
         if (!ok) return ok.error();
     }
     const core::Texton& first = r.levels.front();
@@ -89,8 +90,13 @@ Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
     auto bytes = encode_image_memory(stack, Encoding::exr,
                                      {{kMixAttribute, nlohmann::json(r.meta).dump()},
                                       {kMixLevelsAttribute, levels_digest(interleaved, r.meta)}});
-    if (!bytes) return bytes.error();
-    return write_file_atomic(dir + "/" + id + ".exr", bytes.value());
+    auto written = bytes ? write_file_atomic(dir + "/" + id + ".exr", bytes.value())
+                         : Result<bool>(bytes.error());
+    if (!written && r.field.kind == core::MixField::Kind::mask) {
+        std::error_code ec; // a mask without its levels is no mix (a full disk had left it)
+        std::filesystem::remove(mask, ec);
+    }
+    return written;
 }
 
 namespace {

@@ -4,6 +4,8 @@
 #include "server/io/sha256.h"
 
 #include <filesystem>
+#include <string_view>
+#include <vector>
 
 namespace textond::io {
 
@@ -75,21 +77,32 @@ std::string splat_id(const std::vector<std::string>& textons, const nlohmann::js
 
 Result<bool> write_splat_files(const std::string& dir, const SplatRecord& r) {
     const std::string& id = r.meta.id;
+    // What this call wrote goes again when a later file fails (a full disk): a weights file
+    // without its metadata is no splat, and had stayed on disk.
+    std::vector<std::string> written;
+    auto write = [&](const std::string& path, std::string_view bytes) -> Result<bool> {
+        auto ok = write_file_atomic(path, bytes);
+        if (!ok) {
+            std::error_code ec;
+            for (const std::string& w : written) std::filesystem::remove(w, ec);
+            return ok.error();
+        }
+        written.push_back(path);
+        return true;
+    };
     if (r.weights.kind == core::SplatWeights::Kind::image && !r.weight_uploads.empty()) {
         for (std::size_t i = 0; i < r.weight_uploads.size(); ++i) {
             std::string path = dir;
             path.append("/").append(id).append(i == 0 ? ".weights.upload" : ".weights2.upload");
-            auto ok = write_file_atomic(path, r.weight_uploads[i]);
-            if (!ok) return ok.error();
+            if (auto ok = write(path, r.weight_uploads[i]); !ok) return ok.error();
         }
     } else if (r.weights.kind == core::SplatWeights::Kind::image) {
         const core::Image& w = r.weights.image.weights;
         auto bytes = encode_image_memory(w, Encoding::exr, {}, 6, weight_channel_names(w.channels));
         if (!bytes) return bytes.error();
-        auto ok = write_file_atomic(dir + "/" + id + ".weights.exr", bytes.value());
-        if (!ok) return ok.error();
+        if (auto ok = write(dir + "/" + id + ".weights.exr", bytes.value()); !ok) return ok.error();
     }
-    return write_file_atomic(dir + "/" + id + ".json", nlohmann::json(r.meta).dump(2) + "\n");
+    return write(dir + "/" + id + ".json", nlohmann::json(r.meta).dump(2) + "\n");
 }
 
 Result<SplatRecord> read_splat_files(const std::string& dir, const std::string& id) {

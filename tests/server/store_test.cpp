@@ -312,6 +312,67 @@ TEST(Store, FullDiskAnswers507AndLosesNothing) {
         << after.dump();
 }
 
+// A splat whose second weight image does not fit: 507, and its first is not left behind (a
+// weights file without its metadata had stayed on disk).
+TEST(Store, ASplatTheDiskCannotHoldLeavesNoFile) {
+    const std::string data = fresh_dir("store-full-splat");
+    ServerProcess server(data, {}, 40'000);
+    auto c = server.client();
+    const std::string tiny =
+        io::encode_image_memory(test::crop(load_exemplar("etr_sand01.png"), 64, 64),
+                                io::Encoding::png8)
+            .value();
+    std::string ids;
+    for (int seed = 1; seed <= 5; ++seed) {
+        auto r = c.Post(("/v1/textons?size=16&iterations=5&seed=" + std::to_string(seed)).c_str(),
+                        tiny, "image/png");
+        ASSERT_TRUE(r);
+        ASSERT_EQ(r->status, 201) << r->body;
+        ids += (ids.empty() ? "" : ",") + json::parse(r->body).at("id").get<std::string>();
+    }
+    core::Image flat(128, 128, 4);
+    for (float& v : flat.data) v = 0.25f;
+    const core::Image noise = test::white_noise(128, 128, 4, 9); // incompressible: over 40 kB
+    const httplib::MultipartFormDataItems form = {
+        {"textons", ids, "", ""},
+        {"weights", io::encode_image_memory(flat, io::Encoding::png8).value(), "w.png",
+         "image/png"},
+        {"weights2", io::encode_image_memory(noise, io::Encoding::png8).value(), "w2.png",
+         "image/png"}};
+    auto r = c.Post("/v1/splats", form);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 507) << r->body;
+    EXPECT_EQ(files_in(data + "/splats"), 0);
+    EXPECT_EQ(c.Get("/healthz")->status, 200);
+}
+
+// A mix whose mask fits and whose levels do not: 507, and the mask is not left behind.
+TEST(Store, AMixTheDiskCannotHoldLeavesNoFile) {
+    const std::string data = fresh_dir("store-full-mix");
+    ServerProcess server(data, {}, 40'000);
+    auto c = server.client();
+    std::vector<std::string> ids;
+    for (const char* name : {"etr_sand01.png", "etr_pebbles04.png"}) {
+        const std::string tiny =
+            io::encode_image_memory(test::crop(load_exemplar(name), 64, 64), io::Encoding::png8)
+                .value();
+        auto r = c.Post("/v1/textons?size=32&iterations=5", tiny, "image/png");
+        ASSERT_TRUE(r);
+        ASSERT_EQ(r->status, 201) << r->body;
+        ids.push_back(json::parse(r->body).at("id"));
+    }
+    core::Image mask(16, 16, 1);
+    for (int x = 0; x < 16; ++x)
+        for (int y = 0; y < 16; ++y) mask.at(0, x, y) = x < 8 ? 0.0f : 1.0f;
+    // 12 levels of 32 x 32 RGB floats: about 150 kB, over the 40 kB a file may hold here.
+    auto r = c.Post(("/v1/mixes?u=" + ids[0] + "&v=" + ids[1] + "&levels=12").c_str(),
+                    io::encode_image_memory(mask, io::Encoding::png8).value(), "image/png");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 507) << r->body;
+    EXPECT_EQ(files_in(data + "/mixes"), 0);
+    EXPECT_EQ(c.Get("/healthz")->status, 200);
+}
+
 TEST(Store, SameTileSameBytesAndEtagAfterARestart) {
     const std::string data = fresh_dir("store-restart");
     std::string id, body, etag;
