@@ -68,8 +68,11 @@ Result<bool> write_mix_files(const std::string& dir, const MixRecord& r) {
     const std::string& id = r.meta.id;
     const std::string mask = dir + "/" + id + ".mask.exr";
     if (r.field.kind == core::MixField::Kind::mask) {
-        auto ok = encode_image_file(r.field.mask, mask, Encoding::exr);
-        if (!ok) return ok.error();
+        // Encoded in memory and written as every stored file is: a full disk is no_space (507,
+        // and /readyz's store.no_space), where OpenImageIO's own writer said only io.
+        auto bytes = encode_image_memory(r.field.mask, Encoding::exr);
+        if (!bytes) return bytes.error();
+        if (auto ok = write_file_atomic(mask, bytes.value()); !ok) return ok.error();
     }
     const core::Texton& first = r.levels.front();
     const int n = first.size, nl = static_cast<int>(r.levels.size());

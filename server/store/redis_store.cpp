@@ -57,6 +57,28 @@ redis.call('HSET', KEYS[1], 'file', ARGV[1], 'sha256', ARGV[2], 'meta', ARGV[3],
 return 1
 )lua";
 
+// A replica's copy written back to a store that lost it (a flushed Redis): as kPutScript, but
+// never over a tombstone, which a delete may have left since the replica looked; an upload
+// (kPutScript) clears one, a write-back must not undo the delete.
+constexpr const char* kWriteBackScript = R"lua(
+local index = redis.call('TYPE', KEYS[2])['ok']
+if index ~= 'zset' and index ~= 'none' then
+  return redis.error_reply('WRONGTYPE the id index ' .. KEYS[2] .. ' is a ' .. index)
+end
+if redis.call('EXISTS', KEYS[1]) == 1 or redis.call('EXISTS', KEYS[3]) == 1 then return 0 end
+redis.call('HSET', KEYS[1], 'file', ARGV[1], 'sha256', ARGV[2], 'meta', ARGV[3],
+           'exemplar', ARGV[4], 'exemplar_sha256', ARGV[5])
+redis.call('ZADD', KEYS[2], 0, ARGV[6])
+return 1
+)lua";
+
+// Splats and mixes written back, on the same rule.
+constexpr const char* kWriteBackObjectScript = R"lua(
+if redis.call('EXISTS', KEYS[1]) == 1 or redis.call('EXISTS', KEYS[2]) == 1 then return 0 end
+redis.call('HSET', KEYS[1], unpack(ARGV))
+return 1
+)lua";
+
 // Splats and mixes: the same write-once rule, with any number of fields.
 constexpr const char* kPutObjectScript = R"lua(
 if redis.call('EXISTS', KEYS[1]) == 1 then return 0 end
@@ -340,11 +362,12 @@ std::string RedisStore::write_refusal() const {
 }
 
 Result<bool> RedisStore::put(const std::string& id, const std::string& file,
-                             const std::string& meta_json, const std::string& exemplar_png) {
+                             const std::string& meta_json, const std::string& exemplar_png,
+                             bool write_back) {
     forget_refused(id);
-    return write_script({"EVAL", kPutScript, "3", texton_key(id), ids_key(), tombstone_key(id),
-                         file, io::sha256_hex(file), meta_json, exemplar_png,
-                         io::sha256_hex(exemplar_png), id});
+    return write_script({"EVAL", write_back ? kWriteBackScript : kPutScript, "3", texton_key(id),
+                         ids_key(), tombstone_key(id), file, io::sha256_hex(file), meta_json,
+                         exemplar_png, io::sha256_hex(exemplar_png), id});
 }
 
 Result<bool> RedisStore::write_script(const std::vector<std::string>& argv) {
@@ -529,7 +552,7 @@ Result<std::optional<RedisStore::Texton>> RedisStore::get(const std::string& id)
     auto file = Reply::string(a->element[0]);
     std::string meta = Reply::string(a->element[1]).value_or("");
     r.value().reset();
-    if (!file) return gone_meanwhile();
+    if (!file) return p.len[0] > 0 ? gone_meanwhile() : refuse("has no file; it is not served");
     if (!p.file_sha || io::sha256_hex(*file) != *p.file_sha)
         return refuse("fails its file checksum (damaged or half-written); it is not served");
     long long cap = 0;
@@ -669,10 +692,10 @@ void RedisStore::forget_refused(const std::string& memo) {
 }
 
 Result<bool> RedisStore::put_object(const std::string& kind, const std::string& id,
-                                    const Files& files) {
+                                    const Files& files, bool write_back) {
     forget_refused(kind + ":" + id);
-    std::vector<std::string> argv = {"EVAL", kPutObjectScript, "2", object_key(kind, id),
-                                     object_tombstone_key(kind, id)};
+    std::vector<std::string> argv = {"EVAL", write_back ? kWriteBackObjectScript : kPutObjectScript,
+                                     "2", object_key(kind, id), object_tombstone_key(kind, id)};
     for (const auto& [suffix, bytes] : files) {
         argv.push_back(suffix);
         argv.push_back(bytes);

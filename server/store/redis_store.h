@@ -58,9 +58,10 @@ public:
     Result<bool> repair_if_differs(const std::string& id, const std::string& file,
                                    const std::string& meta_json, const std::string& exemplar_png);
 
-    // True when this call stored it, false when it was there already. Clears a tombstone.
+    // True when this call stored it, false when it was there already. Clears a tombstone; with
+    // `write_back` (a copy held here, which the store lost) it stores nothing over a tombstone.
     Result<bool> put(const std::string& id, const std::string& file, const std::string& meta_json,
-                     const std::string& exemplar_png);
+                     const std::string& exemplar_png, bool write_back = false);
     struct Texton {
         std::string file;
         std::string exemplar_png; // empty when stored without one
@@ -106,7 +107,8 @@ public:
     // written once (true when this call stored it) and tombstoned by "deleted-<kind>:<id>" when
     // removed, as textons are.
     using Files = std::map<std::string, std::string>; // suffix -> bytes
-    Result<bool> put_object(const std::string& kind, const std::string& id, const Files& files);
+    Result<bool> put_object(const std::string& kind, const std::string& id, const Files& files,
+                            bool write_back = false);
     // Each file's size checked against `caps` (suffix -> most bytes; a stored suffix not named is
     // refused) before anything is read, then its checksum; nullopt when absent.
     // `signature` receives what identifies the values read (sizes and checksums): a caller that

@@ -4,6 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <malloc.h>
 
@@ -27,7 +28,9 @@ SharedObjects::~SharedObjects() {
 
 void SharedObjects::sweep_loop() {
     std::unique_lock lock(m_sweep_mutex);
-    while (!m_sweep_cv.wait_for(lock, m_recheck, [this] { return m_stopping; })) {
+    // At least a second apart: --store-recheck-s 0 rechecks on every request, not in a spin.
+    const auto every = std::max<std::chrono::milliseconds>(m_recheck, std::chrono::seconds(1));
+    while (!m_sweep_cv.wait_for(lock, every, [this] { return m_stopping; })) {
         lock.unlock();
         sweep();
         lock.lock();
@@ -54,7 +57,7 @@ void SharedObjects::sweep() {
         auto presence = m_shared->object_presence(m_kind, id);
         if (!presence) return; // the store down: tried again next round
         if (presence.value() != RedisStore::Presence::unknown) continue;
-        if (auto put = publish(id); put && put.value())
+        if (auto put = publish(id, /*write_back=*/true); put && put.value())
             spdlog::warn("store: {} {} was missing from the shared store; written back", m_kind,
                          id);
     }
@@ -88,8 +91,23 @@ Result<bool> SharedObjects::remove_everywhere(const std::string& id) {
     return there;
 }
 
-Result<bool> SharedObjects::publish(const std::string& id) {
+SharedObjects::CreationMark::CreationMark(SharedObjects& s, std::string id)
+    : m_s(s), m_id(std::move(id)) {
+    std::lock_guard lock(m_s.m_mutex);
+    m_s.m_creating.insert(m_id);
+}
+
+SharedObjects::CreationMark::~CreationMark() {
+    std::lock_guard lock(m_s.m_mutex);
+    m_s.m_creating.erase(m_id);
+}
+
+Result<bool> SharedObjects::publish(const std::string& id, bool write_back) {
     if (!m_shared) return true;
+    if (write_back) {
+        std::lock_guard lock(m_mutex);
+        if (m_creating.count(id)) return false; // its creation publishes it in a moment
+    }
     RedisStore::Files files;
     std::error_code ec;
     for (const File& f : m_files) {
@@ -99,7 +117,7 @@ Result<bool> SharedObjects::publish(const std::string& id) {
         if (!bytes) return bytes.error();
         files.emplace(f.suffix, std::move(bytes.value()));
     }
-    auto stored = m_shared->put_object(m_kind, id, files);
+    auto stored = m_shared->put_object(m_kind, id, files, write_back);
     if (stored) {
         std::lock_guard lock(m_mutex);
         m_checked[id] = std::chrono::steady_clock::now();
@@ -178,7 +196,7 @@ bool SharedObjects::deleted_elsewhere(const std::string& id, bool now_) {
     if (presence.value() == RedisStore::Presence::unknown) {
         // Held here, absent there (a flushed Redis, or made before the shared store was
         // configured): written back so the other replicas find it.
-        if (auto put = publish(id); put && put.value())
+        if (auto put = publish(id, /*write_back=*/true); put && put.value())
             spdlog::warn("store: {} {} was missing from the shared store; written back", m_kind,
                          id);
     }

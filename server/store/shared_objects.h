@@ -16,6 +16,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -48,7 +49,22 @@ public:
     // Gone from the shared store (a tombstone) and from this replica: whether either held it.
     Result<bool> remove_everywhere(const std::string& id);
     // The local files just written, stored in the shared store too (false: already there).
-    Result<bool> publish(const std::string& id);
+    // With `write_back` (a copy held here that the store lost) nothing is stored over a
+    // tombstone, and nothing while the id is being created here (creating()).
+    Result<bool> publish(const std::string& id, bool write_back = false);
+    // Marks `id` as being created here until the mark goes: between its local files and its own
+    // publish, a write-back would store it first and the creation answer 200.
+    class CreationMark {
+    public:
+        CreationMark(SharedObjects& s, std::string id);
+        ~CreationMark();
+        CreationMark(const CreationMark&) = delete;
+        CreationMark& operator=(const CreationMark&) = delete;
+
+    private:
+        SharedObjects& m_s;
+        const std::string m_id;
+    };
     // The object's files fetched into the directory (one fetch an id at a time): false when the
     // shared store has none (or a tombstone), unavailable when it cannot say.
     Result<bool> fetch(const std::string& id);
@@ -75,6 +91,7 @@ private:
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked;
     SingleFlight<Result<bool>> m_fetches;
     std::map<std::string, std::string> m_fetched_signature; // of the values last fetched, by id
+    std::set<std::string> m_creating;                       // CreationMark
     std::mutex m_sweep_mutex;
     std::condition_variable m_sweep_cv;
     bool m_stopping = false;

@@ -334,7 +334,10 @@ Result<bool> TextonDirectory::write(const std::string& id, const std::string& fi
         undo();
         spdlog::error("store: texton {} fails verification: {}", id,
                       r ? "its metadata names another id" : r.error().message);
-        return make_error(ErrorCode::unprocessable, // the bytes, not this disk
+        // The file's own code when it cannot be read at all (not_found); otherwise the bytes
+        // are at fault, not this disk: unprocessable.
+        if (!r && r.error().code != ErrorCode::unprocessable) return r.error();
+        return make_error(ErrorCode::unprocessable,
                           "texton " + id + " fails verification; it is not served");
     }
     api::TextonMeta meta = std::move(r.value().meta);

@@ -6,6 +6,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <malloc.h>
 
 namespace textond::store {
@@ -29,7 +30,9 @@ TextonStore::~TextonStore() {
 
 void TextonStore::sweep_loop() {
     std::unique_lock lock(m_sweep_mutex);
-    while (!m_sweep_cv.wait_for(lock, m_recheck, [this] { return m_stopping; })) {
+    // At least a second apart: --store-recheck-s 0 (recheck on every request) had made it spin.
+    const auto every = std::max<std::chrono::milliseconds>(m_recheck, std::chrono::seconds(1));
+    while (!m_sweep_cv.wait_for(lock, every, [this] { return m_stopping; })) {
         lock.unlock();
         sweep();
         lock.lock();
@@ -120,11 +123,16 @@ Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonM
     }
     // Held here but absent there (a flushed Redis, or stored before the shared store was
     // configured): write it back so the other replicas find it.
+    {
+        std::lock_guard lock(m_mutex);
+        if (m_creating.count(id)) return local; // its upload stores it in a moment
+    }
     auto file = m_local->file(id);
     auto exemplar = m_local->exemplar(id);
     if (file) {
         const nlohmann::json meta = local;
-        auto put = m_shared->put(id, file.value(), meta.dump(), exemplar ? exemplar.value() : "");
+        auto put = m_shared->put(id, file.value(), meta.dump(), exemplar ? exemplar.value() : "",
+                                 /*write_back=*/true);
         if (put && put.value())
             spdlog::warn("store: texton {} was missing from the shared store; written back", id);
     }
@@ -246,7 +254,22 @@ Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exempl
     if (!file) return file.error();
     // Here first, then the shared store: an upload this disk cannot hold (507) leaves nothing
     // for the other replicas to serve; it had been stored for them all the same.
+    {
+        std::lock_guard lock(m_mutex);
+        m_creating.insert(id);
+    }
+    struct Created {
+        TextonStore& s;
+        const std::string& id;
+        ~Created() {
+            std::lock_guard lock(s.m_mutex);
+            s.m_creating.erase(id);
+        }
+    } created{*this, id};
     auto w = m_local->write(id, file.value(), &png, api::provenance_json(record.meta));
+    // A texton this server made that fails its own verification is the server's fault (500).
+    if (!w && w.error().code == ErrorCode::unprocessable)
+        return make_error(ErrorCode::internal, w.error().message);
     if (!w) return w.error();
     if (m_shared) {
         const nlohmann::json meta = record.meta;

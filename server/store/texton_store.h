@@ -104,6 +104,9 @@ private:
     mutable std::mutex m_mutex; // may be held while calling m_local, never taken inside it
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked; // against m_shared
     std::set<std::string> m_exemplars_decoded;                              // verified_exemplar_png
+    // Uploads between their local write and their own store in m_shared: not written back by a
+    // recheck meanwhile (which had made a fresh upload answer 200, "stored before").
+    std::set<std::string> m_creating;
     // Most recently used first.
     std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;
     SingleFlight<Result<api::TextonMeta>> m_fetches; // from the shared store, one an id

@@ -6,6 +6,7 @@
 #include "server/io/image_io.h"
 #include "server/io/sha256.h"
 #include "server/store/redis_store.h"
+#include "server/store/shared_objects.h"
 #include "tests/server/server_fixture.h"
 #include "tests/support/test_support.h"
 
@@ -17,8 +18,11 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <iterator>
 #include <set>
+#include <sstream>
 #include <thread>
+#include <unistd.h>
 
 namespace textond::test {
 namespace {
@@ -525,6 +529,73 @@ TEST(RedisStore, ARepairAfterADeleteDoesNotBringTheTextonBack) {
     EXPECT_FALSE(shared.repair_if_differs(id, "file bytes", "{}", "").value());
     EXPECT_EQ(redis.cli({"EXISTS", texton_key(id)}), "0\n");
     EXPECT_EQ(shared.presence(id).value(), store::RedisStore::Presence::deleted);
+}
+
+// A write-back (a replica's copy of what the store lost) never lands over a tombstone: a delete
+// between the replica's look and its write had been undone. An upload clears the tombstone.
+TEST(RedisStore, AWriteBackNeverUndoesADelete) {
+    RedisProcess redis(fresh_dir("shared-w-redis"));
+    store::RedisStore shared(store::parse_redis_url(redis.url()).value(),
+                             std::chrono::milliseconds(2000));
+    const std::string id(64, 'd');
+    ASSERT_TRUE(shared.put(id, "file", "{}", "").value());
+    ASSERT_TRUE(shared.remove(id).value());
+    EXPECT_FALSE(shared.put(id, "file", "{}", "", /*write_back=*/true).value());
+    EXPECT_EQ(shared.presence(id).value(), store::RedisStore::Presence::deleted);
+    EXPECT_TRUE(shared.put(id, "file", "{}", "").value()); // uploaded again
+    EXPECT_EQ(shared.presence(id).value(), store::RedisStore::Presence::present);
+    const store::RedisStore::Files files = {{".json", "{}"}};
+    ASSERT_TRUE(shared.put_object("mix", id, files).value());
+    ASSERT_TRUE(shared.remove_object("mix", id).value());
+    EXPECT_FALSE(shared.put_object("mix", id, files, /*write_back=*/true).value());
+    EXPECT_EQ(shared.object_presence("mix", id).value(), store::RedisStore::Presence::deleted);
+    // A texton whose hash has no file at all is damaged, not "changed while read" (503 forever).
+    redis.cli(
+        {"HSET", texton_key(std::string(64, 'e')), "meta", "{}", "sha256", std::string(64, '0')});
+    auto got = shared.get(std::string(64, 'e'));
+    ASSERT_FALSE(got);
+    EXPECT_EQ(got.error().code, ErrorCode::io) << got.error().message;
+}
+
+// Between a creation's local files and its own publish, a write-back (a sweep, a request's
+// recheck) stores nothing: it had stored the object first, and the creation answered 200.
+TEST(SharedObjects, AWriteBackWaitsForACreationInFlight) {
+    RedisProcess redis(fresh_dir("shared-c-redis"));
+    store::RedisStore shared(store::parse_redis_url(redis.url()).value(),
+                             std::chrono::milliseconds(2000));
+    const std::string dir = fresh_dir("shared-c-dir");
+    store::SharedObjects objects(&shared, "mix", dir, {{".json", 1 << 20}},
+                                 std::chrono::milliseconds(3'600'000));
+    const std::string id(64, 'f');
+    {
+        const store::SharedObjects::CreationMark creating(objects, id);
+        std::ofstream(dir + "/" + id + ".json") << "{}";
+        EXPECT_FALSE(objects.publish(id, /*write_back=*/true).value());
+        EXPECT_EQ(redis.cli({"EXISTS", "textond:v1:mix:" + id}), "0\n");
+        EXPECT_TRUE(objects.publish(id).value()); // the creation's own
+    }
+    ASSERT_TRUE(shared.remove_object("mix", id).value());
+    redis.cli({"DEL", "textond:v1:deleted-mix:" + id}); // lost, as after a flush
+    EXPECT_TRUE(objects.publish(id, /*write_back=*/true).value());
+}
+
+// --store-recheck-s 0 rechecks on every request; the sweeps had spun on it, a core each.
+TEST(SharedStore, ARecheckIntervalOfZeroDoesNotSpin) {
+    RedisProcess redis(fresh_dir("shared-z-redis"));
+    ServerProcess a(fresh_dir("shared-z-1"), {"--store", redis.url(), "--store-recheck-s", "0"});
+    auto cpu_s = [&] {
+        std::ifstream in("/proc/" + std::to_string(a.pid()) + "/stat");
+        std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        std::istringstream fields(text.substr(text.rfind(')') + 2));
+        std::string f;
+        std::vector<std::string> v;
+        while (fields >> f) v.push_back(f);
+        return (std::stod(v[11]) + std::stod(v[12])) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+    };
+    std::this_thread::sleep_for(std::chrono::milliseconds(500)); // past its start-up
+    const double before = cpu_s();
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    EXPECT_LT(cpu_s() - before, 0.3) << "CPU seconds in 2 s idle";
 }
 
 // A texton is read in several commands: deleted or stored again between them, it is not damage
