@@ -164,7 +164,7 @@ std::vector<std::string> MixStore::quarantined() const {
 Result<bool> MixStore::put(const io::MixRecord& record) {
     const std::string& id = record.meta.id;
     if (contains(id)) return false;
-    const SharedObjects::CreationMark creating(m_shared, id);
+    const InFlightIds::Mark creating(m_shared.creations(), id);
     auto ok = io::write_mix_files(m_dir, record);
     if (!ok) return ok.error();
     auto shared = m_shared.publish(id);

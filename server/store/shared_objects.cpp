@@ -4,7 +4,6 @@
 
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
 #include <filesystem>
 #include <malloc.h>
 
@@ -14,27 +13,7 @@ SharedObjects::SharedObjects(RedisStore* shared, std::string kind, std::string d
                              std::vector<File> files, std::chrono::milliseconds recheck)
     : m_shared(shared), m_kind(std::move(kind)), m_dir(std::move(dir)), m_files(std::move(files)),
       m_recheck(recheck) {
-    if (m_shared) m_sweeper = std::thread([this] { sweep_loop(); });
-}
-
-SharedObjects::~SharedObjects() {
-    {
-        std::lock_guard lock(m_sweep_mutex);
-        m_stopping = true;
-    }
-    m_sweep_cv.notify_all();
-    if (m_sweeper.joinable()) m_sweeper.join();
-}
-
-void SharedObjects::sweep_loop() {
-    std::unique_lock lock(m_sweep_mutex);
-    // At least a second apart: --store-recheck-s 0 rechecks on every request, not in a spin.
-    const auto every = std::max<std::chrono::milliseconds>(m_recheck, std::chrono::seconds(1));
-    while (!m_sweep_cv.wait_for(lock, every, [this] { return m_stopping; })) {
-        lock.unlock();
-        sweep();
-        lock.lock();
-    }
+    if (m_shared) m_sweeper.emplace(m_recheck, [this] { sweep(); });
 }
 
 // Each held object's presence, once an interval: one absent from the store is written back
@@ -46,10 +25,7 @@ void SharedObjects::sweep() {
     std::error_code ec;
     for (std::filesystem::directory_iterator it(m_dir, ec), end; !ec && it != end;
          it.increment(ec)) {
-        {
-            std::lock_guard lock(m_sweep_mutex);
-            if (m_stopping) return;
-        }
+        if (m_sweeper->stopping()) return;
         const std::string name = it->path().filename().string();
         if (name.size() != 64 + main.size() || name.compare(64, main.size(), main) != 0) continue;
         const std::string id = name.substr(0, 64);
@@ -91,23 +67,9 @@ Result<bool> SharedObjects::remove_everywhere(const std::string& id) {
     return there;
 }
 
-SharedObjects::CreationMark::CreationMark(SharedObjects& s, std::string id)
-    : m_s(s), m_id(std::move(id)) {
-    std::lock_guard lock(m_s.m_mutex);
-    m_s.m_creating.insert(m_id);
-}
-
-SharedObjects::CreationMark::~CreationMark() {
-    std::lock_guard lock(m_s.m_mutex);
-    m_s.m_creating.erase(m_id);
-}
-
 Result<bool> SharedObjects::publish(const std::string& id, bool write_back) {
     if (!m_shared) return true;
-    if (write_back) {
-        std::lock_guard lock(m_mutex);
-        if (m_creating.count(id)) return false; // its creation publishes it in a moment
-    }
+    if (write_back && m_creating.contains(id)) return false; // its creation publishes it soon
     RedisStore::Files files;
     std::error_code ec;
     for (const File& f : m_files) {

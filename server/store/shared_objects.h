@@ -6,19 +6,18 @@
 // are those of server/io/splat_file.h and server/io/mix_file.h, named by suffix; each has a cap
 // checked before a byte of it is read. Without a shared store every call is a no-op.
 #include "core/result.h"
+#include "server/store/in_flight.h"
+#include "server/store/periodic_sweep.h"
 #include "server/store/redis_store.h"
 #include "server/store/single_flight.h"
 
 #include <chrono>
-#include <condition_variable>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <string>
-#include <thread>
 #include <vector>
 
 namespace textond::store {
@@ -35,7 +34,6 @@ public:
     // replica that was never asked for one had left it 404 on every other replica.
     SharedObjects(RedisStore* shared, std::string kind, std::string dir, std::vector<File> files,
                   std::chrono::milliseconds recheck);
-    ~SharedObjects();
     SharedObjects(const SharedObjects&) = delete;
     SharedObjects& operator=(const SharedObjects&) = delete;
 
@@ -52,19 +50,10 @@ public:
     // With `write_back` (a copy held here that the store lost) nothing is stored over a
     // tombstone, and nothing while the id is being created here (creating()).
     Result<bool> publish(const std::string& id, bool write_back = false);
-    // Marks `id` as being created here until the mark goes: between its local files and its own
-    // publish, a write-back would store it first and the creation answer 200.
-    class CreationMark {
-    public:
-        CreationMark(SharedObjects& s, std::string id);
-        ~CreationMark();
-        CreationMark(const CreationMark&) = delete;
-        CreationMark& operator=(const CreationMark&) = delete;
-
-    private:
-        SharedObjects& m_s;
-        const std::string m_id;
-    };
+    // Ids being created here: a store marks one (InFlightIds::Mark) from before its local files
+    // until its own publish, so that no write-back stores it first (the creation had answered
+    // 200).
+    InFlightIds& creations() { return m_creating; }
     // The object's files fetched into the directory (one fetch an id at a time): false when the
     // shared store has none (or a tombstone), unavailable when it cannot say.
     Result<bool> fetch(const std::string& id);
@@ -81,7 +70,6 @@ public:
 
 private:
     Result<bool> fetch_once(const std::string& id);
-    void sweep_loop();
     void sweep();
     RedisStore* const m_shared;
     const std::string m_kind, m_dir;
@@ -91,11 +79,8 @@ private:
     std::map<std::string, std::chrono::steady_clock::time_point> m_checked;
     SingleFlight<Result<bool>> m_fetches;
     std::map<std::string, std::string> m_fetched_signature; // of the values last fetched, by id
-    std::set<std::string> m_creating;                       // CreationMark
-    std::mutex m_sweep_mutex;
-    std::condition_variable m_sweep_cv;
-    bool m_stopping = false;
-    std::thread m_sweeper; // with a shared store only
+    InFlightIds m_creating;
+    std::optional<PeriodicSweep> m_sweeper; // with a shared store only; last, stopped first
 };
 
 } // namespace textond::store

@@ -220,7 +220,7 @@ Result<bool> SplatStore::put(const io::SplatRecord& record) {
     // One writer at a time: of concurrent identical creations one writes and says so.
     std::lock_guard<std::mutex> lock(m_put_mutex);
     if (contains(record.meta.id)) return false;
-    const SharedObjects::CreationMark creating(m_shared, record.meta.id);
+    const InFlightIds::Mark creating(m_shared.creations(), record.meta.id);
     auto ok = io::write_splat_files(m_dir, record);
     if (!ok) return ok.error();
     auto shared = m_shared.publish(record.meta.id);

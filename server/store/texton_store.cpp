@@ -6,7 +6,6 @@
 
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
 #include <malloc.h>
 
 namespace textond::store {
@@ -16,27 +15,7 @@ TextonStore::TextonStore(std::unique_ptr<TextonDirectory> local, std::size_t pre
                          std::chrono::milliseconds recheck)
     : m_local(std::move(local)), m_prepared_capacity(prepared_cache == 0 ? 1 : prepared_cache),
       m_shared(std::move(shared)), m_recheck(recheck) {
-    if (m_shared) m_sweeper = std::thread([this] { sweep_loop(); });
-}
-
-TextonStore::~TextonStore() {
-    {
-        std::lock_guard lock(m_sweep_mutex);
-        m_stopping = true;
-    }
-    m_sweep_cv.notify_all();
-    if (m_sweeper.joinable()) m_sweeper.join();
-}
-
-void TextonStore::sweep_loop() {
-    std::unique_lock lock(m_sweep_mutex);
-    // At least a second apart: --store-recheck-s 0 (recheck on every request) had made it spin.
-    const auto every = std::max<std::chrono::milliseconds>(m_recheck, std::chrono::seconds(1));
-    while (!m_sweep_cv.wait_for(lock, every, [this] { return m_stopping; })) {
-        lock.unlock();
-        sweep();
-        lock.lock();
-    }
+    if (m_shared) m_sweeper.emplace(m_recheck, [this] { sweep(); });
 }
 
 void TextonStore::sweep() {
@@ -45,10 +24,7 @@ void TextonStore::sweep() {
         const std::vector<api::TextonMeta> page = m_local->list(after, 256);
         if (page.empty()) return;
         for (const api::TextonMeta& meta : page) {
-            {
-                std::lock_guard lock(m_sweep_mutex);
-                if (m_stopping) return;
-            }
+            if (m_sweeper->stopping()) return;
             {
                 std::lock_guard lock(m_mutex);
                 m_checked[meta.id] = std::chrono::steady_clock::now();
@@ -123,10 +99,7 @@ Result<api::TextonMeta> TextonStore::recheck(const std::string& id, api::TextonM
     }
     // Held here but absent there (a flushed Redis, or stored before the shared store was
     // configured): write it back so the other replicas find it.
-    {
-        std::lock_guard lock(m_mutex);
-        if (m_creating.count(id)) return local; // its upload stores it in a moment
-    }
+    if (m_creating.contains(id)) return local; // its upload stores it in a moment
     auto file = m_local->file(id);
     auto exemplar = m_local->exemplar(id);
     if (file) {
@@ -254,18 +227,7 @@ Result<bool> TextonStore::put(io::TextonRecord record, const core::Image* exempl
     if (!file) return file.error();
     // Here first, then the shared store: an upload this disk cannot hold (507) leaves nothing
     // for the other replicas to serve; it had been stored for them all the same.
-    {
-        std::lock_guard lock(m_mutex);
-        m_creating.insert(id);
-    }
-    struct Created {
-        TextonStore& s;
-        const std::string& id;
-        ~Created() {
-            std::lock_guard lock(s.m_mutex);
-            s.m_creating.erase(id);
-        }
-    } created{*this, id};
+    const InFlightIds::Mark creating(m_creating, id);
     auto w = m_local->write(id, file.value(), &png, api::provenance_json(record.meta));
     // A texton this server made that fails its own verification is the server's fault (500).
     if (!w && w.error().code == ErrorCode::unprocessable)

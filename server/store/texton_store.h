@@ -13,12 +13,13 @@
 #include "core/result.h"
 #include "render/prepared_texton.h"
 #include "server/io/texton_file.h"
+#include "server/store/in_flight.h"
+#include "server/store/periodic_sweep.h"
 #include "server/store/redis_store.h"
 #include "server/store/single_flight.h"
 #include "server/store/texton_directory.h"
 
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <list>
 #include <map>
@@ -27,7 +28,6 @@
 #include <optional>
 #include <set>
 #include <string>
-#include <thread>
 #include <vector>
 
 namespace textond::store {
@@ -40,7 +40,6 @@ public:
          std::unique_ptr<store::RedisStore> shared = nullptr,
          std::chrono::milliseconds recheck = std::chrono::seconds(30),
          std::size_t meta_cache = TextonDirectory::kDefaultMetaCache);
-    ~TextonStore();
     TextonStore(const TextonStore&) = delete;
     TextonStore& operator=(const TextonStore&) = delete;
 
@@ -94,7 +93,6 @@ private:
     // when deleted there.
     // The stored exemplar's bytes decoded (any failure an io error), and marked as decoding.
     Result<core::Image> decode_exemplar(const std::string& id, const std::string& png);
-    void sweep_loop();
     void sweep();
 
     const std::unique_ptr<TextonDirectory> m_local;
@@ -106,14 +104,11 @@ private:
     std::set<std::string> m_exemplars_decoded;                              // verified_exemplar_png
     // Uploads between their local write and their own store in m_shared: not written back by a
     // recheck meanwhile (which had made a fresh upload answer 200, "stored before").
-    std::set<std::string> m_creating;
+    InFlightIds m_creating;
     // Most recently used first.
     std::list<std::pair<std::string, std::shared_ptr<const render::PreparedTexton>>> m_prepared;
     SingleFlight<Result<api::TextonMeta>> m_fetches; // from the shared store, one an id
-    std::mutex m_sweep_mutex;
-    std::condition_variable m_sweep_cv;
-    bool m_stopping = false;
-    std::thread m_sweeper; // with a shared store only
+    std::optional<PeriodicSweep> m_sweeper; // with a shared store only; last, stopped first
 };
 
 } // namespace textond::store

@@ -568,7 +568,7 @@ TEST(SharedObjects, AWriteBackWaitsForACreationInFlight) {
                                  std::chrono::milliseconds(3'600'000));
     const std::string id(64, 'f');
     {
-        const store::SharedObjects::CreationMark creating(objects, id);
+        const store::InFlightIds::Mark creating(objects.creations(), id);
         std::ofstream(dir + "/" + id + ".json") << "{}";
         EXPECT_FALSE(objects.publish(id, /*write_back=*/true).value());
         EXPECT_EQ(redis.cli({"EXISTS", "textond:v1:mix:" + id}), "0\n");
@@ -598,6 +598,29 @@ TEST(SharedStore, ARecheckIntervalOfZeroDoesNotSpin) {
     EXPECT_LT(cpu_s() - before, 0.3) << "CPU seconds in 2 s idle";
 }
 
+// Reads racing a writer that stores and deletes one value for 3 s: none may be called damaged (an
+// io error), and at least one must find the value, or the race was not run. `read` says whether
+// it found it.
+template <class Churn, class Read> void expect_no_read_called_damaged(Churn churn_once, Read read) {
+    std::atomic<bool> stop{false};
+    std::thread churn([&] {
+        while (!stop) churn_once();
+    });
+    int found = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+    while (std::chrono::steady_clock::now() < end) {
+        Result<bool> got = read();
+        if (got && got.value()) ++found;
+        if (!got && got.error().code == ErrorCode::io) {
+            ADD_FAILURE() << "called damaged: " << got.error().message;
+            break;
+        }
+    }
+    stop = true;
+    churn.join();
+    EXPECT_GT(found, 0) << "the reader never found the value: the race was not run";
+}
+
 // A texton is read in several commands: deleted or stored again between them, it is not damage
 // (it had been refused as "fails its file checksum", 500, and remembered for a minute).
 TEST(RedisStore, AReadRacingDeletesAndUploadsIsNeverCalledDamaged) {
@@ -607,28 +630,16 @@ TEST(RedisStore, AReadRacingDeletesAndUploadsIsNeverCalledDamaged) {
     store::RedisStore reader(address, std::chrono::milliseconds(2000));
     const std::string id(64, 'b');
     const std::string file(200'000, 'f'); // long enough that a read spans a write
-    std::atomic<bool> stop{false};
-    std::thread churn([&] {
-        while (!stop) {
+    expect_no_read_called_damaged(
+        [&] {
             (void)writer.put(id, file, "{}", "");
             (void)writer.remove(id);
-        }
-    });
-    int damaged = 0, read = 0;
-    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
-    while (std::chrono::steady_clock::now() < end) {
-        auto got = reader.get(id);
-        if (got && got.value()) ++read;
-        if (!got && got.error().code == ErrorCode::io) {
-            ++damaged;
-            ADD_FAILURE() << got.error().message;
-            break;
-        }
-    }
-    stop = true;
-    churn.join();
-    EXPECT_EQ(damaged, 0);
-    EXPECT_GT(read, 0) << "the reader never saw the texton: the race was not run";
+        },
+        [&]() -> Result<bool> {
+            auto got = reader.get(id);
+            if (!got) return got.error();
+            return got.value().has_value();
+        });
 }
 
 // Splats and mixes too are written back after FLUSHALL by the replica that holds them, unasked
@@ -675,31 +686,19 @@ TEST(RedisStore, AnObjectReadRacingDeletesAndPutsIsNeverCalledDamaged) {
     const store::RedisStore::Files files = {{".json", std::string(1000, 'j')},
                                             {".exr", std::string(200'000, 'e')}};
     const std::map<std::string, long long> caps = {{".json", 1 << 20}, {".exr", 1 << 20}};
-    std::atomic<bool> stop{false};
-    std::thread churn([&] {
-        while (!stop) {
+    expect_no_read_called_damaged(
+        [&] {
             (void)writer.put_object("mix", id, files);
             (void)writer.remove_object("mix", id);
-        }
-    });
-    int damaged = 0, read = 0;
-    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
-    while (std::chrono::steady_clock::now() < end) {
-        auto got = reader.get_object("mix", id, caps);
-        if (got && got.value()) {
-            ++read;
-            EXPECT_TRUE(*got.value() == files);
-        }
-        if (!got && got.error().code == ErrorCode::io) {
-            ++damaged;
-            ADD_FAILURE() << got.error().message;
-            break;
-        }
-    }
-    stop = true;
-    churn.join();
-    EXPECT_EQ(damaged, 0);
-    EXPECT_GT(read, 0) << "the reader never saw the object: the race was not run";
+        },
+        [&]() -> Result<bool> {
+            auto got = reader.get_object("mix", id, caps);
+            if (!got) return got.error();
+            if (got.value()) {
+                EXPECT_TRUE(*got.value() == files);
+            }
+            return got.value().has_value();
+        });
 }
 
 // A replica whose disk is full: a texton it cannot copy from Redis answers 507 each time, never
