@@ -476,19 +476,30 @@ end
 return out
 )lua";
 
+namespace {
+// The reply of a probe script (kProbeScript, kProbeObjectScript): {0} when the key is absent
+// (nullptr here), {-1} when it holds another type, else `elements` values after a 1.
+Result<const redisReply*> probed(const redisReply* z, std::size_t elements,
+                                 const std::string& what) {
+    if (z->type != REDIS_REPLY_ARRAY || z->elements < 1 ||
+        z->element[0]->type != REDIS_REPLY_INTEGER ||
+        (z->element[0]->integer > 0 && z->elements != elements))
+        return make_error(ErrorCode::io, "unexpected Redis reply to the probe of " + what);
+    if (z->element[0]->integer < 0)
+        return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
+    return z->element[0]->integer == 0 ? nullptr : z;
+}
+} // namespace
+
 Result<RedisStore::TextonProbe> RedisStore::probe_texton(const std::string& id) {
     auto r = command({"EVAL", kProbeScript, "1", texton_key(id)});
     if (!r) return r.error();
-    const redisReply* z = r.value()->r;
     const std::string what = "texton " + id + " in the shared store";
-    if (z->type != REDIS_REPLY_ARRAY || z->elements < 1 ||
-        z->element[0]->type != REDIS_REPLY_INTEGER)
-        return make_error(ErrorCode::io, "unexpected Redis reply to the texton probe");
+    auto reply = probed(r.value()->r, 9, what);
+    if (!reply) return reply.error();
     TextonProbe p;
-    if (z->element[0]->integer == 0) return p;
-    if (z->element[0]->integer < 0)
-        return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
-    if (z->elements != 9) return make_error(ErrorCode::io, "unexpected Redis reply to the probe");
+    const redisReply* z = reply.value();
+    if (!z) return p;
     p.exists = true;
     for (std::size_t i = 0; i < 3; ++i) p.len[i] = z->element[i + 1]->integer;
     if (z->element[4]->integer > 64 || z->element[5]->integer > 64 || z->element[6]->integer > 5)
@@ -739,16 +750,11 @@ RedisStore::probe_object(const std::string& key, const std::string& what,
     }
     auto r = command(argv);
     if (!r) return r.error();
-    const redisReply* z = r.value()->r;
-    if (z->type != REDIS_REPLY_ARRAY || z->elements < 1 ||
-        z->element[0]->type != REDIS_REPLY_INTEGER)
-        return make_error(ErrorCode::io, "unexpected Redis reply to the object probe");
+    auto reply = probed(r.value()->r, 2 + 3 * suffixes.size(), what);
+    if (!reply) return reply.error();
     ObjectProbe p;
-    if (z->element[0]->integer == 0) return p;
-    if (z->element[0]->integer < 0)
-        return make_error(ErrorCode::io, what + " is a value of another type; it is not read");
-    if (z->elements != 2 + 3 * suffixes.size())
-        return make_error(ErrorCode::io, "unexpected Redis reply to the object probe");
+    const redisReply* z = reply.value();
+    if (!z) return p;
     const long long fields = z->element[1]->integer;
     long long counted = 0;
     for (std::size_t i = 0; i < suffixes.size(); ++i) {

@@ -307,10 +307,7 @@ class HostileClients(unittest.TestCase):
     def test_a_librarys_own_stderr_lines_are_log_lines(self):
         # A PNG whose IDAT stream breaks mid-way: libpng's default handler prints "libpng error:"
         # to descriptor 2 before OpenImageIO reports it.
-        png = bytearray(ramp_png(300, 300))
-        idat = png.index(b"IDAT")
-        png[idat + 40] ^= 0xFF
-        st, _, body = self.post("/v1/textons", bytes(png), {"Content-Type": "image/png"})
+        st, _, body = self.post("/v1/textons", self.corrupt_png(), {"Content-Type": "image/png"})
         self.assertEqual(st, 422, body)
         self.assertEqual(json.loads(body)["error"]["code"], "invalid_image")
         stamp = re.compile(rb"^\[\d\d:\d\d:\d\d\.\d{3}\] (trace|debug|info|warning|error|critical) ")
@@ -331,9 +328,7 @@ class HostileClients(unittest.TestCase):
         try:
             log = open(os.path.join(data, "stderr.log"), "w+")
             env = {**os.environ, "TEXTOND_CRASH_POINT": "exr-written"}
-            proc = subprocess.Popen([BINARY, "serve", "--port", "0", "--data", data, *ARGS],
-                                    stdout=subprocess.PIPE, stderr=log, env=env)
-            port = int(proc.stdout.readline().decode().rsplit(":", 1)[1].strip("/\n "))
+            proc, port = self.own_server(data, log, env=env)
             with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
                 body = f.read()
             try:
@@ -345,12 +340,7 @@ class HostileClients(unittest.TestCase):
                 pass  # the server died mid-request, as it should
             self.assertEqual(proc.wait(30), 86)
             proc.stdout.close()
-            for _ in range(50):
-                log.seek(0)
-                text = log.read()
-                if "crash point" in text:
-                    break
-                time.sleep(0.1)
+            text = self.log_text_with(log, "crash point")
             log.close()
             self.assertIn("] warning stderr: textond: crash point exr-written", text)
         finally:
@@ -361,6 +351,17 @@ class HostileClients(unittest.TestCase):
                                 stdout=subprocess.PIPE, stderr=log, **popen)
         port = int(proc.stdout.readline().decode().rsplit(":", 1)[1].strip("/\n "))
         return proc, port
+
+    @staticmethod
+    def log_text_with(log, needle):
+        """The log file's text once it holds `needle` (at most 5 s)."""
+        for _ in range(50):
+            log.seek(0)
+            text = log.read()
+            if needle in text:
+                return text
+            time.sleep(0.1)
+        return text
 
     @staticmethod
     def corrupt_png():
@@ -386,12 +387,7 @@ class HostileClients(unittest.TestCase):
                 c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
                 c.request("POST", "/v1/textons", self.corrupt_png(), {"Content-Type": "image/png"})
                 self.assertEqual(c.getresponse().status, 422)
-                for _ in range(50):
-                    log.seek(0)
-                    text = log.read()
-                    if "libpng error" in text:
-                        break
-                    time.sleep(0.1)
+                text = self.log_text_with(log, "libpng error")
                 self.assertIn("stderr: its reader textond-stderr (pid %s) ended (killed by signal 9)"
                               % reader[0], text)
                 # The library's line is not lost in a pipe nobody reads: stderr has it as it is.
@@ -409,10 +405,7 @@ class HostileClients(unittest.TestCase):
         # line went to whatever that descriptor became. /dev/null takes it first.
         data = tempfile.mkdtemp(prefix="textond-security-closed-")
         try:
-            proc = subprocess.Popen([BINARY, "serve", "--port", "0", "--data", data, *ARGS],
-                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                    preexec_fn=lambda: os.close(2))
-            port = int(proc.stdout.readline().decode().rsplit(":", 1)[1].strip("/\n "))
+            proc, port = self.own_server(data, subprocess.DEVNULL, preexec_fn=lambda: os.close(2))
             try:
                 for fd in (0, 1, 2):
                     target = os.readlink(f"/proc/{proc.pid}/fd/{fd}")

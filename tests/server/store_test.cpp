@@ -25,6 +25,13 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+// A 64 x 64 crop of a shared photo as PNG: its 16 x 16 (or 32 x 32) texton and the exemplar fit
+// under the full-disk tests' 40 kB a file.
+std::string tiny_exemplar(const std::string& name) {
+    return io::encode_image_memory(test::crop(load_exemplar(name), 64, 64), io::Encoding::png8)
+        .value();
+}
+
 int files_in(const std::string& dir) {
     int n = 0;
     for (const auto& e : fs::directory_iterator(dir)) n += e.is_regular_file();
@@ -282,10 +289,7 @@ TEST(Store, FullDiskAnswers507AndLosesNothing) {
     ServerProcess server(data, {}, 40'000); // no file over 40 kB can be written
     auto c = server.client();
     // A 64 x 64 exemplar and its 16 x 16 texton fit; a 256 x 256 exemplar does not.
-    const std::string tiny =
-        io::encode_image_memory(test::crop(load_exemplar("etr_sand01.png"), 64, 64),
-                                io::Encoding::png8)
-            .value();
+    const std::string tiny = tiny_exemplar("etr_sand01.png");
     auto first = c.Post("/v1/textons?size=16&iterations=5", tiny, "image/png");
     ASSERT_TRUE(first);
     ASSERT_EQ(first->status, 201) << first->body;
@@ -318,10 +322,7 @@ TEST(Store, ASplatTheDiskCannotHoldLeavesNoFile) {
     const std::string data = fresh_dir("store-full-splat");
     ServerProcess server(data, {}, 40'000);
     auto c = server.client();
-    const std::string tiny =
-        io::encode_image_memory(test::crop(load_exemplar("etr_sand01.png"), 64, 64),
-                                io::Encoding::png8)
-            .value();
+    const std::string tiny = tiny_exemplar("etr_sand01.png");
     std::string ids;
     for (int seed = 1; seed <= 5; ++seed) {
         auto r = c.Post(("/v1/textons?size=16&iterations=5&seed=" + std::to_string(seed)).c_str(),
@@ -353,9 +354,7 @@ TEST(Store, AMixTheDiskCannotHoldLeavesNoFile) {
     auto c = server.client();
     std::vector<std::string> ids;
     for (const char* name : {"etr_sand01.png", "etr_pebbles04.png"}) {
-        const std::string tiny =
-            io::encode_image_memory(test::crop(load_exemplar(name), 64, 64), io::Encoding::png8)
-                .value();
+        const std::string tiny = tiny_exemplar(name);
         auto r = c.Post("/v1/textons?size=32&iterations=5", tiny, "image/png");
         ASSERT_TRUE(r);
         ASSERT_EQ(r->status, 201) << r->body;
