@@ -9,7 +9,10 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <mutex>
+#include <set>
 #include <stdexcept>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -49,10 +52,47 @@ double max_abs_diff(const core::Image& a, const core::Image& b) {
     return d;
 }
 
+namespace {
+
+// Every temp path a test process named is removed when it exits (a shared-store test alone left
+// a 100 MB Redis log a run, and thousands of runs filled the disk). A forked child that exits
+// without exec must not remove its parent's files, so the owner's pid is kept.
+// TEXTOND_KEEP_TEST_FILES=1 keeps them for a post-mortem.
+class TempPaths {
+public:
+    void add(const std::string& path) {
+        const std::lock_guard<std::mutex> lock(m_mutex);
+        m_paths.insert(path);
+    }
+    TempPaths(const TempPaths&) = delete;
+    TempPaths& operator=(const TempPaths&) = delete;
+    TempPaths() = default;
+    ~TempPaths() {
+        const char* keep = std::getenv("TEXTOND_KEEP_TEST_FILES");
+        if (::getpid() != m_owner || (keep && std::string(keep) == "1")) return;
+        std::error_code ignored;
+        for (const auto& p : m_paths) std::filesystem::remove_all(p, ignored);
+    }
+
+private:
+    std::mutex m_mutex;
+    std::set<std::string> m_paths;
+    pid_t m_owner = ::getpid();
+};
+
+TempPaths& temp_paths() {
+    static TempPaths paths;
+    return paths;
+}
+
+} // namespace
+
 std::string temp_path(const std::string& name) {
-    return (std::filesystem::temp_directory_path() /
-            ("textond-test-" + std::to_string(::getpid()) + "-" + name))
-        .string();
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              ("textond-test-" + std::to_string(::getpid()) + "-" + name))
+                                 .string();
+    temp_paths().add(path);
+    return path;
 }
 
 Moments moments(const float* p, std::size_t n) {

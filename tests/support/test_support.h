@@ -15,7 +15,8 @@ core::Image window(const core::Image& src, int x0, int y0, int w, int h);
 core::Image white_noise(int w, int h, int c, std::uint64_t seed);
 double max_abs_diff(const core::Image& a, const core::Image& b);
 
-// A path in the system temp directory, unique to this test process.
+// A path in the system temp directory, unique to this test process, removed (file or folder)
+// when the process exits unless TEXTOND_KEEP_TEST_FILES=1.
 std::string temp_path(const std::string& name);
 
 // Runs the textond binary with `args` (a shell command line after the program's name).
