@@ -44,22 +44,29 @@ template <class T> void give_spare(std::vector<T>&& buffer) {
 
 // A frame too large for the pool is a fresh mapping that its zero fill faults in page by page: on
 // 4 kB pages a 4K RGB float frame (100 MB) took 108 ms here, 40 ms on 2 MB pages, where the system
-// gives them on request (transparent huge pages in `madvise` mode, Debian's default).
+// gives them on request (transparent huge pages in `madvise` mode, Debian's default). A 4K frame's
+// 8-bit bytes (25 MB) fault the same way: the kernel's page clearing was the largest part of its
+// readback copy (tests/bench/readback_bench).
+template <class T> std::vector<T> fresh_buffer(std::size_t n) {
+    constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+    std::vector<T> out;
+    out.reserve(n);
+    const auto begin = reinterpret_cast<std::uintptr_t>(out.data());
+    const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
+    const std::uintptr_t end = (begin + n * sizeof(T)) & ~(kHuge - 1);
+    if (end > first) // advice only: where it is refused, small pages as before
+        madvise(reinterpret_cast<char*>(out.data()) + (first - begin), end - first, MADV_HUGEPAGE);
+    out.assign(n, T{});
+    return out;
+}
+
 core::Image fresh_image(int width, int height, int channels, std::size_t n) {
     if (width < 0 || height < 0 || channels < 0) return core::Image(width, height, channels);
-    constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
     core::Image out;
     out.width = width;
     out.height = height;
     out.channels = channels;
-    out.data.reserve(n);
-    const auto begin = reinterpret_cast<std::uintptr_t>(out.data.data());
-    const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
-    const std::uintptr_t end = (begin + n * sizeof(float)) & ~(kHuge - 1);
-    if (end > first) // advice only: where it is refused, small pages as before
-        madvise(reinterpret_cast<char*>(out.data.data()) + (first - begin), end - first,
-                MADV_HUGEPAGE);
-    out.data.assign(n, 0.0f);
+    out.data = fresh_buffer<float>(n);
     return out;
 }
 
@@ -87,7 +94,10 @@ core::Image take_bytes_image(int width, int height, int channels) {
     out.channels = channels;
     const std::size_t n = static_cast<std::size_t>(width) * height * channels;
     out.bytes = take_spare<std::uint8_t>(n);
-    out.bytes.resize(n);
+    if (out.bytes.capacity() < n)
+        out.bytes = fresh_buffer<std::uint8_t>(n);
+    else
+        out.bytes.resize(n);
     return out;
 }
 

@@ -1,6 +1,6 @@
 // What a GL backend's host spends on an 8-bit window after the GPU: its readback words (one a
 // pixel, the channels in the low bytes, rounded on the GPU as the PNG encoder rounds) made into
-// the response. As floats (the words through a table into planes, then interleaved and rounded
+// the response. As floats (the words divided into planes, then interleaved and rounded
 // back by the encoder) against as bytes (NoiseRequest::bytes: the words' bytes straight into what
 // the encoder takes). For 256x256 tiles, copy and PNG encode (zlib level 0, as `serve` stores
 // tiles), and for a 4K frame the copy alone, each as ms and as a ratio to floats in the same
@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <malloc.h>
 #include <string>
 #include <vector>
 
@@ -70,6 +71,10 @@ core::Image copy_out(const std::vector<std::uint32_t>& words, int w, int h, int 
 } // namespace
 
 int main(int argc, char** argv) {
+    // As `serve` tunes malloc (tune_malloc in serve_command.cpp): a frame's image is then a fresh
+    // mapping each time, whose page faults are part of what a served frame costs.
+    ::mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+    ::mallopt(M_TRIM_THRESHOLD, 1024 * 1024);
     const std::string dir = argc > 1 ? argv[1] : TEXTOND_EXEMPLARS;
     const int tiles = argc > 2 ? std::max(1, std::atoi(argv[2])) : 400;
     auto prepared = test::bench_texton(dir + "/etr_sand01.png", 10);
