@@ -20,7 +20,8 @@ double w1(std::vector<double> a, std::vector<double> b) {
     double s = 0;
     for (int j = 0; j < 1000; ++j) {
         const double p = (j + 0.5) / 1000;
-        s += std::fabs(a[std::size_t(p * a.size())] - b[std::size_t(p * b.size())]);
+        s += std::fabs(a[std::size_t(p * static_cast<double>(a.size()))] -
+                       b[std::size_t(p * static_cast<double>(b.size()))]);
     }
     return s / 1000;
 }

@@ -70,7 +70,9 @@ TEST(PeriodicComponent, RemovesTheAxisCrossOfANonPeriodicImage) {
     const int w = 128, h = 128;
     Image u = test::white_noise(w, h, 1, 11);
     for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) u.at(0, x, y) = 0.05f * u.at(0, x, y) + 0.004f * x + 0.002f * y;
+        for (int x = 0; x < w; ++x)
+            u.at(0, x, y) = 0.05f * u.at(0, x, y) + 0.004f * static_cast<float>(x) +
+                            0.002f * static_cast<float>(y);
     const double before = axis_energy_share(u);
     const double after = axis_energy_share(periodic_component(u));
     // White noise alone puts (w + h - 2) / (w h) ~ 1.6% of its energy on the axes.

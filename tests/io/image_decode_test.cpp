@@ -31,7 +31,9 @@ std::vector<float> pattern(int w, int h, int nch) {
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < nch; ++c)
                 v[(static_cast<std::size_t>(y) * w + x) * nch + c] =
-                    0.5f + 0.4f * std::sin(0.11f * x + 0.07f * y + 1.3f * c);
+                    0.5f +
+                    0.4f * std::sin(0.11f * static_cast<float>(x) + 0.07f * static_cast<float>(y) +
+                                    1.3f * static_cast<float>(c));
     return v;
 }
 
@@ -111,8 +113,8 @@ INSTANTIATE_TEST_SUITE_P(
                       FormatCase{"float.exr", OIIO::TypeDesc::FLOAT, 3, false, 3, 1e-7},
                       FormatCase{"rgba.exr", OIIO::TypeDesc::HALF, 4, true, 3, 1e-3},
                       FormatCase{"rgb.bmp", OIIO::TypeDesc::UINT8, 3, false, 3, 0.6 / 255}),
-    [](const auto& info) {
-        std::string n = info.param.name;
+    [](const auto& test_info) {
+        std::string n = test_info.param.name;
         for (auto& ch : n)
             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
         return n;
@@ -262,8 +264,9 @@ TEST(Encode, InMemoryEqualsTheFileAndDecodesBack) {
             auto memory = io::encode_image_memory(img, enc);
             ASSERT_TRUE(memory.ok());
             // PNG files take the default zlib level, tiles the stored one: only EXR compares.
-            if (enc == io::Encoding::exr)
+            if (enc == io::Encoding::exr) {
                 EXPECT_TRUE(memory.value() == io::read_file(path).value());
+            }
             auto back = io::decode_image_memory(memory.value());
             ASSERT_TRUE(back.ok());
             const double tol = enc == io::Encoding::exr     ? 0.0
