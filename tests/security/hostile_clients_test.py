@@ -19,10 +19,11 @@ import tempfile
 import threading
 import time
 import unittest
+import zlib
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from form_bytes import multipart  # noqa: E402
-from png_bytes import grey_png, pattern_png, ramp_png, rgba_png  # noqa: E402
+from png_bytes import grey_png, pattern_png, png_chunk, ramp_png, rgba_png  # noqa: E402
 
 BINARY = sys.argv[1] if len(sys.argv) > 1 else "build/release/textond"
 EXEMPLARS = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/exemplars"
@@ -1430,6 +1431,22 @@ class HostileClients(unittest.TestCase):
         finally:
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
+
+    def test_a_png_of_compressed_text_chunks_costs_no_memory(self):
+        # 100 zTXt chunks before the pixels, each inflating to 7.9 MB: 771 kB on the wire. libpng
+        # kept them all and OpenImageIO read them on open (790 MB here, 3 GiB for 400); the text
+        # is now taken out before a decoder sees the bytes.
+        inflates = zlib.compress(b"A" * 7_900_000, 9)
+        png = grey_png(64, 64, lambda y: bytes((x * 4 + y) % 256 for x in range(64)))
+        text = b"".join(png_chunk(b"zTXt", b"k%d\0\0" % i + inflates) for i in range(100))
+        bomb = png[:33] + text + png[33:]
+        idle = rss_bytes(self.s.proc.pid)
+        with PeakRss(self.s.proc.pid) as m:
+            st, _, body = self.post("/v1/textons?size=16&iterations=5", bomb,
+                                    {"Content-Type": "image/png"}, timeout=120)
+        print(f"\n  {len(bomb)} bytes: {st}, peak {(m.peak - idle) / MIB:.0f} MiB above idle")
+        self.assertIn(st, (200, 201), body[:300])
+        self.assertLess(m.peak - idle, 100 * MIB, f"{(m.peak - idle) / MIB:.0f} MiB above idle")
 
     def test_work_is_abandoned_when_its_client_leaves_or_its_deadline_passes(self):
         # A server of its own: a budget that admits a render of a minute, a 2 s deadline. Renders

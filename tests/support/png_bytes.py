@@ -3,12 +3,16 @@ import struct
 import zlib
 
 
+def png_chunk(kind, data):
+    """One PNG chunk: length, type, data and CRC."""
+    return (struct.pack(">I", len(data)) + kind + data +
+            struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+
 def grey_png(width, height, row_of, colour_type=0):
     """A PNG whose row y holds the bytes row_of(y): `width` of them (grey), 3 x `width` (RGB,
     colour_type 2), 4 x `width` (RGBA, colour_type 6)."""
-    def chunk(kind, data):
-        return (struct.pack(">I", len(data)) + kind + data +
-                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    chunk = png_chunk
     rows = b"".join(b"\0" + row_of(y) for y in range(height))
     return (b"\x89PNG\r\n\x1a\n" +
             chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)) +
