@@ -12,9 +12,8 @@ std::size_t SplatService::creation_bytes(const std::vector<io::ImageHeader>& hea
     if (headers.empty()) return 0;
     const std::size_t pixels =
         static_cast<std::size_t>(headers[0].width) * static_cast<std::size_t>(headers[0].height);
-    std::size_t decode = 0; // one image's planes (decoded in strips of rows)
-    for (const io::ImageHeader& h : headers)
-        decode = std::max(decode, pixels * static_cast<std::size_t>(h.channels) * 4 + (1U << 20));
+    std::size_t decode = 0; // one image's decode (its planes, a band and the reader's piece)
+    for (const io::ImageHeader& h : headers) decode = std::max(decode, h.decode_bytes);
     // The layers' planes beside one decode (the images are stored as uploaded, not encoded).
     return pixels * static_cast<std::size_t>(layers) * 4 + decode;
 }

@@ -39,14 +39,13 @@ bool MixRoutes::read_mask(Res res, const std::string& bytes, api::MixRequest& m,
     io::DecodeLimits limits;
     limits.max_pixels = m_config.max_pixels;
     limits.formats = m_config.formats;
-    // The decoded image and the mask made from it (4 bytes a channel-pixel) are reserved from the
-    // decode budget first, and held while the mix waits for and runs its analysis: twelve 22 KB
-    // masks of 4096 x 4096 are decoded within the budget, not all at once.
+    // The decode (ImageHeader::decode_bytes) and the mask made from it (4 bytes a pixel) are
+    // reserved from the decode budget first, and held while the mix waits for and runs its
+    // analysis: twelve 22 KB masks of 4096 x 4096 are decoded within the budget, not all at once.
     if (auto h = io::image_header_memory(bytes, limits)) {
         const auto px =
             static_cast<std::size_t>(h.value().width) * static_cast<std::size_t>(h.value().height);
-        lease = m_gate.lease_decode(
-            res, px * (static_cast<std::size_t>(std::max(1, h.value().channels)) + 1) * 4);
+        lease = m_gate.lease_decode(res, h.value().decode_bytes + px * 4);
         if (!lease) return false;
     }
     auto slot = m_gate.admit_decode(res);

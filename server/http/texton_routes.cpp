@@ -197,10 +197,10 @@ void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader
     send_ingested(req, res, std::get<TextonService::Ingested>(ingest));
 }
 
-// The decoded pixels (4 bytes a channel-pixel, from the headers) are reserved from the decode
-// budget before the decode, and held until the texton's id is known: eight 49 KB PNGs of 4096 x
-// 4096 sent at once are decoded within it, not all at once. What the decode
-// then refuses is said by it. Null when the refusal (429) was sent.
+// What the decodes hold (their planes, a band of rows and the reader's own piece, from the
+// headers) is reserved from the decode budget before the decode, and held until the texton's id is
+// known: eight 49 KB PNGs of 4096 x 4096 sent at once are decoded within it, not all at once. What
+// the decode then refuses is said by it. Null when the refusal (429) was sent.
 std::optional<std::shared_ptr<BudgetLease>>
 TextonRoutes::lease_decodes(Res res, const std::vector<std::string_view>& images) {
     std::size_t decoded = 0;
@@ -208,10 +208,7 @@ TextonRoutes::lease_decodes(Res res, const std::vector<std::string_view>& images
     limits.max_pixels = m_config.max_pixels;
     limits.formats = m_config.formats;
     for (const std::string_view b : images)
-        if (auto h = io::image_header_memory(b, limits))
-            decoded += static_cast<std::size_t>(h.value().width) *
-                       static_cast<std::size_t>(h.value().height) *
-                       (h.value().channels >= 3 ? 3U : 1U) * sizeof(float);
+        if (auto h = io::image_header_memory(b, limits)) decoded += h.value().decode_bytes;
     if (decoded <= (std::size_t{1} << 20)) return std::shared_ptr<BudgetLease>();
     auto lease = m_gate.lease_decode(res, decoded);
     if (!lease) return std::nullopt;

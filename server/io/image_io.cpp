@@ -48,7 +48,48 @@ std::string oiio_message(const std::string& raw) {
     return m.empty() ? "unknown decoder error" : m;
 }
 
-// What the header says, checked before a pixel is decoded: a flat image within the budget.
+// Which channels a decode keeps, and how it reads them: the bytes it holds at once follow.
+struct DecodePlan {
+    std::vector<int> src;  // the kept channels' indices in the file (alpha skipped)
+    int read_channels = 0; // channels 0..read_channels-1 are read (every kept one among them)
+    int band = 0;          // rows read at once: 64, or a row of tiles
+    std::uint64_t reader_chunk = 0; // what the reader inflates at once: a tile or strip, native
+    std::uint64_t held = 0;         // the planes, the band of floats and the reader's chunk
+};
+
+DecodePlan plan_decode(const ImageSpec& spec, const DecodeLimits& limits) {
+    DecodePlan p;
+    int alpha = spec.alpha_channel;
+    if (alpha < 0 && (spec.nchannels == 2 || spec.nchannels == 4)) alpha = spec.nchannels - 1;
+    if (limits.all_channels) alpha = -1;
+    const int colour_channels = spec.nchannels - (alpha >= 0 ? 1 : 0);
+    const int out_channels = limits.all_channels ? spec.nchannels : colour_channels >= 3 ? 3 : 1;
+    for (int c = 0; c < spec.nchannels && static_cast<int>(p.src.size()) < out_channels; ++c)
+        if (c != alpha) p.src.push_back(c);
+    p.read_channels = p.src.empty() ? 1 : p.src.back() + 1;
+    const auto width = static_cast<std::uint64_t>(spec.width);
+    const auto pixel = static_cast<std::uint64_t>(spec.pixel_bytes(true));
+    if (spec.tile_width > 0) {
+        p.band = std::max(1, spec.tile_height);
+        p.reader_chunk = static_cast<std::uint64_t>(spec.tile_width) *
+                         static_cast<std::uint64_t>(std::max(1, spec.tile_height)) *
+                         static_cast<std::uint64_t>(std::max(1, spec.tile_depth)) * pixel;
+    } else {
+        p.band = 64;
+        // A TIFF strip is inflated whole (libtiff), however few of its rows are asked for.
+        const int rows = std::min(spec.height, spec.get_int_attribute("tiff:RowsPerStrip", 1));
+        p.reader_chunk = width * static_cast<std::uint64_t>(std::max(1, rows)) * pixel;
+    }
+    const auto pixels = width * static_cast<std::uint64_t>(spec.height);
+    p.held = pixels * p.src.size() * 4 +
+             width * static_cast<std::uint64_t>(std::min(p.band, spec.height)) *
+                 static_cast<std::uint64_t>(p.read_channels) * 4 +
+             p.reader_chunk;
+    return p;
+}
+
+// What the header says, checked before a pixel is decoded: a flat image within the budget, whose
+// reader inflates at most limits.max_reader_chunk bytes at once.
 std::optional<Error> check_header(const ImageSpec& spec, const DecodeLimits& limits) {
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1)
         return unprocessable("image has no pixels or is a volume (" + std::to_string(spec.width) +
@@ -59,6 +100,17 @@ std::optional<Error> check_header(const ImageSpec& spec, const DecodeLimits& lim
                           "image is " + std::to_string(spec.width) + "x" +
                               std::to_string(spec.height) + " = " + std::to_string(pixels) +
                               " pixels, over the budget of " + std::to_string(limits.max_pixels));
+    if (spec.nchannels > 16) return unprocessable("image has too many channels");
+    const DecodePlan plan = plan_decode(spec, limits);
+    if (plan.reader_chunk > limits.max_reader_chunk)
+        return unprocessable(
+            std::string("image is stored in ") +
+            (spec.tile_width > 0 ? "tiles of " + std::to_string(spec.tile_width) + "x" +
+                                       std::to_string(spec.tile_height)
+                                 : "strips of " + std::to_string(spec.width) + " pixels") +
+            " with " + std::to_string(spec.nchannels) + " channels: " +
+            std::to_string(plan.reader_chunk >> 20) + " MiB a piece to decode, over the " +
+            std::to_string(limits.max_reader_chunk >> 20) + " MiB a decoder may hold");
     return std::nullopt;
 }
 
@@ -66,39 +118,34 @@ Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits, int*
     const ImageSpec& spec = in.spec();
     if (bits) *bits = static_cast<int>(spec.format.size()) * 8;
     if (auto e = check_header(spec, limits)) return *e;
-    if (spec.nchannels > 16) return unprocessable("image has too many channels");
-
-    int alpha = spec.alpha_channel;
-    if (alpha < 0 && (spec.nchannels == 2 || spec.nchannels == 4)) alpha = spec.nchannels - 1;
-    if (limits.all_channels) alpha = -1;
-    const int colour_channels = spec.nchannels - (alpha >= 0 ? 1 : 0);
-    const int out_channels = limits.all_channels ? spec.nchannels : colour_channels >= 3 ? 3 : 1;
-
+    const DecodePlan plan = plan_decode(spec, limits);
+    const int out_channels = static_cast<int>(plan.src.size());
+    const int nread = plan.read_channels;
     core::Image img(spec.width, spec.height, out_channels);
-    // Indices of the colour channels we keep (skip the alpha channel wherever it sits).
-    std::vector<int> src;
-    for (int c = 0; c < spec.nchannels && static_cast<int>(src.size()) < out_channels; ++c)
-        if (c != alpha) src.push_back(c);
-    // Scanline files in strips of rows, each turned into the planes at once: a decode holds the
-    // planes and one strip, not the interleaved floats of the whole image beside them (a 4096^2
-    // RGB upload held 400 MB where 200 MB is the image). Tiled files whole.
-    const int strip = spec.tile_width > 0 ? spec.height : 64;
+    // In bands of rows (of tiles, for a tiled file), only the channels kept, each band turned
+    // into the planes at once: a decode holds the planes and one band, not the interleaved
+    // floats of the whole image beside them (a 4096^2 RGB upload held 400 MB where 200 MB is the
+    // image; a tiled TIFF of 16 float channels, read whole, 3.3 GiB).
     const auto width = static_cast<std::size_t>(spec.width);
-    std::vector<float> buf(width * static_cast<std::size_t>(strip) *
-                           static_cast<std::size_t>(spec.nchannels));
-    for (int y0 = 0; y0 < spec.height; y0 += strip) {
-        const int y1 = std::min(spec.height, y0 + strip);
-        const bool read = spec.tile_width > 0
-                              ? in.read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf.data())
-                              : in.read_scanlines(0, 0, spec.y + y0, spec.y + y1, 0, 0,
-                                                  spec.nchannels, TypeDesc::FLOAT, buf.data());
+    std::vector<float> buf(width * static_cast<std::size_t>(std::min(plan.band, spec.height)) *
+                           static_cast<std::size_t>(nread));
+    for (int y0 = 0; y0 < spec.height; y0 += plan.band) {
+        const int y1 = std::min(spec.height, y0 + plan.band);
+        const bool read =
+            spec.tile_width > 0
+                ? in.read_tiles(0, 0, spec.x, spec.x + spec.width, spec.y + y0, spec.y + y1, spec.z,
+                                spec.z + 1, 0, nread, TypeDesc::FLOAT, buf.data())
+                : in.read_scanlines(0, 0, spec.y + y0, spec.y + y1, 0, 0, nread, TypeDesc::FLOAT,
+                                    buf.data());
         if (!read || in.has_error())
             return unprocessable("cannot decode image: " + oiio_message(in.geterror()));
         const std::size_t first = static_cast<std::size_t>(y0) * width;
         const std::size_t count = static_cast<std::size_t>(y1 - y0) * width;
         for (std::size_t k = 0; k < count; ++k)
             for (int c = 0; c < out_channels; ++c) {
-                const float v = buf[k * spec.nchannels + src[static_cast<std::size_t>(c)]];
+                const float v =
+                    buf[k * static_cast<std::size_t>(nread) +
+                        static_cast<std::size_t>(plan.src[static_cast<std::size_t>(c)])];
                 if (!std::isfinite(v))
                     return unprocessable("image contains NaN or infinite values");
                 img.plane(c)[first + k] = v;
@@ -209,7 +256,8 @@ Result<ImageHeader> image_header_memory(std::string_view bytes, const DecodeLimi
     const ImageSpec& spec = opened.value().in->spec();
     if (auto e = check_header(spec, limits)) return *e;
     return ImageHeader{spec.width, spec.height, spec.nchannels,
-                       static_cast<int>(spec.format.size()) * 8};
+                       static_cast<int>(spec.format.size()) * 8,
+                       static_cast<std::size_t>(plan_decode(spec, limits).held)};
 }
 
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits,

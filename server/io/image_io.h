@@ -17,6 +17,11 @@
 
 namespace textond::io {
 
+// The most a reader inflates at once (a tile, or a TIFF strip, of every channel at the file's
+// depth): one 4096 x 4096 tile of 16 float channels is 1 GiB, from a 1 MB upload. 128 MiB holds a
+// single-strip 4096 x 4096 RGB image of 16 bits (96 MiB); more is refused before decoding (422).
+inline constexpr std::uint64_t kMaxReaderChunk = std::uint64_t{128} << 20;
+
 struct DecodeLimits {
     std::uint64_t max_pixels = 16'777'216; // 16.8 MP (4096 x 4096)
     // OpenImageIO format names the decoders accept ("png", "jpeg", "tiff", "openexr", "bmp");
@@ -25,6 +30,8 @@ struct DecodeLimits {
     // Every channel in the file's order, alpha included (a splat's weights: RGBA = 4 layers);
     // otherwise the colour channels only, 1 or 3.
     bool all_channels = false;
+    // The most a reader may inflate at once (kMaxReaderChunk; tests set less).
+    std::uint64_t max_reader_chunk = kMaxReaderChunk;
 };
 
 // The most scans of a JPEG decoded (a progressive one has about 10): each is a pass over the
@@ -47,6 +54,9 @@ Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimi
 // is decoded (admission sizes the decode from it).
 struct ImageHeader {
     int width = 0, height = 0, channels = 0, bits = 8;
+    // What decoding it holds at once: the kept channels' float planes, a band of rows and the
+    // reader's own piece (a tile or a TIFF strip of every channel).
+    std::size_t decode_bytes = 0;
 };
 Result<ImageHeader> image_header_memory(std::string_view bytes, const DecodeLimits& limits = {});
 

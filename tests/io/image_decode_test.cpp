@@ -3,6 +3,7 @@
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <cmath>
@@ -433,3 +434,68 @@ TEST(ImageEncode, SameBytesAcrossSeconds) {
 }
 } // namespace
 } // namespace textond::test
+
+namespace {
+
+// A 16-channel float TIFF of w x h in tiles of `tile` (0: scanlines), zip-compressed: channel c
+// of pixel (x, y) is (x + 3 y + 7 c) mod 101 / 100.
+std::string many_channel_tiff(int w, int h, int tile) {
+    OIIO::ImageSpec spec(w, h, 16, OIIO::TypeDesc::FLOAT);
+    if (tile > 0) spec.tile_width = spec.tile_height = tile;
+    spec.attribute("compression", "zip");
+    std::vector<float> px(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 16);
+    for (std::size_t k = 0; k < px.size(); ++k) {
+        const std::size_t p = k / 16, c = k % 16;
+        const std::size_t x = p % static_cast<std::size_t>(w), y = p / static_cast<std::size_t>(w);
+        px[k] = static_cast<float>((x + 3 * y + 7 * c) % 101) / 100.0f;
+    }
+    const std::string path = test::temp_path("channels" + std::to_string(tile) + ".tif");
+    auto out = OIIO::ImageOutput::create(path);
+    EXPECT_TRUE(out && out->open(path, spec) &&
+                out->write_image(OIIO::TypeDesc::FLOAT, px.data()) && out->close());
+    return io::read_file(path).value();
+}
+
+long peak_rss_mib() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return u.ru_maxrss / 1024;
+}
+
+} // namespace
+
+// A tiled file is read a row of tiles at a time, and only the channels kept: a 1024 x 1024 TIFF
+// of 16 float channels in 256 x 256 tiles decodes to the scanline file's pixels within a few MB
+// beyond its planes (it had held all 16 channels of the whole image: 64 MB more here, 3.3 GiB
+// for a 4096 x 4096 upload of 1 MB). A file whose one tile the reader would inflate beyond
+// max_reader_chunk is refused from its header, before a pixel.
+TEST(Decode, ManyChannelTilesAreReadInBandsAndHugeTilesRefused) {
+    const std::string scanlines = many_channel_tiff(1024, 1024, 0);
+    const std::string tiled = many_channel_tiff(1024, 1024, 256);
+    auto plain = io::decode_image_memory(scanlines);
+    ASSERT_TRUE(plain) << plain.error().message;
+    const long before = peak_rss_mib();
+    auto banded = io::decode_image_memory(tiled);
+    const long grown = peak_rss_mib() - before;
+    ASSERT_TRUE(banded) << banded.error().message;
+    EXPECT_EQ(banded.value().channels, 3);
+    EXPECT_EQ(test::max_abs_diff(banded.value(), plain.value()), 0.0);
+    EXPECT_FLOAT_EQ(banded.value().at(2, 5, 1), static_cast<float>((5 + 3 + 14) % 101) / 100.0f);
+    EXPECT_LT(grown, 24) << "MiB grown beyond the scanline decode's peak";
+    auto header = io::image_header_memory(tiled);
+    ASSERT_TRUE(header);
+    // 12 MiB of planes, a band of 256 rows of 3 channels (3 MiB) and a 4 MiB tile.
+    EXPECT_EQ(header.value().decode_bytes, (12u << 20) + (3u << 20) + (4u << 20));
+
+    const std::string one_tile = many_channel_tiff(512, 512, 512); // 16 MiB inflated at once
+    io::DecodeLimits small;
+    small.max_reader_chunk = std::uint64_t{8} << 20;
+    for (auto refused : {io::image_header_memory(one_tile, small).error(),
+                         io::decode_image_memory(one_tile, small).error()}) {
+        EXPECT_EQ(refused.code, ErrorCode::unprocessable);
+        EXPECT_NE(refused.message.find("tiles of 512x512 with 16 channels: 16 MiB"),
+                  std::string::npos)
+            << refused.message;
+    }
+    EXPECT_TRUE(io::decode_image_memory(one_tile)) << "within the default limit";
+}
