@@ -10,6 +10,9 @@
 #include <atomic>
 #include <cassert>
 #include <cmath>
+#include <memory>
+#include <mutex>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -282,16 +285,70 @@ void splat_row_cubic(float* __restrict acc, const float* const g[4], const TapSt
     }
 }
 
-// Per-thread scratch reused across blocks and calls (a fresh 200 kB vector per block costs page
-// faults).
-std::vector<float>& thread_accumulators() {
-    static thread_local std::vector<float> v;
-    return v;
+// What a block lists and accumulates, reused from block to block (a fresh 200 kB vector a block
+// costs page faults) through a process-wide pool, not kept a thread: every connection thread
+// renders and libgomp gives each a team of its own, so scratch kept at its largest by some 150
+// threads grew a replica serving level-3 tiles of a small texton (1.2 million points a tile) to
+// 1.9 GB. The pool keeps one set a core, each of at most kKeptSetBytes.
+struct BlockScratch {
+    std::vector<float> acc;
+    std::vector<CellPoint> pts;
+    std::vector<int> point_level;
+    std::vector<RunSplat> phase_points;
+    TapStore taps;
+    std::vector<std::pair<TapRange, TapRange>> ranges;
+    std::vector<double> rho;
+
+    std::size_t bytes() const {
+        return acc.capacity() * sizeof(float) + pts.capacity() * sizeof(CellPoint) +
+               point_level.capacity() * sizeof(int) + phase_points.capacity() * sizeof(RunSplat) +
+               taps.t.capacity() * sizeof(int) +
+               (taps.w0.capacity() + taps.w1.capacity() + taps.w2.capacity() + taps.w3.capacity()) *
+                   sizeof(float) +
+               ranges.capacity() * sizeof(ranges[0]) + rho.capacity() * sizeof(double);
+    }
+};
+
+constexpr std::size_t kKeptSetBytes = std::size_t{32} << 20;
+
+class ScratchPool {
+public:
+    std::unique_ptr<BlockScratch> take() {
+        const std::lock_guard<std::mutex> lock(m_mutex);
+        if (m_free.empty()) return std::make_unique<BlockScratch>();
+        auto s = std::move(m_free.back());
+        m_free.pop_back();
+        return s;
+    }
+    void give(std::unique_ptr<BlockScratch> s) {
+        if (s->bytes() > kKeptSetBytes) return;
+        const std::lock_guard<std::mutex> lock(m_mutex);
+        if (m_free.size() < m_kept) m_free.push_back(std::move(s));
+    }
+
+private:
+    std::mutex m_mutex;
+    std::vector<std::unique_ptr<BlockScratch>> m_free;
+    const std::size_t m_kept = std::max(2u, std::thread::hardware_concurrency());
+};
+
+ScratchPool& scratch_pool() {
+    static ScratchPool pool;
+    return pool;
 }
-std::vector<CellPoint>& thread_points() {
-    static thread_local std::vector<CellPoint> v;
-    return v;
-}
+
+// One set for the scope of a block.
+class ScratchLease {
+public:
+    ScratchLease() : m_set(scratch_pool().take()) {}
+    ~ScratchLease() { scratch_pool().give(std::move(m_set)); }
+    ScratchLease(const ScratchLease&) = delete;
+    ScratchLease& operator=(const ScratchLease&) = delete;
+    BlockScratch* operator->() const { return m_set.get(); }
+
+private:
+    std::unique_ptr<BlockScratch> m_set;
+};
 
 struct Block {
     std::int64_t x0, y0; // global output coordinates
@@ -312,27 +369,6 @@ void cell_range(const LevelGeometry& g, int a, std::int64_t p0, std::int64_t p1,
     }
     c0 = floor_div(b_lo, a);
     c1 = floor_div(b_hi, a);
-}
-
-std::vector<int>& thread_point_levels() {
-    static thread_local std::vector<int> v;
-    return v;
-}
-std::vector<RunSplat>& thread_phase_points() {
-    static thread_local std::vector<RunSplat> v;
-    return v;
-}
-TapStore& thread_taps() {
-    static thread_local TapStore s;
-    return s;
-}
-std::vector<std::pair<TapRange, TapRange>>& thread_tap_ranges() {
-    static thread_local std::vector<std::pair<TapRange, TapRange>> v;
-    return v;
-}
-std::vector<double>& thread_pixel_rho() {
-    static thread_local std::vector<double> v;
-    return v;
 }
 
 // A point's RunSplat at a zoomed-out level (the table's phase planes) in channel 0 of the block's
@@ -384,7 +420,8 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
     const int nc = tex.channels();
     const std::size_t stride = static_cast<std::size_t>(blk.w) + kRunQuantum;
     const std::size_t plane = stride * blk.h;
-    std::vector<float>& acc = thread_accumulators();
+    const ScratchLease scratch;
+    std::vector<float>& acc = scratch->acc;
     acc.assign(plane * nc, 0.0f);
     std::int64_t cx0, cx1, cy0, cy1;
     cell_range(geo, grid.a, blk.x0, blk.x0 + blk.w, cx0, cx1);
@@ -392,12 +429,12 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
     // All points that may reach the block, in the global order (cells by y then x, points in
     // draw order); then one channel at a time, so the accumulators and the table of that
     // channel stay in L1/L2 while every point is added.
-    std::vector<CellPoint>& pts = thread_points();
+    std::vector<CellPoint>& pts = scratch->pts;
     pts.clear();
     for (std::int64_t cy = cy0; cy <= cy1; ++cy)
         for (std::int64_t cx = cx0; cx <= cx1; ++cx) grid.cell_points(q.seed, cx, cy, pts);
     points += pts.size();
-    std::vector<int>& point_level = thread_point_levels();
+    std::vector<int>& point_level = scratch->point_level;
     point_level.assign(pts.size(), 0);
     if (mix)
         for (std::size_t i = 0; i < pts.size(); ++i)
@@ -406,11 +443,11 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
     // Zoomed-out levels of orders 0 and 1 read the tables split by phase; other levels find
     // every point's taps on both axes, once for all channels.
     const bool phased = geo.level > 0 && geo.order <= 1;
-    TapStore& store = thread_taps();
-    std::vector<std::pair<TapRange, TapRange>>& ranges = thread_tap_ranges();
+    TapStore& store = scratch->taps;
+    std::vector<std::pair<TapRange, TapRange>>& ranges = scratch->ranges;
     store.clear();
     ranges.clear();
-    std::vector<RunSplat>& phase_points = thread_phase_points();
+    std::vector<RunSplat>& phase_points = scratch->phase_points;
     phase_points.clear();
     if (phased)
         for (std::size_t pi = 0; pi < pts.size(); ++pi)
@@ -530,7 +567,7 @@ void render_block(const PreparedTexton& tex, const std::vector<const LevelTable*
     const float scale = static_cast<float>(1.0 / std::sqrt(grid.lambda));
     const std::int64_t ox = blk.x0 - q.x0, oy = blk.y0 - q.y0;
     // A mix's field at every pixel of the block, once for all channels.
-    std::vector<double>& rho = thread_pixel_rho();
+    std::vector<double>& rho = scratch->rho;
     if (mix) {
         rho.resize(static_cast<std::size_t>(blk.w) * blk.h);
         for (int y = 0; y < blk.h; ++y) {

@@ -8,6 +8,7 @@
 #include "render/image_buffers.h"
 #include "render/prepared_splat.h"
 #include "render/renderer.h"
+#include "render/thread_scratch.h"
 
 #include <algorithm>
 #include <cmath>
@@ -230,6 +231,7 @@ std::optional<Error> splat_window(Renderer& r, const PreparedSplat& s, const Noi
         recycle_image(std::move(img.value()));
     }
     recycle_image(std::move(weights.value()));
+    release_if_large(scratch);
     return std::nullopt;
 }
 
@@ -243,6 +245,7 @@ Result<core::Image> Renderer::splat_weights(const PreparedSplat& s, const NoiseR
     std::vector<float>& sum = thread_scratch();
     sum.resize(image.value().plane_size());
     normalise_planes(s.layers(), image.value().plane_size(), image.value().data.data(), sum.data());
+    release_if_large(sum);
     return image;
 }
 

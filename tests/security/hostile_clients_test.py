@@ -1432,6 +1432,33 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
+    def test_render_scratch_does_not_grow_with_the_connections_that_rendered(self):
+        # A level-3 tile of a texton of 16 lists about 1.2 million points. Each connection thread
+        # (and the libgomp team each one opens) kept its largest scratch: 160 tiles, each on a new
+        # connection, took a server from 327 MiB to 2.5 GiB, and a replica serving splats of such
+        # textons to 1.9 GB. Scratch now comes from a pool of one set a core.
+        data = tempfile.mkdtemp(prefix="textond-scratch-mem-")
+        s = Server(data, defaults=True)
+        try:
+            with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
+                st, _, body = s.request("POST", "/v1/textons?size=16&iterations=5", f.read(),
+                                        {"Content-Type": "image/png"}, timeout=120)
+            self.assertIn(st, (200, 201), body)
+            tid = json.loads(body)["id"]
+
+            def tile(i):
+                return s.request("GET", f"/v1/textons/{tid}/tiles/3/{i}/7.png", timeout=120)[0]
+            self.assertEqual(self.concurrent(4, tile), [200] * 4)  # warm: tables, pools
+            warm = rss_bytes(s.proc.pid)
+            sts = [self.concurrent(4, lambda i, k=k: tile(4 + 4 * k + i)) for k in range(10)]
+            grown = rss_bytes(s.proc.pid) - warm
+            print(f"\n  40 more tiles, each on its own connection: {grown / MIB:.0f} MiB grown")
+            self.assertEqual(sts, [[200] * 4] * 10)
+            self.assertLess(grown, 160 * MIB, f"{grown / MIB:.0f} MiB grown")
+        finally:
+            s.stop()
+            shutil.rmtree(data, ignore_errors=True)
+
     def test_a_png_of_compressed_text_chunks_costs_no_memory(self):
         # 100 zTXt chunks before the pixels, each inflating to 7.9 MB: 771 kB on the wire. libpng
         # kept them all and OpenImageIO read them on open (790 MB here, 3 GiB for 400); the text
