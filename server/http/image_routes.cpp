@@ -319,6 +319,9 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
     api::NoiseParams p;
     if (auto e = api::parse_kit(id, q, p)) return send_error(res, *e);
     const std::string key = "kit/" + id + "/" + api::exact_text(p.mni);
+    // Stored still, before the cache answers: a DELETE on another replica erases no entry here.
+    if (auto order = m_textons.interpolation_order(id); !order)
+        return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
     const auto headers = [&] {
