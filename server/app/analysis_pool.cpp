@@ -106,6 +106,15 @@ std::shared_ptr<AnalysisJob> AnalysisPool::find(const std::string& id) const {
     return nullptr;
 }
 
+std::vector<std::shared_ptr<AnalysisJob>> AnalysisPool::jobs() const {
+    std::lock_guard lock(m_mutex);
+    std::vector<std::shared_ptr<AnalysisJob>> out;
+    out.reserve(m_in_flight.size() + m_recent.size());
+    for (const auto& [id, job] : m_in_flight) out.push_back(job);
+    out.insert(out.end(), m_recent.begin(), m_recent.end());
+    return out;
+}
+
 int AnalysisPool::queued() const {
     std::lock_guard lock(m_mutex);
     return static_cast<int>(m_queue.size());

@@ -74,6 +74,8 @@ public:
     void leave(const std::shared_ptr<AnalysisJob>& job);
     // A job in flight or recently finished (status queries), or null.
     std::shared_ptr<AnalysisJob> find(const std::string& id) const;
+    // Every job in flight and every one recently finished (the job board publishes them).
+    std::vector<std::shared_ptr<AnalysisJob>> jobs() const;
 
     int queued() const;
     int running() const;

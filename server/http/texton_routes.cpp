@@ -138,8 +138,22 @@ std::vector<std::string_view> map_bytes(const std::vector<TextonService::MapUplo
 TextonRoutes::TextonRoutes(const ServeConfig& config, TextonStore& store, TextonService& textons,
                            AnalysisPool& pool, ImageCache& cache, Gate& gate,
                            const std::atomic<bool>& stopping)
-    : m_config(config), m_store(store), m_textons(textons), m_pool(pool), m_cache(cache),
-      m_gate(gate), m_stopping(stopping) {}
+    : m_config(config), m_store(store), m_textons(textons), m_pool(pool),
+      m_board(pool, store.shared(), &TextonRoutes::job_status), m_cache(cache), m_gate(gate),
+      m_stopping(stopping) {}
+
+nlohmann::json TextonRoutes::job_status(const AnalysisJob& job) {
+    const auto [done, total] = job.progress();
+    nlohmann::json body = {{"id", job.id()},
+                           {"state", to_string(job.state())},
+                           {"progress", {{"done", done}, {"total", total}}},
+                           {"links", {{"self", "/v1/textons/" + job.id()}}}};
+    if (job.state() == AnalysisJob::State::failed) {
+        const api::ApiError e = to_api_error(job.wait().error());
+        body["error"] = {{"code", e.code}, {"message", e.message}};
+    }
+    return body;
+}
 
 void TextonRoutes::upload(Req req, Res res, const httplib::ContentReader& reader) {
     set_route("/v1/textons");
@@ -245,6 +259,7 @@ void TextonRoutes::send_ingested(Req req, Res res, const TextonService::Ingested
     const bool polls = req.get_header_value("Prefer").find("respond-async") != std::string::npos;
     m_pool.attach(submitted.job, polls);
     if (polls) {
+        m_board.publish(*submitted.job); // its status may be asked of another replica at once
         res.set_header("Location", status_url);
         res.set_header("Preference-Applied", "respond-async");
         const auto [done, total] = submitted.job->progress();
@@ -311,23 +326,22 @@ void TextonRoutes::status(Req req, Res res) {
     };
     if (stored()) return;
     auto job = m_pool.find(id);
-    if (!job) return send_error(res, {"not_found", "no texton or analysis " + id});
+    if (!job) {
+        // Another replica's job, as that replica answers for it (server/app/job_board.h).
+        auto elsewhere = m_board.find(id);
+        if (!elsewhere) return send_error(res, {"not_found", "no texton or analysis " + id});
+        if (elsewhere->value("state", "") == "done") // stored, then deleted (read again above)
+            return send_error(res,
+                              {"not_found", "texton " + id + " was deleted after its analysis"});
+        return send_json(res, 200, *elsewhere);
+    }
     // A job done since the first look has stored its texton; one the store no longer has was
     // deleted after its analysis (the pool remembers it a while).
     if (job->state() == AnalysisJob::State::done) {
         if (stored()) return;
         return send_error(res, {"not_found", "texton " + id + " was deleted after its analysis"});
     }
-    const auto [done, total] = job->progress();
-    nlohmann::json body = {{"id", id},
-                           {"state", to_string(job->state())},
-                           {"progress", {{"done", done}, {"total", total}}},
-                           {"links", {{"self", self}}}};
-    if (job->state() == AnalysisJob::State::failed) {
-        const api::ApiError e = to_api_error(job->wait().error());
-        body["error"] = {{"code", e.code}, {"message", e.message}};
-    }
-    send_json(res, 200, body);
+    send_json(res, 200, job_status(*job));
 }
 
 void TextonRoutes::file(Req req, Res res) {

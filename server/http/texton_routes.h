@@ -3,6 +3,7 @@
 // the texton's files and engine kit, deletion and listing.
 #include "api/texton_meta.h"
 #include "server/app/analysis_pool.h"
+#include "server/app/job_board.h"
 #include "server/app/texton_service.h"
 #include "server/http/config.h"
 #include "server/http/gate.h"
@@ -23,6 +24,8 @@ public:
     TextonRoutes(const ServeConfig& config, TextonStore& store, TextonService& textons,
                  AnalysisPool& pool, ImageCache& cache, Gate& gate,
                  const std::atomic<bool>& stopping);
+    // A job's status answer (GET /v1/textons/{id}/status while it is in the pool).
+    static nlohmann::json job_status(const AnalysisJob& job);
 
     using Req = const httplib::Request&;
     using Res = httplib::Response&;
@@ -45,6 +48,7 @@ private:
     TextonStore& m_store;
     TextonService& m_textons;
     AnalysisPool& m_pool;
+    JobBoard m_board; // the jobs of every replica, with a shared store
     ImageCache& m_cache;
     Gate& m_gate;
     const std::atomic<bool>& m_stopping;

@@ -27,6 +27,9 @@ std::string texton_key(const std::string& id) {
 std::string tombstone_key(const std::string& id) {
     return std::string(kPrefix) + "deleted:" + id;
 }
+std::string job_key(const std::string& id) {
+    return std::string(kPrefix) + "job:" + id;
+}
 std::string ids_key() {
     return std::string(kPrefix) + "ids";
 }
@@ -677,6 +680,26 @@ RedisStore::list_meta(const std::string& after, int limit, bool* more) {
             out.emplace_back(read[i], std::move(*s));
     }
     return out;
+}
+
+Result<bool> RedisStore::put_job(const std::string& id, const std::string& json,
+                                 std::chrono::seconds ttl) {
+    if (json.size() > kMaxJobBytes)
+        return make_error(ErrorCode::invalid_argument, "a job's status is larger than it may be");
+    auto r = command({"SET", job_key(id), json, "EX",
+                      std::to_string(std::max<long long>(1, static_cast<long long>(ttl.count())))});
+    if (!r) return r.error();
+    return true;
+}
+
+Result<std::optional<std::string>> RedisStore::get_job(const std::string& id) {
+    auto size = command({"STRLEN", job_key(id)});
+    if (!size) return size.error();
+    const long long n = size.value()->integer();
+    if (n <= 0 || static_cast<std::size_t>(n) > kMaxJobBytes) return std::optional<std::string>();
+    auto r = command({"GET", job_key(id)}, static_cast<std::size_t>(n));
+    if (!r) return r.error();
+    return Reply::string(r.value()->r);
 }
 
 Result<std::uint64_t> RedisStore::count() {

@@ -8,6 +8,7 @@
 //                 meta: the metadata JSON, exemplar: the exemplar PNG, exemplar_sha256}
 //   ids           sorted set of ids (score 0, ordered by id: cursor pages with ZRANGEBYLEX)
 //   deleted:<id>  a tombstone, so replicas drop their local copies of deleted textons
+//   job:<id>      an analysis's status answer while it runs (put_job; it expires)
 // A texton is written once, by one Lua script (atomic: readers see all of it or nothing), and
 // only when absent: of two replicas that analyse the same exemplar at once, one stores it and
 // the other adopts that one. The file's sha256 is checked on every read, so a value damaged in
@@ -120,6 +121,12 @@ public:
                        const std::string& signature);
     Result<Presence> object_presence(const std::string& kind, const std::string& id);
     Result<bool> remove_object(const std::string& kind, const std::string& id);
+    // An analysis in flight on some replica, by texton id: `job:<id>`, a small JSON that expires
+    // after `ttl` (its replica publishes it again while the job lives; server/app/job_board.h).
+    // A value over kMaxJobBytes is never read (nullopt, as absent).
+    static constexpr std::size_t kMaxJobBytes = 4096;
+    Result<bool> put_job(const std::string& id, const std::string& json, std::chrono::seconds ttl);
+    Result<std::optional<std::string>> get_job(const std::string& id);
     // Room left under Redis's maxmemory (INFO memory): an error when it is full or evicts (a
     // policy other than noeviction loses textons).
     std::optional<std::string> memory_warning();

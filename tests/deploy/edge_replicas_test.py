@@ -226,6 +226,31 @@ def kit_after_delete(edge, replicas, exemplars):
           "texton is deleted")
 
 
+def async_status_on_the_other_replica(edge, replicas, exemplars):
+    """An upload that polls (202) is answered for by either replica: the one that does not run the
+    analysis gives the state the other publishes (it had said 404 for the whole analysis, which
+    the edge sends it half the time: the POST is spread by request, the status by the id)."""
+    a, b = replicas
+    with open(os.path.join(exemplars, "mypaint_HR_Cork.png"), "rb") as f:
+        st, body = http(f"{a}/v1/textons?size=64&iterations=400&seed=71", "POST", f.read(),
+                        {"Content-Type": "image/png", "Prefer": "respond-async"})
+    assert st == 202, (st, body[:200])
+    status = json.loads(body)["links"]["status"]
+    seen = []
+    end = time.monotonic() + 120
+    while time.monotonic() < end:
+        st, got = http(f"{b}{status}")
+        state = json.loads(got).get("state") if st == 200 else st
+        if not seen or seen[-1] != state:
+            seen.append(state)
+        if state == "done" or st != 200:
+            break
+        time.sleep(0.05)
+    assert seen[-1] == "done" and all(s in ("queued", "running", "done") for s in seen), seen
+    assert len(seen) > 1, f"the analysis ended before the other replica was asked: {seen}"
+    print(f"an upload polled on the other replica: {' -> '.join(map(str, seen))}")
+
+
 def get_json(url):
     with urllib.request.urlopen(url, timeout=10) as r:
         return json.loads(r.read())
@@ -304,6 +329,12 @@ def main():
             passed += 1
         except AssertionError as e:
             print(f"FAIL: damaged values in the shared store: {e}")
+            failed += 1
+        try:
+            async_status_on_the_other_replica(edge, replicas, exemplars)
+            passed += 1
+        except AssertionError as e:
+            print(f"FAIL: an upload's status on the other replica: {e}")
             failed += 1
         try:
             kit_after_delete(edge, replicas, exemplars)
