@@ -54,6 +54,8 @@ public:
     struct WindowCost {
         int passes = 1;
         double cpu_share = 0;
+        int textons = 1; // texton windows rendered (a splat's layers)
+        int size = 0;    // the smallest texton size among them: its zoomed-out levels list most
     };
     virtual Result<WindowCost> cost(const std::string& id, const api::MapChoice& map) const = 0;
     // What its tiles would refuse (marginals or a map the id does not have, an unknown id),

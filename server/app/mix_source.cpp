@@ -8,9 +8,11 @@ Result<int> MixSource::interpolation_order(const std::string& id) const {
     return found.value().order;
 }
 
-Result<ImageSource::WindowCost> MixSource::cost(const std::string& /*id*/,
+Result<ImageSource::WindowCost> MixSource::cost(const std::string& id,
                                                 const api::MapChoice& /*map*/) const {
-    return WindowCost{};
+    auto meta = m_mixes.meta(id);
+    if (!meta) return meta.error();
+    return WindowCost{1, 0.0, 1, meta.value().size};
 }
 
 std::optional<Error> MixSource::tilejson_refusal(const std::string& id,

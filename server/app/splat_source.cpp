@@ -29,7 +29,10 @@ Result<ImageSource::WindowCost> SplatSource::cost(const std::string& id,
                                                   const api::MapChoice& /*map*/) const {
     auto found = m_splats.prepared(id);
     if (!found) return found.error();
-    return WindowCost{found.value()->layers() + 3, 0.0};
+    const render::PreparedSplat& splat = *found.value();
+    int size = splat.layer(0).size();
+    for (int k = 1; k < splat.layers(); ++k) size = std::min(size, splat.layer(k).size());
+    return WindowCost{splat.layers() + 3, 0.0, splat.layers(), size};
 }
 
 std::optional<Error> SplatSource::tilejson_refusal(const std::string& id,

@@ -95,11 +95,14 @@ Result<int> TextonSource::interpolation_order(const std::string& id) const {
 
 // Normals take two CPU gradient passes, the lit view a render more; normals are made on the CPU
 // whatever the backend (the lit view's albedo is rendered).
-Result<ImageSource::WindowCost> TextonSource::cost(const std::string& /*id*/,
+Result<ImageSource::WindowCost> TextonSource::cost(const std::string& id,
                                                    const api::MapChoice& map) const {
-    if (map.name == core::kLitMap) return WindowCost{3, 2.0 / 3.0};
-    if (map.name == core::kNormalMap) return WindowCost{2, 1.0};
-    return WindowCost{1, 0.0};
+    auto meta = m_textons.find(id);
+    if (!meta) return meta.error();
+    const int size = meta.value().size;
+    if (map.name == core::kLitMap) return WindowCost{3, 2.0 / 3.0, 3, size};
+    if (map.name == core::kNormalMap) return WindowCost{2, 1.0, 2, size};
+    return WindowCost{1, 0.0, 1, size};
 }
 
 std::optional<Error> TextonSource::tilejson_refusal(const std::string& id,

@@ -1,5 +1,6 @@
 #include "server/app/work_cost.h"
 
+#include "core/noise_levels.h"
 #include "core/working_window.h"
 
 #include <algorithm>
@@ -13,6 +14,16 @@ int taps_of_order(int order) {
 
 double noise_work_s(std::int64_t pixels, double mni, int order) {
     return static_cast<double>(pixels) * mni * taps_of_order(order) * 1.5e-9;
+}
+
+double zoomed_points_work_s(std::int64_t w, std::int64_t h, int level, double mni, int size) {
+    constexpr double kPointNs = 240;
+    if (level <= 0 || size <= 0 || level >= core::noise::limit_level(size)) return 0;
+    const double span = std::ldexp(1.0, level);
+    const double points = (static_cast<double>(w) * span + size) *
+                          (static_cast<double>(h) * span + size) * mni /
+                          (static_cast<double>(size) * size);
+    return points * kPointNs * 1e-9;
 }
 
 double surface_work_s(std::size_t points, double mni, int order) {

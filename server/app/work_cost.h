@@ -13,6 +13,15 @@ namespace textond::app {
 // budget (--max-request-cpu-s; deploy/README.md "Hostile clients").
 int taps_of_order(int order); // 1, 4 or 16
 double noise_work_s(std::int64_t pixels, double mni, int order);
+// What an exact zoomed-out level (0 < level < core::noise::limit_level(size)) adds: it lists every
+// point that reaches a w x h window, (w 2^level + size) (h 2^level + size) mni / size^2 of them, at
+// 240 ns of one core each, the most a point cost among the fit half of `textond render`'s
+// measurements (single thread, 512 x 512, CPU time beyond level 0's): textons of size 64 at
+// levels 3 to 5, MNI 30 and 200 (116-237 ns). On the other half, sizes 16 and 256 at levels 2 to
+// 7 (81-367 ns), the measured CPU is 0.34-1.53x the estimate; without the term a level-7 tile of
+// a texton of 256 at MNI 200 took 12-18x its estimate (deploy/README.md "Hostile clients").
+// 0 for level 0, magnified levels and the limit model's levels, whose cost does not grow so.
+double zoomed_points_work_s(std::int64_t w, std::int64_t h, int level, double mni, int size);
 double surface_work_s(std::size_t points, double mni, int order);
 double mesh_work_s(std::uint64_t raster_tests, std::int64_t pixels, double mni, int order);
 // An analysis (core/texton_analysis.h) works on its window (at most 1024 x 1024 and of fast FFT

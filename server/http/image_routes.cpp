@@ -70,7 +70,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
                                const std::string& id, const std::string& key,
                                api::ImageFormat format, const Produce& produce,
                                const ImageSource& source, std::int64_t pixels, double mni,
-                               int quality, double cpu_share) {
+                               int quality, double cpu_share, double points_work_s) {
     auto order = source.interpolation_order(id);
     if (!order) return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
@@ -107,8 +107,9 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         lease = m_gate.lease_transfer(res, out);
         if (!lease) return;
     }
-    auto entry = produce_in_slot(res, id, format, quality, produce,
-                                 noise_work_s(pixels, mni, order.value()), cpu_share);
+    auto entry =
+        produce_in_slot(res, id, format, quality, produce,
+                        noise_work_s(pixels, mni, order.value()) + points_work_s, cpu_share);
     if (!entry) return;
     entry->etag = etag;
     m_cache.put(key, entry);
@@ -160,10 +161,15 @@ void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
     // Admission's estimate: a window's pixels times the renders it takes.
     const auto cost = job.source->cost(job.id, job.noise.map);
     if (!cost) return send_error(res, to_api_error(cost.error()));
+    const render::NoiseRequest& q = job.request;
+    const double points_s =
+        zoomed_points_work_s(q.width, q.height, q.level, q.mni, cost.value().size) *
+        cost.value().textons;
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
         [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, *job.source,
-        job.pixels() * cost.value().passes, job.request.mni, job.quality, cost.value().cpu_share);
+        job.pixels() * cost.value().passes, job.request.mni, job.quality, cost.value().cpu_share,
+        points_s);
 }
 
 ImageRoutes::Handler ImageRoutes::tile(ImageSource& source, const std::string& route_template,

@@ -62,7 +62,8 @@ private:
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format, const Produce& produce,
                       const ImageSource& source, std::int64_t pixels, double mni,
-                      int quality = api::kDefaultQuality, double cpu_share = 0);
+                      int quality = api::kDefaultQuality, double cpu_share = 0,
+                      double points_work_s = 0);
     // The image's bytes, produced and encoded under a render slot; null when the answer (429,
     // 413, 503, an error) was sent instead.
     std::shared_ptr<CachedImage> produce_in_slot(httplib::Response& res, const std::string& id,

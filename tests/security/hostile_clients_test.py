@@ -1160,6 +1160,17 @@ class HostileClients(unittest.TestCase):
         st, _, body = self.get(f"/v1/textons/{u}/region.png?w=4096&h=2048&mni=200")
         self.assertEqual((st, error_code(body)), (413, "work_too_large"))
 
+    def test_a_zoomed_out_level_is_costed_by_its_points(self):
+        # A 1024^2 region at level 4 of a texton of 32 lists 53 million points (about 10 CPU-s);
+        # estimated by its pixels alone (1.3 s) it was admitted under the budget of 8, and such
+        # requests took 12-18x their estimate. A tile at that level still renders.
+        u = self.ids[0]
+        st, _, body = self.get(f"/v1/textons/{u}/region.png?w=1024&h=1024&z=4&mni=200")
+        self.assertEqual((st, error_code(body)), (413, "work_too_large"), body[:300])
+        self.assertIn("CPU seconds", json.loads(body)["error"]["message"])
+        st, _, body = self.get(f"/v1/textons/{u}/tiles/4/3/5.png?mni=200", timeout=120)
+        self.assertEqual(st, 200, body[:300])
+
     def test_mixes_answer_429_when_the_analysis_pool_is_full(self):
         u, v = self.ids
         results = self.concurrent(3, lambda i: self.s.request(
