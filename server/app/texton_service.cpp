@@ -18,6 +18,13 @@ TextonService::TextonService(store::TextonStore& store, AnalysisPool& pool, Metr
 // A shared store that refused its last write (full, read-only) would refuse this texton too:
 // answered before the analysis is spent.
 std::optional<TextonService::Refused> TextonService::store_refuses_writes() const {
+    // So would a data directory that takes no file (read-only, gone): /readyz said 503, and the
+    // upload ran its whole analysis before its 500.
+    if (!m_store.local().writable())
+        return Refused{Refused::Stage::lookup,
+                       make_error(ErrorCode::unavailable,
+                                  "the data directory takes no new file (read-only or gone); "
+                                  "this replica's /readyz says so")};
     const store::RedisStore* shared = m_store.shared();
     if (!shared) return std::nullopt;
     const std::string why = shared->write_refusal();

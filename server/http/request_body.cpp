@@ -61,7 +61,7 @@ std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, st
     const bool ok = reader(
         [&](const httplib::MultipartFormData& part) {
             parts.push_back(part);
-            return parts.size() <= 64 && counted.count(part.name.size(), limit);
+            return parts.size() <= kMaxParts && counted.count(part.name.size(), limit);
         },
         [&](const char* data, std::size_t n) {
             if (!counted.count(n, limit)) return false;
@@ -77,6 +77,9 @@ std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, st
     if (counted.over_limit() || status == 413)
         return api::ApiError{"payload_too_large", "request body is over the upload limit of " +
                                                       std::to_string(limit) + " bytes"};
+    if (parts.size() > kMaxParts)
+        return api::ApiError{"bad_request", "the form has more than " + std::to_string(kMaxParts) +
+                                                " parts; no route takes that many"};
     return api::ApiError{"bad_request", "could not read the request body"};
 }
 

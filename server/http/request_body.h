@@ -11,6 +11,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -76,9 +77,11 @@ private:
 std::optional<api::ApiError> read_body(const httplib::ContentReader& reader, std::size_t limit,
                                        Body& body);
 
+inline constexpr std::size_t kMaxParts = 64;
+
 // A multipart form's parts, every byte counted against `limit` and the server's budget for
-// bodies in memory; at most 64 parts. `status` is the response's status so far (cpp-httplib sets
-// 413 when its own limit stopped the read). Errors as read_body's.
+// bodies in memory; at most kMaxParts parts (400 saying so past them). `status` is the response's
+// status so far (cpp-httplib sets 413 when its own limit stopped the read). Errors as read_body's.
 std::optional<api::ApiError> read_parts(const httplib::ContentReader& reader, std::size_t limit,
                                         int status, Body& counted,
                                         std::vector<httplib::MultipartFormData>& parts);

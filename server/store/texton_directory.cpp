@@ -211,12 +211,21 @@ void TextonDirectory::remember_locked(const std::string& id, api::TextonMeta met
     }
 }
 
-void TextonDirectory::quarantine_locked(const std::string& id, const std::string& why) {
+bool TextonDirectory::quarantine_locked(const std::string& id, const std::string& why) {
     const fs::path from = file_of(m_dir, id, kExtension);
     const std::string name = id + kExtension + "." +
                              std::to_string(std::chrono::system_clock::now().time_since_epoch() /
                                             std::chrono::milliseconds(1));
     std::error_code ec;
+    if (!fs::exists(from, ec) && !ec) { // removed behind the server's back: nothing to move
+        fs::remove(file_of(m_exemplars, id, ".png"), ec);
+        fs::remove(file_of(m_provenance, id, ".json"), ec);
+        drop_locked(id);
+        spdlog::warn("store: texton {} is no longer on disk (removed outside the server); "
+                     "forgotten",
+                     id);
+        return false;
+    }
     fs::rename(from, fs::path(m_quarantine) / name, ec);
     if (ec) fs::remove(from, ec); // never leave it where it could be served
     fs::remove(file_of(m_exemplars, id, ".png"), ec);
@@ -224,6 +233,7 @@ void TextonDirectory::quarantine_locked(const std::string& id, const std::string
     drop_locked(id);
     m_quarantined.add(name);
     spdlog::error("store: texton {} is damaged ({}); moved to {}/{}", id, why, m_quarantine, name);
+    return true;
 }
 
 std::optional<api::TextonMeta> TextonDirectory::meta(const std::string& id) {
@@ -269,8 +279,11 @@ Result<io::TextonRecord> TextonDirectory::load(const std::string& id) {
     auto r = io::read_texton_file(file_of(m_dir, id, kExtension));
     if (!r || r.value().meta.id != id) {
         std::lock_guard lock(m_mutex);
-        if (generation != 0 && generation_locked(id) == generation)
-            quarantine_locked(id, r ? "its metadata names another id" : r.error().message);
+        if (generation != 0 && generation_locked(id) == generation &&
+            !quarantine_locked(id, r ? "its metadata names another id" : r.error().message))
+            return make_error(ErrorCode::not_found,
+                              "texton " + id +
+                                  " is no longer on disk (removed outside the server)");
         return make_error(ErrorCode::not_found,
                           "texton " + id + " was damaged on disk and has been quarantined");
     }

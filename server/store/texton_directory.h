@@ -89,7 +89,8 @@ public:
 
 private:
     TextonDirectory(const std::string& data_dir, std::size_t meta_cache);
-    void quarantine_locked(const std::string& id, const std::string& why);
+    // False when the file was already gone (removed outside the server): forgotten, not counted.
+    bool quarantine_locked(const std::string& id, const std::string& why);
     void remember_locked(const std::string& id, api::TextonMeta meta);
     void drop_locked(const std::string& id); // from the index and the cache
     void scan();                             // the names, then what crashes left

@@ -268,9 +268,10 @@ Result<std::string> TextonStore::exemplar_png(const std::string& id) {
     if (auto found = find(id); !found) return found.error();
     auto png = m_local->exemplar(id);
     if (!png && png.error().code == ErrorCode::not_found)
-        return make_error(ErrorCode::not_found, "texton " + id +
-                                                    " was stored without its exemplar (before "
-                                                    "exemplars were kept)");
+        return make_error(ErrorCode::not_found,
+                          "texton " + id +
+                              " has no stored exemplar: stored before exemplars were kept, or "
+                              "removed from the disk since");
     // The file was written whole (atomic_file.h): a PNG cut short was damaged since, on this
     // disk; it is never served as the exemplar, nor blamed on the client (500, not 422).
     if (png && !io::png_complete(png.value()))

@@ -1160,6 +1160,12 @@ class HostileClients(unittest.TestCase):
         st, _, body = self.get(f"/v1/textons/{u}/region.png?w=4096&h=2048&mni=200")
         self.assertEqual((st, error_code(body)), (413, "work_too_large"))
 
+    def test_a_form_of_too_many_parts_says_so(self):
+        body, headers = multipart([(f"f{i}", "x", None) for i in range(65)])
+        st, _, got = self.post("/v1/textons", body, headers)
+        self.assertEqual((st, error_code(got)), (400, "bad_request"))
+        self.assertIn("more than 64 parts", json.loads(got)["error"]["message"])
+
     def test_a_zoomed_out_level_is_costed_by_its_points(self):
         # A 1024^2 region at level 4 of a texton of 32 lists 53 million points (about 10 CPU-s);
         # estimated by its pixels alone (1.3 s) it was admitted under the budget of 8, and such

@@ -153,6 +153,51 @@ TEST(Store, DamagedFileIsQuarantinedAndReportedNeverServed) {
     EXPECT_NE(c2.Get("/metrics")->body.find("textond_store_quarantined 1"), std::string::npos);
 }
 
+// A texton file removed behind the server's back is forgotten, not quarantined: 404 saying so,
+// nothing counted or listed as quarantined (it had been logged and counted as "moved to
+// quarantine" with nothing moved); its exemplar gone the same way says it may have been removed.
+TEST(Store, AFileRemovedOutsideTheServerIsForgottenNotQuarantined) {
+    const std::string data = fresh_dir("store-removed");
+    ServerProcess server(data);
+    auto c = server.client();
+    const std::string gone = upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    const std::string kept = upload(c, "etr_pebbles04.png", "?size=16&iterations=5");
+    fs::remove(data + "/textons/" + gone + ".exr");
+    fs::remove(data + "/exemplars/" + kept + ".png");
+    auto tile = c.Get(("/v1/textons/" + gone + "/tiles/0/0/0.png").c_str());
+    ASSERT_TRUE(tile);
+    EXPECT_EQ(tile->status, 404);
+    EXPECT_NE(tile->body.find("no longer on disk"), std::string::npos) << tile->body;
+    EXPECT_EQ(c.Get(("/v1/textons/" + gone).c_str())->status, 404);
+    const json r = json::parse(c.Get("/readyz")->body);
+    EXPECT_EQ(r["store"]["quarantined"].size(), 0u) << r.dump();
+    EXPECT_EQ(files_in(data + "/quarantine"), 0);
+    EXPECT_NE(c.Get("/metrics")->body.find("textond_store_quarantined 0"), std::string::npos);
+    auto exemplar = c.Get(("/v1/textons/" + kept + "/exemplar.png").c_str());
+    ASSERT_TRUE(exemplar);
+    EXPECT_EQ(exemplar->status, 404);
+    EXPECT_NE(exemplar->body.find("removed from the disk since"), std::string::npos)
+        << exemplar->body;
+}
+
+// A data directory that takes no new file (read-only, or its folder replaced) refuses an upload
+// with 503 before its analysis, as /readyz already says; it had run the whole analysis, then
+// answered 500.
+TEST(Store, AnUnwritableDataDirectoryRefusesUploadsBeforeTheirAnalysis) {
+    const std::string data = fresh_dir("store-unwritable");
+    ServerProcess server(data);
+    auto c = server.client();
+    upload(c, "etr_sand01.png", "?size=16&iterations=5");
+    fs::rename(data + "/textons", data + "/textons.moved");
+    std::ofstream(data + "/textons") << "not a folder";
+    EXPECT_EQ(c.Get("/readyz")->status, 503);
+    auto refused = c.Post("/v1/textons?size=64&iterations=300",
+                          read_file(exemplar_path("mypaint_HR_Cork.png")), "image/png");
+    ASSERT_TRUE(refused);
+    EXPECT_EQ(refused->status, 503) << refused->body;
+    EXPECT_NE(refused->body.find("takes no new file"), std::string::npos) << refused->body;
+}
+
 // An exemplar damaged on disk (cut short) is the store's error, not the client's: 500
 // storage_error from its own route, the quality report, the spectrum and a mix of it, never its
 // bytes; the texton itself still serves tiles.
