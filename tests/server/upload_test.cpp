@@ -127,7 +127,7 @@ TEST(Upload, MetadataFilesListAndDelete) {
     std::filesystem::remove(server.data_dir() + "/exemplars/" + b + ".png");
     auto no_exemplar = c.Get(("/v1/textons/" + b + "/exemplar.png").c_str());
     EXPECT_EQ(no_exemplar->status, 404);
-    EXPECT_NE(no_exemplar->body.find("without its exemplar"), std::string::npos);
+    EXPECT_NE(no_exemplar->body.find("has no stored exemplar"), std::string::npos);
     EXPECT_EQ(c.Get(("/v1/textons/" + b + "/spectrum.png").c_str())->status, 404);
     EXPECT_EQ(c.Get(("/v1/textons/" + b + "/tiles/0/0/0.png").c_str())->status, 200);
     EXPECT_EQ(c.Get(("/v1/textons/" + a).c_str())->status, 404);
