@@ -1,9 +1,8 @@
 #pragma once
-// Per-thread scratch vectors are kept between renders only while small. Every connection thread
-// renders, and libgomp gives each thread that opens a parallel region a team of its own, so
-// scratch kept at its largest multiplies by some 150 threads: a replica serving level-3 tiles of a
-// small texton (1.2 million points listed a tile) grew to 1.9 GB and stayed there. A render that
-// needs more allocates again; its work grows with the size it needs.
+// Per-thread scratch vectors (a splat's blend) are kept between renders only while small. Every
+// connection thread renders, so scratch kept at its largest multiplies by some 150 threads (the
+// CPU backend's block scratch did, and now comes from a pool: BlockScratch in cpu_backend.cpp).
+// A render that needs more allocates again; its work grows with the size it needs.
 #include <cstddef>
 #include <vector>
 
