@@ -159,6 +159,7 @@ TEST(Export, PmtilesResumesAfterAKillIntoTheSameBytesAndReadsBack) {
 
 TEST(Export, RefusesBadOptionsInWordsAndAPartialOfOtherOptions) {
     const std::string out = test::temp_path("bad.pmtiles");
+    test::temp_path("bad.pmtiles.partial-journal"); // SQLite's, beside the partial: removed too
     const struct {
         std::string args, words;
     } cases[] = {
