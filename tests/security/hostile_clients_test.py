@@ -11,6 +11,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import socket
 import struct
 import subprocess
@@ -398,6 +399,20 @@ class HostileClients(unittest.TestCase):
                 self.assertEqual(proc.wait(30), 0)
                 proc.stdout.close()
                 log.close()
+        finally:
+            shutil.rmtree(data, ignore_errors=True)
+
+    def test_a_hangup_stops_the_server_as_sigterm_does(self):
+        # The terminal that ran `make run` closing sends SIGHUP: it ended the server at once
+        # (exit 129), requests in flight with it. Now it drains as SIGTERM and SIGINT do.
+        data = tempfile.mkdtemp(prefix="textond-hangup-")
+        try:
+            with open(os.path.join(data, "log"), "w+") as log:
+                proc, port = self.own_server(data, log)
+                proc.send_signal(signal.SIGHUP)
+                self.assertEqual(proc.wait(30), 0)
+                text = self.log_text_with(log, "stopped")
+                self.assertIn(f"signal {int(signal.SIGHUP)}: stopping", text)
         finally:
             shutil.rmtree(data, ignore_errors=True)
 
