@@ -50,12 +50,14 @@ public:
     // there is none, so it is also the routes' first existence check.
     virtual Result<int> interpolation_order(const std::string& id) const = 0;
     // What admission costs a window of view `map` at: the renders it takes (its pixels times
-    // these) and the share of that work on the CPU whatever the backend.
+    // these), the share of that work on the CPU whatever the backend, and the interpolation
+    // order; not_found when the id is not stored (found once for the estimate and existence).
     struct WindowCost {
         int passes = 1;
         double cpu_share = 0;
         int textons = 1; // texton windows rendered (a splat's layers)
         int size = 0;    // the smallest texton size among them: its zoomed-out levels list most
+        int order = 1;
     };
     virtual Result<WindowCost> cost(const std::string& id, const api::MapChoice& map) const = 0;
     // What its tiles would refuse (marginals or a map the id does not have, an unknown id),

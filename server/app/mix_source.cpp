@@ -12,7 +12,7 @@ Result<ImageSource::WindowCost> MixSource::cost(const std::string& id,
                                                 const api::MapChoice& /*map*/) const {
     auto meta = m_mixes.meta(id);
     if (!meta) return meta.error();
-    return WindowCost{1, 0.0, 1, meta.value().size};
+    return WindowCost{1, 0.0, 1, meta.value().size, meta.value().order};
 }
 
 std::optional<Error> MixSource::tilejson_refusal(const std::string& id,

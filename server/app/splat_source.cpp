@@ -32,7 +32,7 @@ Result<ImageSource::WindowCost> SplatSource::cost(const std::string& id,
     const render::PreparedSplat& splat = *found.value();
     int size = splat.layer(0).size();
     for (int k = 1; k < splat.layers(); ++k) size = std::min(size, splat.layer(k).size());
-    return WindowCost{splat.layers() + 3, 0.0, splat.layers(), size};
+    return WindowCost{splat.layers() + 3, 0.0, splat.layers(), size, splat.order()};
 }
 
 std::optional<Error> SplatSource::tilejson_refusal(const std::string& id,

@@ -99,10 +99,10 @@ Result<ImageSource::WindowCost> TextonSource::cost(const std::string& id,
                                                    const api::MapChoice& map) const {
     auto meta = m_textons.find(id);
     if (!meta) return meta.error();
-    const int size = meta.value().size;
-    if (map.name == core::kLitMap) return WindowCost{3, 2.0 / 3.0, 3, size};
-    if (map.name == core::kNormalMap) return WindowCost{2, 1.0, 2, size};
-    return WindowCost{1, 0.0, 1, size};
+    const int size = meta.value().size, order = meta.value().order;
+    if (map.name == core::kLitMap) return WindowCost{3, 2.0 / 3.0, 3, size, order};
+    if (map.name == core::kNormalMap) return WindowCost{2, 1.0, 2, size, order};
+    return WindowCost{1, 0.0, 1, size, order};
 }
 
 std::optional<Error> TextonSource::tilejson_refusal(const std::string& id,

@@ -68,11 +68,8 @@ const char* ImageRoutes::route_name(const ImageSource& source, const std::string
 
 void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& res,
                                const std::string& id, const std::string& key,
-                               api::ImageFormat format, const Produce& produce,
-                               const ImageSource& source, std::int64_t pixels, double mni,
-                               int quality, double cpu_share, double points_work_s) {
-    auto order = source.interpolation_order(id);
-    if (!order) return send_error(res, to_api_error(order.error()));
+                               api::ImageFormat format, const Produce& produce, std::int64_t pixels,
+                               double work_s, int quality, double cpu_share) {
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
     const std::string etag = cached ? cached->etag : m_images.etag(key);
@@ -107,9 +104,7 @@ void ImageRoutes::serve_cached(const httplib::Request& req, httplib::Response& r
         lease = m_gate.lease_transfer(res, out);
         if (!lease) return;
     }
-    auto entry =
-        produce_in_slot(res, id, format, quality, produce,
-                        noise_work_s(pixels, mni, order.value()) + points_work_s, cpu_share);
+    auto entry = produce_in_slot(res, id, format, quality, produce, work_s, cpu_share);
     if (!entry) return;
     entry->etag = etag;
     m_cache.put(key, entry);
@@ -158,18 +153,19 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
 
 void ImageRoutes::serve(const httplib::Request& req, httplib::Response& res,
                         const ImageService::Job& job) {
-    // Admission's estimate: a window's pixels times the renders it takes.
+    // Admission's estimate: a window's pixels times the renders it takes, and the points its
+    // textons list at an exact zoomed-out level. Also the id's existence check.
     const auto cost = job.source->cost(job.id, job.noise.map);
     if (!cost) return send_error(res, to_api_error(cost.error()));
+    const ImageSource::WindowCost& c = cost.value();
     const render::NoiseRequest& q = job.request;
-    const double points_s =
-        zoomed_points_work_s(q.width, q.height, q.level, q.mni, cost.value().size) *
-        cost.value().textons;
+    const double work_s =
+        noise_work_s(job.pixels() * c.passes, q.mni, c.order) +
+        zoomed_points_work_s(q.width, q.height, q.level, q.mni, c.size) * c.textons;
     serve_cached(
         req, res, job.id, ImageService::key(job), job.format,
-        [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, *job.source,
-        job.pixels() * cost.value().passes, job.request.mni, job.quality, cost.value().cpu_share,
-        points_s);
+        [&](const render::Cancel& cancel) { return m_images.render(job, cancel); }, job.pixels(),
+        work_s, job.quality, c.cpu_share);
 }
 
 ImageRoutes::Handler ImageRoutes::tile(ImageSource& source, const std::string& route_template,
@@ -247,10 +243,13 @@ void ImageRoutes::spectrum(const httplib::Request& req, httplib::Response& res) 
     const auto params = m_links.served_query(req, res, "png");
     if (!params) return;
     if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
+    auto order = m_textons.interpolation_order(id);
+    if (!order) return send_error(res, to_api_error(order.error()));
+    constexpr std::int64_t kPixels = 512 * 512;
     serve_cached(
         req, res, id, m_textons.spectrum_key(id, noise), api::ImageFormat::png,
         [&](const render::Cancel& cancel) { return m_textons.spectrum(id, noise, cancel); },
-        m_textons, 512 * 512, noise.mni);
+        kPixels, noise_work_s(kPixels, noise.mni, order.value()));
 }
 
 // The texton's quality report as JSON (quality_report.h), computed in a render slot (two windows
@@ -291,12 +290,14 @@ ImageRoutes::Handler ImageRoutes::report(ImageSource& source) {
         const auto params = m_links.served_query(req, res, "png");
         if (!params) return;
         if (auto e = api::parse_spectrum(id, *params, noise)) return send_error(res, *e);
+        auto order = source.interpolation_order(id);
+        if (!order) return send_error(res, to_api_error(order.error()));
         auto pixels = source.report_work_pixels(id);
         if (!pixels) return send_error(res, to_api_error(pixels.error()));
         serve_cached(
             req, res, id, ImageService::report_key(source, id, noise), api::ImageFormat::png,
-            [&](const render::Cancel& cancel) { return source.report(id, noise, cancel); }, source,
-            pixels.value(), noise.mni);
+            [&](const render::Cancel& cancel) { return source.report(id, noise, cancel); },
+            pixels.value(), noise_work_s(pixels.value(), noise.mni, order.value()));
     };
 }
 

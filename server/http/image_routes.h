@@ -58,12 +58,13 @@ public:
 private:
     using Produce = std::function<Result<core::Image>(const render::Cancel&)>;
     void serve(const httplib::Request& req, httplib::Response& res, const ImageService::Job& job);
-    // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`.
+    // Answers from the image cache (ETag, 304) or from `produce`, encoded and cached under `key`:
+    // a window of `pixels` whose render admission estimates at `work_s` (work_cost.h). The
+    // caller has found the id stored (its interpolation order or cost, before the cache).
     void serve_cached(const httplib::Request& req, httplib::Response& res, const std::string& id,
                       const std::string& key, api::ImageFormat format, const Produce& produce,
-                      const ImageSource& source, std::int64_t pixels, double mni,
-                      int quality = api::kDefaultQuality, double cpu_share = 0,
-                      double points_work_s = 0);
+                      std::int64_t pixels, double work_s, int quality = api::kDefaultQuality,
+                      double cpu_share = 0);
     // The image's bytes, produced and encoded under a render slot; null when the answer (429,
     // 413, 503, an error) was sent instead.
     std::shared_ptr<CachedImage> produce_in_slot(httplib::Response& res, const std::string& id,

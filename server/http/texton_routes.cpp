@@ -325,23 +325,21 @@ void TextonRoutes::status(Req req, Res res) {
         return true;
     };
     if (stored()) return;
-    auto job = m_pool.find(id);
-    if (!job) {
-        // Another replica's job, as that replica answers for it (server/app/job_board.h).
-        auto elsewhere = m_board.find(id);
-        if (!elsewhere) return send_error(res, {"not_found", "no texton or analysis " + id});
-        if (elsewhere->value("state", "") == "done") // stored, then deleted (read again above)
-            return send_error(res,
-                              {"not_found", "texton " + id + " was deleted after its analysis"});
-        return send_json(res, 200, *elsewhere);
-    }
+    // This replica's job, or another's as that replica answers for it (server/app/job_board.h).
+    nlohmann::json body;
+    if (auto job = m_pool.find(id))
+        body = job_status(*job);
+    else if (auto elsewhere = m_board.find(id))
+        body = std::move(*elsewhere);
+    else
+        return send_error(res, {"not_found", "no texton or analysis " + id});
     // A job done since the first look has stored its texton; one the store no longer has was
-    // deleted after its analysis (the pool remembers it a while).
-    if (job->state() == AnalysisJob::State::done) {
+    // deleted after its analysis (a finished job is remembered a while, here and on the board).
+    if (body.value("state", "") == "done") {
         if (stored()) return;
         return send_error(res, {"not_found", "texton " + id + " was deleted after its analysis"});
     }
-    send_json(res, 200, job_status(*job));
+    send_json(res, 200, body);
 }
 
 void TextonRoutes::file(Req req, Res res) {

@@ -89,8 +89,8 @@ DecodePlan plan_decode(const ImageSpec& spec, const DecodeLimits& limits) {
 }
 
 // What the header says, checked before a pixel is decoded: a flat image within the budget, whose
-// reader inflates at most limits.max_reader_chunk bytes at once.
-std::optional<Error> check_header(const ImageSpec& spec, const DecodeLimits& limits) {
+// reader inflates at most limits.max_reader_chunk bytes at once; then how to decode it.
+Result<DecodePlan> checked_plan(const ImageSpec& spec, const DecodeLimits& limits) {
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth != 1)
         return unprocessable("image has no pixels or is a volume (" + std::to_string(spec.width) +
                              "x" + std::to_string(spec.height) + ")");
@@ -111,14 +111,15 @@ std::optional<Error> check_header(const ImageSpec& spec, const DecodeLimits& lim
             " with " + std::to_string(spec.nchannels) + " channels: " +
             std::to_string(plan.reader_chunk >> 20) + " MiB a piece to decode, over the " +
             std::to_string(limits.max_reader_chunk >> 20) + " MiB a decoder may hold");
-    return std::nullopt;
+    return plan;
 }
 
 Result<core::Image> read_opened(ImageInput& in, const DecodeLimits& limits, int* bits = nullptr) {
     const ImageSpec& spec = in.spec();
     if (bits) *bits = static_cast<int>(spec.format.size()) * 8;
-    if (auto e = check_header(spec, limits)) return *e;
-    const DecodePlan plan = plan_decode(spec, limits);
+    auto checked = checked_plan(spec, limits);
+    if (!checked) return checked.error();
+    const DecodePlan& plan = checked.value();
     const int out_channels = static_cast<int>(plan.src.size());
     const int nread = plan.read_channels;
     core::Image img(spec.width, spec.height, out_channels);
@@ -254,10 +255,11 @@ Result<ImageHeader> image_header_memory(std::string_view bytes, const DecodeLimi
     auto opened = open_upload(bytes, limits);
     if (!opened) return opened.error();
     const ImageSpec& spec = opened.value().in->spec();
-    if (auto e = check_header(spec, limits)) return *e;
+    auto plan = checked_plan(spec, limits);
+    if (!plan) return plan.error();
     return ImageHeader{spec.width, spec.height, spec.nchannels,
                        static_cast<int>(spec.format.size()) * 8,
-                       static_cast<std::size_t>(plan_decode(spec, limits).held)};
+                       static_cast<std::size_t>(plan.value().held)};
 }
 
 Result<core::Image> decode_image_memory(std::string_view bytes, const DecodeLimits& limits,

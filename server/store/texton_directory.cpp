@@ -217,20 +217,20 @@ bool TextonDirectory::quarantine_locked(const std::string& id, const std::string
                              std::to_string(std::chrono::system_clock::now().time_since_epoch() /
                                             std::chrono::milliseconds(1));
     std::error_code ec;
-    if (!fs::exists(from, ec) && !ec) { // removed behind the server's back: nothing to move
-        fs::remove(file_of(m_exemplars, id, ".png"), ec);
-        fs::remove(file_of(m_provenance, id, ".json"), ec);
-        drop_locked(id);
+    const bool gone = !fs::exists(from, ec) && !ec; // removed behind the server's back
+    if (!gone) {
+        fs::rename(from, fs::path(m_quarantine) / name, ec);
+        if (ec) fs::remove(from, ec); // never leave it where it could be served
+    }
+    fs::remove(file_of(m_exemplars, id, ".png"), ec);
+    fs::remove(file_of(m_provenance, id, ".json"), ec);
+    drop_locked(id);
+    if (gone) {
         spdlog::warn("store: texton {} is no longer on disk (removed outside the server); "
                      "forgotten",
                      id);
         return false;
     }
-    fs::rename(from, fs::path(m_quarantine) / name, ec);
-    if (ec) fs::remove(from, ec); // never leave it where it could be served
-    fs::remove(file_of(m_exemplars, id, ".png"), ec);
-    fs::remove(file_of(m_provenance, id, ".json"), ec);
-    drop_locked(id);
     m_quarantined.add(name);
     spdlog::error("store: texton {} is damaged ({}); moved to {}/{}", id, why, m_quarantine, name);
     return true;

@@ -59,6 +59,13 @@ def http(url, method="GET", body=None, headers=None):
         return e.code, e.read()
 
 
+def post_exemplar(url, exemplars, name, query="size=16&iterations=5", headers=None):
+    """POSTs a shared exemplar to `url` as a texton upload: (status, body)."""
+    with open(os.path.join(exemplars, name), "rb") as f:
+        return http(f"{url}/v1/textons?{query}", "POST", f.read(),
+                    {"Content-Type": "image/png", **(headers or {})})
+
+
 def damaged_values(rport, edge, replicas, tmp, exemplars, b_pid):
     """The review's attacks on the shared store: each is refused once,
     for what it is, without reading what cannot be held, and a fixed or recreated value serves."""
@@ -68,9 +75,7 @@ def damaged_values(rport, edge, replicas, tmp, exemplars, b_pid):
     a, b = replicas
     ids = []
     for name, seed in (("etr_sand01.png", 51), ("etr_pebbles04.png", 52)):
-        with open(os.path.join(exemplars, name), "rb") as f:
-            st, body = http(f"{a}/v1/textons?size=16&iterations=5&seed={seed}", "POST", f.read(),
-                            {"Content-Type": "image/png"})
+        st, body = post_exemplar(a, exemplars, name, f"size=16&iterations=5&seed={seed}")
         assert st in (200, 201), body
         ids.append(json.loads(body)["id"])
     # A mix whose levels are 2 MB of noise under a matching checksum: refused (500), never
@@ -184,9 +189,7 @@ def redis_outage(redis_proc, edge, replicas, exemplars):
     """Redis away: a list answers 503 on both replicas, and that answer does not take them out of
     the edge's ring (it had: every request, tiles of textons both replicas hold, 502 for 10 s)."""
     a, b = replicas
-    with open(os.path.join(exemplars, "etr_sand01.png"), "rb") as f:
-        st, body = http(f"{a}/v1/textons?size=16&iterations=5&seed=61", "POST", f.read(),
-                        {"Content-Type": "image/png"})
+    st, body = post_exemplar(a, exemplars, "etr_sand01.png", "size=16&iterations=5&seed=61")
     assert st in (200, 201), body
     tid = json.loads(body)["id"]
     wait("both replicas hold the texton",
@@ -208,9 +211,8 @@ def kit_after_delete(edge, replicas, exemplars):
     DELETE as soon as its metadata is (it had been served for 40 s and more: the kit answered from
     the image cache before asking the store)."""
     a, b = replicas
-    with open(os.path.join(exemplars, "etr_pebbles04.png"), "rb") as f:
-        st, body = http(f"{edge}/v1/textons?size=16&iterations=5&seed=67", "POST", f.read(),
-                        {"Content-Type": "image/png"})
+    st, body = post_exemplar(edge, exemplars, "etr_pebbles04.png",
+                             "size=16&iterations=5&seed=67")
     assert st in (200, 201), body
     tid = json.loads(body)["id"]
     kits = [http(f"{r}/v1/textons/{tid}/kit.tar") for r in replicas]
@@ -231,9 +233,8 @@ def async_status_on_the_other_replica(edge, replicas, exemplars):
     analysis gives the state the other publishes (it had said 404 for the whole analysis, which
     the edge sends it half the time: the POST is spread by request, the status by the id)."""
     a, b = replicas
-    with open(os.path.join(exemplars, "mypaint_HR_Cork.png"), "rb") as f:
-        st, body = http(f"{a}/v1/textons?size=64&iterations=400&seed=71", "POST", f.read(),
-                        {"Content-Type": "image/png", "Prefer": "respond-async"})
+    st, body = post_exemplar(a, exemplars, "mypaint_HR_Cork.png",
+                             "size=64&iterations=400&seed=71", {"Prefer": "respond-async"})
     assert st == 202, (st, body[:200])
     status = json.loads(body)["links"]["status"]
     seen = []
@@ -324,30 +325,22 @@ def main():
                 print(f"Redis {' '.join(setting)}: /readyz degraded {degraded}"
                       + (f" ({ready['shared_store'].get('error')})" if degraded else ""))
         passed, failed = (passed + 1, failed) if ok else (passed, failed + 1)
-        try:
-            damaged_values(rport, edge, replicas, tmp, exemplars, procs[2].pid)
-            passed += 1
-        except AssertionError as e:
-            print(f"FAIL: damaged values in the shared store: {e}")
-            failed += 1
-        try:
-            async_status_on_the_other_replica(edge, replicas, exemplars)
-            passed += 1
-        except AssertionError as e:
-            print(f"FAIL: an upload's status on the other replica: {e}")
-            failed += 1
-        try:
-            kit_after_delete(edge, replicas, exemplars)
-            passed += 1
-        except AssertionError as e:
-            print(f"FAIL: a kit after a delete on the other replica: {e}")
-            failed += 1
-        try:  # last: it stops Redis
-            redis_outage(procs[0], edge, replicas, exemplars)
-            passed += 1
-        except AssertionError as e:
-            print(f"FAIL: a Redis outage behind the edge: {e}")
-            failed += 1
+        for what, check in (
+                ("damaged values in the shared store",
+                 lambda: damaged_values(rport, edge, replicas, tmp, exemplars, procs[2].pid)),
+                ("an upload's status on the other replica",
+                 lambda: async_status_on_the_other_replica(edge, replicas, exemplars)),
+                ("a kit after a delete on the other replica",
+                 lambda: kit_after_delete(edge, replicas, exemplars)),
+                # last: it stops Redis
+                ("a Redis outage behind the edge",
+                 lambda: redis_outage(procs[0], edge, replicas, exemplars))):
+            try:
+                check()
+                passed += 1
+            except AssertionError as e:
+                print(f"FAIL: {what}: {e}")
+                failed += 1
     finally:
         if os.path.exists(os.path.join(tmp, "edge", "nginx.pid")):
             subprocess.run(["/usr/sbin/nginx", "-p", os.path.join(tmp, "edge"), "-c", nginx_conf,
