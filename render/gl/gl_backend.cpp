@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <thread>
 
 namespace textond::render {
 
@@ -487,6 +488,7 @@ std::optional<Error> GlBackend::dispatch_pass(const gl::Pass& pass, int s,
     Slot& slot = m_slots[s];
     g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, slot.out);
     const auto host_start = std::chrono::steady_clock::now();
+    slot.dispatched = host_start;
     g.BeginQuery(GL_TIME_ELAPSED, slot.query);
     for (std::size_t i = 0; i < pass.pieces.size();) {
         std::size_t j = i;
@@ -542,16 +544,25 @@ std::optional<Error> GlBackend::finish_pass(int s, const gl::Pass& pass, double&
     const gl::GlApi& g = *m_gl;
     Slot& slot = m_slots[s];
     auto fence = static_cast<GLsync>(slot.fence);
-    GLenum wait;
-    do wait = g.ClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, 1000000000ull);
-    while (wait == GL_TIMEOUT_EXPIRED);
+    // Polled, never waited on in the driver (render/gl/fence_wait.h); the first poll flushes.
+    const auto since = std::chrono::duration_cast<std::chrono::microseconds>(
+        std::chrono::steady_clock::now() - slot.dispatched);
+    const gl::FenceWait wait = gl::await_fence(
+        [&] {
+            const GLenum r = g.ClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, 0);
+            if (r == GL_WAIT_FAILED) return gl::FenceState::failed;
+            return r == GL_TIMEOUT_EXPIRED ? gl::FenceState::pending : gl::FenceState::signalled;
+        },
+        m_pass_time.of(pass.pixels) - since,
+        [](std::chrono::microseconds d) { std::this_thread::sleep_for(d); });
     g.DeleteSync(fence);
     slot.fence = nullptr;
-    if (wait == GL_WAIT_FAILED)
+    if (wait.state == gl::FenceState::failed)
         return Error{ErrorCode::internal, m_name + ": waiting for a pass failed"};
     GLuint64 ns = 0;
     g.GetQueryObjectui64v(slot.query, GL_QUERY_RESULT, &ns);
     const double pass_ms = slot.host_ms >= 0 ? slot.host_ms : static_cast<double>(ns) * 1e-6;
+    if (slot.host_ms < 0) m_pass_time.measured(pass_ms, pass.pixels);
     gpu_ms += pass_ms;
     m_pass_ms.push_back(pass_ms);
     std::map<Work*, bool> seen;

@@ -5,8 +5,10 @@
 // windows are prepared on their callers' threads (no GL), then one batch uploads them, dispatches
 // them together and reads them back (render_batch); a single render is a batch of one.
 #include "render/backend.h"
+#include "render/gl/fence_wait.h"
 #include "render/surface_eval.h"
 
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -157,12 +159,14 @@ private:
         const std::uint32_t* mapped = nullptr;
         void* fence = nullptr; // GLsync of the pass in flight
         double host_ms = -1;   // software renderers: the dispatches' time on the host clock
+        std::chrono::steady_clock::time_point dispatched; // when its dispatches were issued
     };
     Slot m_slots[2];
-    std::size_t m_pass_words = 0;  // set_pass_words; 0: by renderer
-    std::size_t m_slot_words = 0;  // what the slots were made for
-    std::vector<double> m_pass_ms; // the last batch's
-    void release_slot(Slot& slot); // deletes what it holds, leaves it empty
+    std::size_t m_pass_words = 0;     // set_pass_words; 0: by renderer
+    std::size_t m_slot_words = 0;     // what the slots were made for
+    std::vector<double> m_pass_ms;    // the last batch's
+    gl::PassTimeEstimate m_pass_time; // how long a pass of n pixels keeps the GPU, for its wait
+    void release_slot(Slot& slot);    // deletes what it holds, leaves it empty
     std::size_t m_max_block_bytes = std::size_t{128} << 20; // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
     // Storage buffers grown as needed and reused: 0 cell starts (binding 1), 1 points (2), 2 a
     // mix's level tables (3), 3 the records (4), 4 the thresholds (5).

@@ -47,8 +47,13 @@ namespace {
 // for whole time slices: under load an analysis took 56x longer (39 s instead of 0.7 s).
 // libgomp reads OMP_WAIT_POLICY once, when it is loaded, so `serve` re-executes itself with the
 // passive policy unless the caller chose one.
-void passive_openmp_for_serve(int argc, char** argv) {
-    if (argc < 2 || std::string(argv[1]) != "serve" || std::getenv("OMP_WAIT_POLICY")) return;
+// NVIDIA's OpenGL driver spins with sched_yield wherever it waits for the GPU (a buffer still in
+// use, a sync object): __GL_YIELD=USLEEP makes it sleep instead, unless the caller chose. The
+// backends poll their own fences (render/gl/fence_wait.h); this covers the driver's other waits.
+void passive_waits_for_serve(int argc, char** argv) {
+    if (argc < 2 || std::string(argv[1]) != "serve") return;
+    ::setenv("__GL_YIELD", "USLEEP", 0);
+    if (std::getenv("OMP_WAIT_POLICY")) return;
     ::setenv("OMP_WAIT_POLICY", "PASSIVE", 1);
     ::execv("/proc/self/exe", argv);
     // exec failed: carry on with the active policy (slower under load, still correct)
@@ -71,7 +76,7 @@ void open_closed_standard_descriptors() {
 
 int main(int argc, char** argv) {
     open_closed_standard_descriptors();
-    passive_openmp_for_serve(argc, argv);
+    passive_waits_for_serve(argc, argv);
     // Logs and progress go to stderr; stdout carries only the command's result (JSON, tables).
     spdlog::set_default_logger(spdlog::stderr_color_mt("textond"));
     spdlog::set_pattern(textond::cli::kLogPattern);

@@ -416,6 +416,30 @@ class HostileClients(unittest.TestCase):
         finally:
             shutil.rmtree(data, ignore_errors=True)
 
+    def test_serve_waits_passively_unless_told_otherwise(self):
+        # Spinning waits burn the cores that serve tiles: libgomp's at every barrier, and NVIDIA's
+        # OpenGL driver wherever it waits for the GPU. serve sets both policies to sleep, and
+        # keeps what the caller chose.
+        def environment(extra):
+            data = tempfile.mkdtemp(prefix="textond-waits-")
+            env = {k: v for k, v in os.environ.items()
+                   if k not in ("OMP_WAIT_POLICY", "__GL_YIELD")}
+            try:
+                proc, _ = self.own_server(data, subprocess.DEVNULL, env={**env, **extra})
+                try:
+                    with open(f"/proc/{proc.pid}/environ", "rb") as f:
+                        pairs = [kv.split(b"=", 1) for kv in f.read().split(b"\0") if b"=" in kv]
+                    return {k.decode(): v.decode() for k, v in pairs}
+                finally:
+                    proc.terminate()
+                    proc.wait(30)
+            finally:
+                shutil.rmtree(data, ignore_errors=True)
+        got = environment({})
+        self.assertEqual((got.get("OMP_WAIT_POLICY"), got.get("__GL_YIELD")), ("PASSIVE", "USLEEP"))
+        got = environment({"OMP_WAIT_POLICY": "ACTIVE", "__GL_YIELD": "NOTHING"})
+        self.assertEqual((got.get("OMP_WAIT_POLICY"), got.get("__GL_YIELD")), ("ACTIVE", "NOTHING"))
+
     def test_a_server_started_with_stderr_closed_writes_no_library_line_to_a_socket(self):
         # With descriptor 2 closed the listening socket had taken its number, so a library's
         # line went to whatever that descriptor became. /dev/null takes it first.

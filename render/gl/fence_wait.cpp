@@ -1,0 +1,43 @@
+#include "render/gl/fence_wait.h"
+
+#include <algorithm>
+
+namespace textond::render::gl {
+
+using std::chrono::microseconds;
+
+FenceWait await_fence(const std::function<FenceState()>& poll, microseconds expected,
+                      const std::function<void(microseconds)>& sleep) {
+    FenceWait w{0, microseconds{0}, FenceState::pending};
+    auto ask = [&] {
+        ++w.polls;
+        w.state = poll();
+        return w.state != FenceState::pending;
+    };
+    auto nap = [&](microseconds d) {
+        sleep(d);
+        w.slept += d;
+    };
+    if (ask()) return w;
+    if (expected.count() > 0) nap(expected * 3 / 4);
+    double step = std::max(50.0, static_cast<double>(expected.count()) / 20.0);
+    while (!ask()) {
+        step = std::min(step, 1000.0);
+        nap(microseconds{static_cast<long long>(step)});
+        step *= 1.25;
+    }
+    return w;
+}
+
+void PassTimeEstimate::measured(double gpu_ms, std::size_t pixels) {
+    if (!(gpu_ms > 0) || pixels == 0) return;
+    const double ns = gpu_ms * 1e6 / static_cast<double>(pixels);
+    // A moving average: the clock of a GPU rises under load, and one pass's time is noisy.
+    m_ns_per_pixel = m_ns_per_pixel > 0 ? 0.75 * m_ns_per_pixel + 0.25 * ns : ns;
+}
+
+microseconds PassTimeEstimate::of(std::size_t pixels) const {
+    return microseconds{static_cast<long long>(m_ns_per_pixel * static_cast<double>(pixels) / 1e3)};
+}
+
+} // namespace textond::render::gl
