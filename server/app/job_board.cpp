@@ -15,16 +15,17 @@ JobBoard::JobBoard(AnalysisPool& pool, store::RedisStore* shared, Describe descr
             std::make_unique<store::PeriodicSweep>(std::chrono::seconds(1), [this] { sweep(); });
 }
 
-void JobBoard::publish(const AnalysisJob& job) {
+void JobBoard::publish(const std::shared_ptr<AnalysisJob>& job) {
     if (!m_shared) return;
-    const bool end = ended(job.state());
+    const bool end = ended(job->state());
     if (end) {
         const std::lock_guard<std::mutex> lock(m_mutex);
-        if (m_finished.size() > 4096) m_finished.clear(); // the pool remembers 256
-        if (!m_finished.insert(job.id()).second) return;
+        auto& published = m_finished[job->id()];
+        if (published.lock() == job) return;
+        published = job;
     }
     // Best effort: a store that is down loses a status answer, never an upload.
-    (void)m_shared->put_job(job.id(), m_describe(job).dump(), end ? kFinishedTtl : kRunningTtl);
+    (void)m_shared->put_job(job->id(), m_describe(*job).dump(), end ? kFinishedTtl : kRunningTtl);
 }
 
 std::optional<nlohmann::json> JobBoard::find(const std::string& id) {
@@ -38,7 +39,17 @@ std::optional<nlohmann::json> JobBoard::find(const std::string& id) {
 }
 
 void JobBoard::sweep() {
-    for (const auto& job : m_pool.jobs()) publish(*job);
+    // An id's newest job only: one in flight, else the last to end (the pool lists those in
+    // flight first, then the ended oldest first). An older end would overwrite a newer answer.
+    std::map<std::string, std::shared_ptr<AnalysisJob>> newest;
+    for (const auto& job : m_pool.jobs()) {
+        auto& kept = newest[job->id()];
+        if (!kept || ended(kept->state())) kept = job;
+    }
+    for (const auto& [id, job] : newest) publish(job);
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    for (auto it = m_finished.begin(); it != m_finished.end();)
+        it = it->second.expired() ? m_finished.erase(it) : std::next(it);
 }
 
 } // namespace textond::app

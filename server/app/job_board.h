@@ -13,10 +13,10 @@
 #include <nlohmann/json.hpp>
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <string>
 
 namespace textond::app {
@@ -29,7 +29,9 @@ public:
     JobBoard(const JobBoard&) = delete;
     JobBoard& operator=(const JobBoard&) = delete;
 
-    void publish(const AnalysisJob& job);
+    // Publishes `job`'s status answer; an ended job once (an id analysed again, after a delete,
+    // is a new job and publishes its own end).
+    void publish(const std::shared_ptr<AnalysisJob>& job);
     // The status answer another replica published for `id`; nullopt when none (or no store).
     std::optional<nlohmann::json> find(const std::string& id);
 
@@ -42,7 +44,8 @@ private:
     store::RedisStore* const m_shared;
     const Describe m_describe;
     std::mutex m_mutex;
-    std::set<std::string> m_finished;              // published as ended: not again
+    // Per id, the job whose end was published: not again. Gone once the pool forgets the job.
+    std::map<std::string, std::weak_ptr<const AnalysisJob>> m_finished;
     std::unique_ptr<store::PeriodicSweep> m_sweep; // last: started once the rest is made
 };
 

@@ -259,7 +259,7 @@ void TextonRoutes::send_ingested(Req req, Res res, const TextonService::Ingested
     const bool polls = req.get_header_value("Prefer").find("respond-async") != std::string::npos;
     m_pool.attach(submitted.job, polls);
     if (polls) {
-        m_board.publish(*submitted.job); // its status may be asked of another replica at once
+        m_board.publish(submitted.job); // its status may be asked of another replica at once
         res.set_header("Location", status_url);
         res.set_header("Preference-Applied", "respond-async");
         const auto [done, total] = submitted.job->progress();

@@ -3,6 +3,7 @@
 // once; Redis stopped mid-run costs uploads (503) but not the tiles of textons held locally, and
 // coming back needs no restart; a damaged value in Redis is never served; deletes reach every
 // replica; a flushed Redis is refilled by the replicas.
+#include "server/app/job_board.h"
 #include "server/io/image_io.h"
 #include "server/io/sha256.h"
 #include "server/store/redis_store.h"
@@ -724,6 +725,64 @@ TEST(SharedStore, AFullDiskOnOneReplicaRefusesNothingInTheSharedStore) {
     EXPECT_EQ(redis.cli({"ZCARD", "textond:v1:ids"}), before);
     EXPECT_EQ(redis.cli({"KEYS", "textond:v1:texton:*"}), texton_key(id) + "\n");
     EXPECT_EQ(json::parse(get(a, "/v1/textons")->body).at("total"), 1);
+}
+
+} // namespace
+} // namespace textond::test
+
+namespace textond::test {
+namespace {
+
+// An id analysed again (deleted, then uploaded anew) is a new job: its end is published too, and
+// the older job's end, still remembered, never overwrites it. The board had remembered ids, so a
+// second end was never published and the other replicas answered "running" until it expired.
+TEST(SharedStore, AnIdAnalysedAgainPublishesItsOwnEnd) {
+    RedisProcess redis(fresh_dir("job-board-redis"));
+    auto address = store::parse_redis_url(redis.url());
+    ASSERT_TRUE(address);
+    store::RedisStore shared(address.value(), std::chrono::milliseconds(2000));
+    app::AnalysisPool pool(1, 4);
+    auto name = [](const app::AnalysisJob& job) {
+        return std::to_string(reinterpret_cast<std::uintptr_t>(&job));
+    };
+    app::JobBoard board(pool, &shared, [&](const app::AnalysisJob& job) {
+        return json{{"id", job.id()}, {"state", app::to_string(job.state())}, {"job", name(job)}};
+    });
+    const std::string id(64, 'a');
+    auto published = [&] {
+        auto got = shared.get_job(id);
+        EXPECT_TRUE(got && got.value());
+        return got && got.value() ? json::parse(*got.value()) : json{};
+    };
+    auto fails = [](const core::ProgressFn&) -> Result<app::AnalysisOutcome> {
+        return make_error(ErrorCode::unprocessable, "no texture here");
+    };
+    auto first = pool.submit(id, fails).job;
+    ASSERT_TRUE(first);
+    first->wait();
+    board.publish(first);
+    EXPECT_EQ(published()["job"], name(*first));
+
+    std::promise<void> release;
+    auto go = release.get_future().share();
+    auto second = pool.submit(id,
+                              [go, fails](const core::ProgressFn& p) {
+                                  go.wait();
+                                  return fails(p);
+                              })
+                      .job;
+    ASSERT_TRUE(second);
+    ASSERT_NE(second, first);
+    board.publish(second);
+    EXPECT_EQ(published()["state"], "queued");
+    release.set_value();
+    second->wait();
+    board.publish(second);
+    EXPECT_EQ(published()["job"], name(*second));
+    EXPECT_EQ(published()["state"], "failed");
+    // The board's sweep (each second) republishes the pool's jobs: the second's answer stays.
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+    EXPECT_EQ(published()["job"], name(*second));
 }
 
 } // namespace
