@@ -27,6 +27,19 @@ std::optional<std::string> recent_no_space(std::chrono::seconds within) {
     return g_no_space->second;
 }
 
+std::vector<std::string> remove_unfinished_writes(const std::string& dir) {
+    std::vector<std::string> removed;
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        const auto tmp = name.rfind(".tmp-");
+        if (name.size() < 2 || name[0] != '.' || tmp == std::string::npos || tmp == 0) continue;
+        std::error_code rm;
+        if (fs::remove(it->path(), rm)) removed.push_back(name);
+    }
+    return removed;
+}
+
 Result<std::unique_ptr<AtomicFile>> AtomicFile::create(const std::string& path) {
     const fs::path target(path);
     const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");

@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace textond::io {
 
@@ -16,6 +17,11 @@ namespace textond::io {
 // space (ENOSPC, EDQUOT, EFBIG) within `within`; /readyz says it, since its own probe of a few
 // bytes still fits on a disk too full for a texton.
 std::optional<std::string> recent_no_space(std::chrono::seconds within);
+
+// The temporaries that writes a crash interrupted left in `dir` (".<name>.tmp-XXXXXX", never
+// renamed, so never part of a stored object): removed, and their names returned for the log. For
+// a store opening its directory, before any write of its own.
+std::vector<std::string> remove_unfinished_writes(const std::string& dir);
 
 class AtomicFile {
 public:

@@ -34,6 +34,15 @@ public:
         return m_count.count(id) != 0;
     }
 
+    // Runs `f` unless `id` is marked, with no Mark taken meanwhile: a creation marks its id before
+    // it writes a file, so what `f` removes cannot be that creation's. Whether `f` ran.
+    template <class F> bool unless_marked(const std::string& id, F&& f) {
+        std::lock_guard lock(m_mutex);
+        if (m_count.count(id) != 0) return false;
+        f();
+        return true;
+    }
+
 private:
     mutable std::mutex m_mutex;
     std::map<std::string, int> m_count;

@@ -1,5 +1,6 @@
 #include "server/store/mix_store.h"
 
+#include "server/io/atomic_file.h"
 #include "server/io/slow_point.h"
 #include "server/store/quarantine.h"
 
@@ -39,6 +40,8 @@ Result<std::unique_ptr<MixStore>> MixStore::open(const std::string& data_dir, Re
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
+    for (const std::string& name : io::remove_unfinished_writes(dir))
+        spdlog::warn("mixes: removed an unfinished write {}", name);
     return std::unique_ptr<MixStore>(new MixStore(dir, shared, recheck));
 }
 
@@ -71,6 +74,10 @@ std::optional<MixStore::Entry> MixStore::kept(const std::string& id) {
 
 Result<MixStore::Entry> MixStore::load(const std::string& id) {
     std::optional<Entry> kept = this->kept(id);
+    if (kept && !m_shared.held(id)) { // its files erased: deleted elsewhere (the shared sweep)
+        forget(id);
+        kept.reset();
+    }
     if (kept || m_shared.held(id)) {
         if (m_shared.deleted_elsewhere(id)) { // deleted on another replica
             m_shared.erase_local(id);

@@ -1,6 +1,7 @@
 #include "server/store/shared_objects.h"
 
 #include "server/io/image_io.h"
+#include "server/store/read_through.h"
 
 #include <spdlog/spdlog.h>
 
@@ -17,9 +18,11 @@ SharedObjects::SharedObjects(RedisStore* shared, std::string kind, std::string d
 }
 
 // Each held object's presence, once an interval: one absent from the store is written back
-// there. One deleted there is left to the next request for it, which drops it with what the
-// store prepared of it; so the sweep keeps off the requests' recheck clock (deleted_elsewhere's:
-// had it taken an interval's look, a request within it would have served a deleted splat).
+// there; the files of one deleted there are erased (a delete answered by another replica had
+// left them on this disk for good, and a flushed Redis got them back as "missing"). What the
+// store prepared of it in memory goes at the next request's recheck, which finds no files. The
+// sweep keeps off the requests' recheck clock (deleted_elsewhere's: had it taken an interval's
+// look, a request within it would have served a deleted splat).
 void SharedObjects::sweep() {
     const std::string& main = m_files.back().suffix;
     std::error_code ec;
@@ -32,6 +35,14 @@ void SharedObjects::sweep() {
         if (id.find_first_not_of("0123456789abcdef") != std::string::npos) continue;
         auto presence = m_shared->object_presence(m_kind, id);
         if (!presence) return; // the store down: tried again next round
+        if (presence.value() == RedisStore::Presence::deleted) {
+            // Not while the id is being created again here: those files are the new object's.
+            if (m_creating.unless_marked(id, [&] { erase_local(id); }))
+                spdlog::info("store: {} {} was deleted from the shared store; its files here "
+                             "erased",
+                             m_kind, id);
+            continue;
+        }
         if (presence.value() != RedisStore::Presence::unknown) continue;
         if (auto put = publish(id, /*write_back=*/true); put && put.value())
             spdlog::warn("store: {} {} was missing from the shared store; written back", m_kind,
@@ -79,6 +90,7 @@ Result<bool> SharedObjects::publish(const std::string& id, bool write_back) {
         if (!bytes) return bytes.error();
         files.emplace(f.suffix, std::move(bytes.value()));
     }
+    if (!files.count(m_files.back().suffix)) return false; // erased meanwhile: nothing whole
     auto stored = m_shared->put_object(m_kind, id, files, write_back);
     if (stored) {
         std::lock_guard lock(m_mutex);
@@ -118,8 +130,10 @@ Result<bool> SharedObjects::fetch_once(const std::string& id) {
     for (const File& f : m_files) {
         const auto it = files.find(f.suffix);
         if (it == files.end()) continue;
-        if (auto w = io::write_file_atomic(m_dir + "/" + id + f.suffix, it->second); !w)
-            return w.error();
+        if (auto w = io::write_file_atomic(m_dir + "/" + id + f.suffix, it->second); !w) {
+            erase_local(id);
+            return read_through_error(m_kind + " " + id, w.error());
+        }
     }
     std::lock_guard lock(m_mutex);
     m_fetched_signature[id] = signature;

@@ -1,6 +1,7 @@
 #include "server/store/splat_store.h"
 
 #include "core/material_set.h"
+#include "server/io/atomic_file.h"
 #include "server/io/slow_point.h"
 #include "server/store/quarantine.h"
 
@@ -36,6 +37,8 @@ Result<std::unique_ptr<SplatStore>> SplatStore::open(const std::string& data_dir
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
     if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
+    for (const std::string& name : io::remove_unfinished_writes(dir))
+        spdlog::warn("splats: removed an unfinished write {}", name);
     return std::unique_ptr<SplatStore>(new SplatStore(dir, textons, recheck));
 }
 
@@ -130,6 +133,10 @@ std::optional<SplatStore::Entry> SplatStore::kept(const std::string& id) {
 
 Result<SplatStore::Entry> SplatStore::load(const std::string& id) {
     std::optional<Entry> kept = this->kept(id);
+    if (kept && !m_shared.held(id)) { // its files erased: deleted elsewhere (the shared sweep)
+        forget(id);
+        kept.reset();
+    }
     if ((kept || m_shared.held(id)) &&
         m_shared.deleted_elsewhere(id)) { // deleted on another replica
         m_shared.erase_local(id);

@@ -3,6 +3,7 @@
 #include "api/safe_text.h"
 
 #include "server/io/image_io.h"
+#include "server/store/read_through.h"
 
 #include <spdlog/spdlog.h>
 
@@ -144,7 +145,8 @@ Result<api::TextonMeta> TextonStore::fetch_shared_once(const std::string& id) {
         // metadata, coefficients that disagree): not read again while they stay the same. A
         // full or failing disk here says nothing of them (it had got a valid texton refused on
         // this replica for a minute after the disk had room again).
-        if (w.error().code != ErrorCode::unprocessable) return w.error();
+        if (w.error().code != ErrorCode::unprocessable)
+            return read_through_error("texton " + id, w.error());
         m_shared->refuse_texton(id, signature);
         return make_error(ErrorCode::io, w.error().message);
     }

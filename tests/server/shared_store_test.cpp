@@ -702,20 +702,37 @@ TEST(RedisStore, AnObjectReadRacingDeletesAndPutsIsNeverCalledDamaged) {
         });
 }
 
-// A replica whose disk is full: a texton it cannot copy from Redis answers 507 each time, never
-// 500 "refused before" (its values are sound), and an upload it cannot hold is not stored for
-// the other replicas either.
+// A replica whose disk is full: a texton or mix it cannot copy from Redis answers 503 each time
+// (the edge asks the next replica; it was 507, which nginx does not retry), never 500 "refused
+// before" (its values are sound), and without this server's paths; an upload it cannot hold is
+// not stored for the other replicas either.
 TEST(SharedStore, AFullDiskOnOneReplicaRefusesNothingInTheSharedStore) {
     RedisProcess redis(fresh_dir("shared-d-redis"));
     ServerProcess a(fresh_dir("shared-d-1"), replica_args(redis));
-    ServerProcess b(fresh_dir("shared-d-2"), replica_args(redis), 40'000);
+    const std::string dir_b = fresh_dir("shared-d-2");
+    ServerProcess b(dir_b, replica_args(redis), 40'000);
     auto ca = a.client();
-    const std::string id = upload(ca, "etr_sand01.png", "?size=16&iterations=5");
-    for (int i = 0; i < 3; ++i) {
-        auto r = get(b, "/v1/textons/" + id);
-        ASSERT_TRUE(r);
-        EXPECT_EQ(r->status, 507) << i << ": " << r->body;
-    }
+    // Of 64 texels a side: a texton file and the mix's levels are larger than b may write.
+    const std::string id = upload(ca, "etr_sand01.png", "?size=64&iterations=5");
+    const std::string v = upload(ca, "etr_pebbles04.png", "?size=64&iterations=5");
+    auto mix = ca.Post(("/v1/mixes?u=" + id + "&v=" + v + "&levels=2").c_str());
+    ASSERT_TRUE(mix);
+    ASSERT_EQ(mix->status, 201) << mix->body;
+    const std::string mid = json::parse(mix->body).at("id");
+    for (const std::string& path : {"/v1/textons/" + id, "/v1/mixes/" + mid + "/tiles/0/0/0.png"})
+        for (int i = 0; i < 3; ++i) {
+            auto r = get(b, path);
+            ASSERT_TRUE(r);
+            EXPECT_EQ(r->status, 503) << path << " " << i << ": " << r->body;
+            EXPECT_EQ(json::parse(r->body)["error"]["code"], "store_unavailable") << r->body;
+            EXPECT_NE(r->body.find("disk is full"), std::string::npos) << r->body;
+            EXPECT_EQ(r->body.find(dir_b), std::string::npos) << r->body;
+            EXPECT_EQ(r->get_header_value("Retry-After"), "1");
+        }
+    EXPECT_EQ(status_of(a, "/v1/mixes/" + mid + "/tiles/0/0/0.png"), 200);
+    // Nothing half-copied is left for a later read to take whole.
+    for (const auto& e : fs::directory_iterator(fs::path(dir_b) / "mixes"))
+        EXPECT_EQ(e.path().filename().string().find(mid), std::string::npos) << e.path();
     const std::string before = redis.cli({"ZCARD", "textond:v1:ids"});
     auto cb = b.client();
     auto up = cb.Post("/v1/textons?size=16&iterations=5",
@@ -723,8 +740,7 @@ TEST(SharedStore, AFullDiskOnOneReplicaRefusesNothingInTheSharedStore) {
     ASSERT_TRUE(up);
     EXPECT_EQ(up->status, 507) << up->body;
     EXPECT_EQ(redis.cli({"ZCARD", "textond:v1:ids"}), before);
-    EXPECT_EQ(redis.cli({"KEYS", "textond:v1:texton:*"}), texton_key(id) + "\n");
-    EXPECT_EQ(json::parse(get(a, "/v1/textons")->body).at("total"), 1);
+    EXPECT_EQ(json::parse(get(a, "/v1/textons")->body).at("total"), 2);
 }
 
 } // namespace
@@ -783,6 +799,88 @@ TEST(SharedStore, AnIdAnalysedAgainPublishesItsOwnEnd) {
     // The board's sweep (each second) republishes the pool's jobs: the second's answer stays.
     std::this_thread::sleep_for(std::chrono::milliseconds(2500));
     EXPECT_EQ(published()["job"], name(*second));
+}
+
+} // namespace
+} // namespace textond::test
+
+namespace textond::test {
+namespace {
+
+// A splat or mix deleted through another replica: the replica that made it erases its files at
+// its next sweep, unasked (they had stayed on its disk for good, and a flushed Redis got them
+// back as "missing": the deleted objects were served again everywhere). A replica also removes,
+// when it starts, the temporaries of writes a crash interrupted there.
+TEST(SharedStore, ASplatOrMixDeletedElsewhereLeavesNoFilesAndNeverComesBack) {
+    RedisProcess redis(fresh_dir("shared-h-redis"));
+    const std::string dir_a = fresh_dir("shared-h-1");
+    for (const char* sub : {"mixes", "splats"}) {
+        fs::create_directories(fs::path(dir_a) / sub);
+        std::ofstream(fs::path(dir_a) / sub / ("." + std::string(64, 'd') + ".exr.tmp-AbCdEf"))
+            << "half a file";
+    }
+    ServerProcess a(dir_a, replica_args(redis));
+    ServerProcess b(fresh_dir("shared-h-2"), replica_args(redis));
+    for (const char* sub : {"mixes", "splats"})
+        EXPECT_TRUE(fs::is_empty(fs::path(dir_a) / sub)) << sub << ": the unfinished write stays";
+    auto ca = a.client();
+    const std::string u = upload(ca, "etr_sand01.png", "?size=16&iterations=5");
+    const std::string v = upload(ca, "etr_pebbles04.png", "?size=16&iterations=5");
+    auto mix = ca.Post(("/v1/mixes?u=" + u + "&v=" + v + "&levels=2").c_str());
+    ASSERT_TRUE(mix);
+    ASSERT_EQ(mix->status, 201) << mix->body;
+    const std::string mid = json::parse(mix->body).at("id");
+    const std::string weights =
+        io::encode_image_memory(test::white_noise(8, 8, 3, 3), io::Encoding::png8).value();
+    auto splat = ca.Post(
+        "/v1/splats", httplib::MultipartFormDataItems{{"textons", u + "," + v, "", ""},
+                                                      {"weights", weights, "w.png", "image/png"}});
+    ASSERT_TRUE(splat);
+    ASSERT_EQ(splat->status, 201) << splat->body;
+    const std::string sid = json::parse(splat->body).at("id");
+    auto cb = b.client();
+    for (const std::string& path : {"/v1/mixes/" + mid, "/v1/splats/" + sid}) {
+        auto del = cb.Delete(path.c_str());
+        ASSERT_TRUE(del);
+        EXPECT_EQ(del->status, 204) << path << ": " << del->body;
+    }
+    EXPECT_TRUE(eventually(
+        [&] {
+            return fs::is_empty(fs::path(dir_a) / "mixes") &&
+                   fs::is_empty(fs::path(dir_a) / "splats");
+        },
+        5.0))
+        << "a kept the files of what b deleted";
+    redis.cli({"FLUSHALL"});
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500)); // two sweeps
+    EXPECT_EQ(redis.cli({"EXISTS", "textond:v1:mix:" + mid}), "0\n");
+    EXPECT_EQ(redis.cli({"EXISTS", "textond:v1:splat:" + sid}), "0\n");
+    for (const ServerProcess* s : {&a, &b}) {
+        EXPECT_EQ(status_of(*s, "/v1/mixes/" + mid), 404);
+        EXPECT_EQ(status_of(*s, "/v1/splats/" + sid), 404);
+    }
+}
+
+// The sweep erases what a tombstone names, but never while the id is being created here again:
+// those files are the new object's.
+TEST(SharedObjects, TheSweepErasesADeletedCopyButNotACreationInFlight) {
+    RedisProcess redis(fresh_dir("shared-i-redis"));
+    store::RedisStore shared(store::parse_redis_url(redis.url()).value(),
+                             std::chrono::milliseconds(2000));
+    const std::string dir = fresh_dir("shared-i-dir");
+    store::SharedObjects objects(&shared, "mix", dir, {{".json", 1 << 20}},
+                                 std::chrono::milliseconds(100));
+    const std::string id(64, 'f');
+    const std::string file = dir + "/" + id + ".json";
+    std::ofstream(file) << "{}";
+    ASSERT_TRUE(objects.publish(id).value());
+    ASSERT_TRUE(shared.remove_object("mix", id).value()); // deleted by another replica
+    {
+        const store::InFlightIds::Mark creating(objects.creations(), id);
+        std::this_thread::sleep_for(std::chrono::milliseconds(500)); // five sweeps
+        EXPECT_TRUE(fs::exists(file)) << "a creation's files were erased";
+    }
+    EXPECT_TRUE(eventually([&] { return !fs::exists(file); }, 3.0)) << "the deleted copy stays";
 }
 
 } // namespace
