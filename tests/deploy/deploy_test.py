@@ -243,6 +243,11 @@ class Manifests(unittest.TestCase):
                 ports = {p["name"]: p["containerPort"] for p in c["ports"]}
                 self.assertEqual(ports["http"], int(config["TEXTOND_PORT"]))
                 self.assertEqual(config["TEXTOND_HOST"], "0.0.0.0")
+                # The API key comes from an optional Secret (deploy/README.md "Hostile clients"),
+                # never from the ConfigMap.
+                self.assertIn({"secretRef": {"name": "textond-secrets", "optional": True}},
+                              c["envFrom"])
+                self.assertNotIn("TEXTOND_API_KEY", config)
                 self.assertEqual(c["readinessProbe"]["httpGet"]["path"], "/readyz")
                 self.assertEqual(c["livenessProbe"]["httpGet"]["path"], "/healthz")
                 for probe in ("readinessProbe", "livenessProbe", "startupProbe"):
