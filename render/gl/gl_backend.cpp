@@ -14,6 +14,7 @@
 #include <cassert>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <thread>
 
@@ -545,11 +546,18 @@ std::optional<Error> GlBackend::finish_pass(int s, const gl::Pass& pass, double&
     Slot& slot = m_slots[s];
     auto fence = static_cast<GLsync>(slot.fence);
     // Polled, never waited on in the driver (render/gl/fence_wait.h); the first poll flushes.
+    // TEXTOND_GL_WAIT=driver waits in the driver as before, for tests/gpu/device_check.sh to
+    // measure the two in one run.
+    static const bool in_driver = [] {
+        const char* how = std::getenv("TEXTOND_GL_WAIT");
+        return how && std::string(how) == "driver";
+    }();
     const auto since = std::chrono::duration_cast<std::chrono::microseconds>(
         std::chrono::steady_clock::now() - slot.dispatched);
     const gl::FenceWait wait = gl::await_fence(
         [&] {
-            const GLenum r = g.ClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, 0);
+            const GLenum r =
+                g.ClientWaitSync(fence, GL_SYNC_FLUSH_COMMANDS_BIT, in_driver ? 1000000000ull : 0);
             if (r == GL_WAIT_FAILED) return gl::FenceState::failed;
             return r == GL_TIMEOUT_EXPIRED ? gl::FenceState::pending : gl::FenceState::signalled;
         },

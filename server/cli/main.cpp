@@ -52,7 +52,8 @@ namespace {
 // backends poll their own fences (render/gl/fence_wait.h); this covers the driver's other waits.
 void passive_waits_for_serve(int argc, char** argv) {
     if (argc < 2 || std::string(argv[1]) != "serve") return;
-    ::setenv("__GL_YIELD", "USLEEP", 0);
+    const char* gl_wait = std::getenv("TEXTOND_GL_WAIT"); // "driver": as before, to compare
+    if (!gl_wait || std::string(gl_wait) != "driver") ::setenv("__GL_YIELD", "USLEEP", 0);
     if (std::getenv("OMP_WAIT_POLICY")) return;
     ::setenv("OMP_WAIT_POLICY", "PASSIVE", 1);
     ::execv("/proc/self/exe", argv);

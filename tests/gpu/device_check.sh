@@ -90,6 +90,9 @@ tiles() {
 for backend in cpu "$GPU" auto; do
     tiles "$backend" "$LEVELS" --backend "$backend"
 done
+# The lanes' fence wait: polled and asleep (the default, above) against the driver's own wait,
+# which spins on NVIDIA (render/gl/fence_wait.h): the CPU-ms a tile of the two.
+TEXTOND_GL_WAIT=driver tiles "$GPU-driver-wait" 0 --backend "$GPU"
 # The lane count is chosen on these level-0 runs; the rows above (the default) report it.
 for lanes in $LANES; do
     tiles "$GPU-lanes$lanes" 0 --backend "$GPU" --gpu-lanes "$lanes"

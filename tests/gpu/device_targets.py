@@ -77,6 +77,11 @@ def main():
               f"worst level {worst[1]}: {fmt(worst[0], 'x')}",
               worst[0] is not None and worst[0] >= 2 / 3)
         check(f"6. {gpu}: <= 1.0 CPU-ms a cold PNG tile", f"{gpu0[3]:.2f} ms", gpu0[3] <= 1.0)
+        driver = tiles.get((f"{gpu}-driver-wait", 0))
+        if driver:
+            checks.append((f"(info) 6. CPU-ms a tile: fences polled (default) / the driver's wait",
+                           f"{gpu0[3]:.2f} / {driver[3]:.2f} ms "
+                           f"({gpu0[0]:.0f} / {driver[0]:.0f} tiles/s)", "-"))
     if auto0 and cpu0 and gpu0:
         best = max(cpu0[0], gpu0[0])
         check("5. auto >= 0.9x the faster of cpu and GL at level 0",
