@@ -2,7 +2,10 @@
 
 #include "core/grid_poisson.h"
 #include "core/material_set.h"
+#include "render/table_budget.h"
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 
@@ -141,15 +144,39 @@ void split_by_phase(LevelTable& t, int st) {
 
 } // namespace
 
+namespace {
+std::size_t table_bytes(const LevelTable& t) {
+    return (t.data.capacity() + t.phase_data.capacity()) * sizeof(float);
+}
+} // namespace
+
 std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
-    std::lock_guard<std::mutex> lock(m_mutex);
     const int key = std::max(0, level); // every magnification level uses alpha itself
-    auto it = m_tables.find(key);
-    if (it != m_tables.end()) return it->second;
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        auto it = m_tables.find(key);
+        if (it != m_tables.end())
+            if (auto t = it->second.lock()) {
+                TableBudget::instance().use(t, table_bytes(*t));
+                return t;
+            }
+    }
+    auto t = build_table(key);
+    std::lock_guard<std::mutex> lock(m_mutex);
+    auto& kept = m_tables[key];
+    if (auto other = kept.lock()) t = other; // another thread built it meanwhile
+    kept = t;
+    TableBudget::instance().use(t, table_bytes(*t));
+    return t;
+}
+
+std::shared_ptr<const LevelTable> PreparedTexton::build_table(int key) const {
+    static std::atomic<std::uint64_t> serials{0};
     const int st = 1 << key;
     const core::Image g =
         key == 0 ? m_texton.alpha : core::noise::box_filtered_coefficients(m_texton.alpha, st);
     auto t = std::make_shared<LevelTable>();
+    t->serial = ++serials;
     t->level = key;
     t->length = g.width;
     t->pad = table_pad(m_texton.order);
@@ -163,14 +190,28 @@ std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
             for (int x = 0; x < g.width; ++x) dst[x] = g.at(c, x, y);
         }
     if (key >= 1 && m_texton.order <= 1) split_by_phase(*t, st);
-    m_tables.emplace(key, t);
     return t;
 }
 
-const core::LagCovariance& PreparedTexton::covariance() const {
+std::shared_ptr<const core::LagCovariance> PreparedTexton::covariance() const {
+    auto bytes = [](const core::LagCovariance& c) {
+        const auto n = static_cast<std::size_t>(2 * c.radius() + 1);
+        const auto k = static_cast<std::size_t>(c.channels());
+        return n * n * k * k * sizeof(double);
+    };
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        if (auto c = m_cov.lock()) {
+            TableBudget::instance().use(c, bytes(*c));
+            return c;
+        }
+    }
+    auto c = std::make_shared<const core::LagCovariance>(core::sampled_covariance(m_texton));
     std::lock_guard<std::mutex> lock(m_mutex);
-    if (!m_cov) m_cov = std::make_unique<core::LagCovariance>(core::sampled_covariance(m_texton));
-    return *m_cov;
+    if (auto other = m_cov.lock()) c = other; // another thread made it meanwhile
+    m_cov = c;
+    TableBudget::instance().use(c, bytes(*c));
+    return c;
 }
 
 std::shared_ptr<const core::MarginalTables> PreparedTexton::marginals(int level) const {
@@ -183,7 +224,7 @@ std::shared_ptr<const core::MarginalTables> PreparedTexton::marginals(int level)
     // The level's variance along each principal direction of the exemplar's colours: the box
     // average of 2^key texels (NOISE_SPEC.md section 6), whose tables keep level 0's mean.
     const core::ColourMatrix c =
-        core::box_average_covariance(covariance(), std::int64_t{1} << key, 0, 0);
+        core::box_average_covariance(*covariance(), std::int64_t{1} << key, 0, 0);
     const core::MarginalModel& m = m_texton.marginals;
     std::array<double, 3> variance{};
     for (int i = 0; i < m.channels; ++i)
@@ -212,12 +253,14 @@ const core::noise::LimitModel& PreparedTexton::limit(int level) const {
         std::lock_guard<std::mutex> lock(m_mutex);
         return m_limits.emplace(level, joint).first->second;
     }
-    const core::LagCovariance& cov = covariance();
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        if (auto it = m_limits.find(level); it != m_limits.end()) return it->second;
+    }
+    const auto cov = covariance();
+    core::noise::LimitModel model = core::noise::limit_model(*cov, std::int64_t{1} << level);
     std::lock_guard<std::mutex> lock(m_mutex);
-    auto it = m_limits.find(level);
-    if (it == m_limits.end())
-        it = m_limits.emplace(level, core::noise::limit_model(cov, std::int64_t{1} << level)).first;
-    return it->second;
+    return m_limits.emplace(level, std::move(model)).first->second;
 }
 
 Result<std::shared_ptr<const PreparedTexton>>

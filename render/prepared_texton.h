@@ -8,6 +8,7 @@
 #include "core/texton_covariance.h"
 #include "render/noise_request.h"
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -20,6 +21,7 @@ namespace textond::render {
 // `pad` zeros on every side (1 for orders 0 and 1, 3 for order 3: NOISE_SPEC.md section 7):
 // row(c, i)[j] = G[i][j] = g(i - pad, j - pad), i, j in [0, L + 2 pad).
 struct LevelTable {
+    std::uint64_t serial = 0; // unique to this table in the process: a cache's key
     int level = 0;
     int length = 0; // L
     int pad = 1;
@@ -88,7 +90,8 @@ public:
 
     std::shared_ptr<const LevelTable> table(int level) const;
     const core::noise::LimitModel& limit(int level) const;
-    const core::LagCovariance& covariance() const;
+    // Held by the caller while used: the table budget may let it go (render/table_budget.h).
+    std::shared_ptr<const core::LagCovariance> covariance() const;
     // The exemplar's marginal tables at `level` (magnification uses level 0's), made once; null
     // when the texton keeps no marginals.
     std::shared_ptr<const core::MarginalTables> marginals(int level) const;
@@ -101,9 +104,12 @@ private:
     int m_cell_size = 0;
     int m_limit_level = 0;
     mutable std::mutex m_mutex;
-    mutable std::map<int, std::shared_ptr<const LevelTable>> m_tables;
+    std::shared_ptr<const LevelTable> build_table(int key) const;
+    // Kept by the process's table budget (render/table_budget.h), not here: a table past it is
+    // built again when asked for.
+    mutable std::map<int, std::weak_ptr<const LevelTable>> m_tables;
     mutable std::map<int, core::noise::LimitModel> m_limits;
-    mutable std::unique_ptr<core::LagCovariance> m_cov;
+    mutable std::weak_ptr<const core::LagCovariance> m_cov; // kept by the table budget
     mutable std::map<int, std::shared_ptr<const core::MarginalTables>> m_marginals;
     mutable std::map<std::string, std::shared_ptr<const PreparedTexton>> m_maps;
     mutable std::shared_ptr<const PreparedTexton> m_joint; // what the views share (map())

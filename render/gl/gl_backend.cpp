@@ -202,7 +202,7 @@ std::string GlBackend::renderer() const {
 }
 
 unsigned GlBackend::cached_table(TableCache& cache, const std::shared_ptr<const LevelTable>& t) {
-    auto it = cache.entries.find(t.get());
+    auto it = cache.entries.find(t->serial);
     if (it != cache.entries.end()) return it->second.object;
     if (cache.entries.size() >= kMaxCachedTables) {
         delete_table(cache, cache.entries.begin()->second.object);
@@ -225,7 +225,7 @@ unsigned GlBackend::cached_table(TableCache& cache, const std::shared_ptr<const 
         g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, n, n, 0, GL_RGB, GL_FLOAT, texels.data());
         texel_fetch_only(g, GL_TEXTURE_2D);
     }
-    cache.entries.emplace(t.get(), CachedTable{t, object});
+    cache.entries.emplace(t->serial, CachedTable{object});
     return object;
 }
 

@@ -188,12 +188,13 @@ private:
     // Level tables uploaded once and kept (at most 32 of each kind): RGB32F textures for the
     // surface and mesh programs, vec4 storage buffers for the noise.
     struct CachedTable {
-        std::shared_ptr<const LevelTable> table; // keeps the key alive while cached
-        unsigned object = 0;                     // the texture or buffer
+        unsigned object = 0; // the texture or buffer
     };
+    // By the table's serial, unique in the process: the host table may be freed meanwhile (the
+    // table budget), and another made at its address must not find this one's copy.
     struct TableCache {
         bool buffers = false;
-        std::map<const LevelTable*, CachedTable> entries;
+        std::map<std::uint64_t, CachedTable> entries;
     };
     TableCache m_table_textures{false, {}}, m_table_buffers{true, {}};
     unsigned cached_table(TableCache& cache, const std::shared_ptr<const LevelTable>& table);

@@ -36,7 +36,8 @@ io::Encoding encoding_of(api::ImageFormat f) {
 } // namespace
 
 Result<std::string> encode_image(core::Image&& image, api::ImageFormat format, int quality,
-                                 const std::string& id, int png_compression) {
+                                 const std::string& id, int png_compression,
+                                 const std::function<bool()>& stop) {
     if (format == api::ImageFormat::webp || format == api::ImageFormat::avif) {
         // The encoders read 8-bit RGB only: the floats (12 bytes a pixel) go before libaom's
         // frame buffers (about 34 bytes a pixel) come (deploy/README.md "Memory bound").
@@ -44,7 +45,7 @@ Result<std::string> encode_image(core::Image&& image, api::ImageFormat format, i
         render::recycle_image(std::move(image)); // what is left of it: floats, or nothing
         if (!rgb) return rgb.error();
         if (format == api::ImageFormat::webp)
-            return io::encode_webp(std::move(rgb.value()), quality);
+            return io::encode_webp(std::move(rgb.value()), quality, stop);
         return io::encode_avif(std::move(rgb.value()),
                                quality > 0 ? quality : io::kDefaultAvifQuality);
     }
@@ -122,8 +123,9 @@ Result<core::Image> ImageService::render(const Job& job, const render::Cancel& c
 }
 
 Result<std::string> ImageService::encode(core::Image&& image, api::ImageFormat format, int quality,
-                                         const std::string& id) const {
-    return encode_image(std::move(image), format, quality, id, m_png_compression);
+                                         const std::string& id,
+                                         const std::function<bool()>& stop) const {
+    return encode_image(std::move(image), format, quality, id, m_png_compression, stop);
 }
 
 } // namespace textond::app

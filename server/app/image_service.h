@@ -13,6 +13,7 @@
 #include "server/app/texton_source.h"
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 namespace textond::app {
@@ -20,8 +21,10 @@ namespace textond::app {
 // An image's bytes in an API format, tagged (PNG, EXR) with the noise version and the id: what
 // every image endpoint and `textond export` write. The pixels are released (recycled) as soon as
 // the encoder no longer needs them, before it has finished.
+// `stop` abandons a WebP encode (cancelled) once it is true: a client gone, a deadline passed.
 Result<std::string> encode_image(core::Image&& image, api::ImageFormat format, int quality,
-                                 const std::string& id, int png_compression);
+                                 const std::string& id, int png_compression,
+                                 const std::function<bool()>& stop = {});
 
 class ImageService {
 public:
@@ -55,7 +58,7 @@ public:
     // The image's bytes in `format`, tagged with the noise version and the id; the pixels are
     // recycled as encode_image says.
     Result<std::string> encode(core::Image&& image, api::ImageFormat format, int quality,
-                               const std::string& id) const;
+                               const std::string& id, const std::function<bool()>& stop = {}) const;
 
 private:
     TextonSource& m_textons;

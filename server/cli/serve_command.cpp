@@ -1,3 +1,4 @@
+#include "render/table_budget.h"
 #include "server/app/build_id.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
@@ -60,6 +61,7 @@ variable: --cache-mb 512 is TEXTOND_CACHE_MB=512. Flags win over the environment
   --analysis-workers N     analyses at once (each uses every core)             [1]
   --analysis-queue N       analyses waiting before uploads get 429             [4]
   --cache-mb N             in-memory image cache budget, MiB                   [256]
+  --table-cache-mb N       prepared textons' level tables kept, MiB (rebuilt past it) [256]
   --png-compression N      zlib level of PNG images, 0..9 (1: 19-39% smaller, 8x slower) [0]
 
   --max-upload-mb N        largest request body, MiB (413 above)               [32]
@@ -113,6 +115,7 @@ const std::vector<std::string> kValueOptions = {"--host",
                                                 "--analysis-workers",
                                                 "--analysis-queue",
                                                 "--cache-mb",
+                                                "--table-cache-mb",
                                                 "--png-compression",
                                                 "--max-upload-mb",
                                                 "--max-pixels",
@@ -166,8 +169,8 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
         out = static_cast<std::remove_reference_t<decltype(out)>>(v.value());
         return std::nullopt;
     };
-    long long cache_mb = 256, upload_mb = 32, max_pixels = 16'777'216, header_kb = 64,
-              body_budget_mb = 256, cpu_s = 20;
+    long long cache_mb = 256, table_cache_mb = 256, upload_mb = 32, max_pixels = 16'777'216,
+              header_kb = 64, body_budget_mb = 256, cpu_s = 20;
     for (auto err :
          {num("--port", c.port, 0, 65535, c.port),
           num("--http-threads", c.http_threads, 1, 4096, c.http_threads),
@@ -182,6 +185,7 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
           num("--analysis-workers", c.analysis_workers, 1, 64, c.analysis_workers),
           num("--analysis-queue", c.analysis_queue, 0, 10000, c.analysis_queue),
           num("--cache-mb", cache_mb, 0, 1 << 20, cache_mb),
+          num("--table-cache-mb", table_cache_mb, 0, 1 << 20, table_cache_mb),
           num("--png-compression", c.png_compression, 0, 9, c.png_compression),
           num("--max-upload-mb", upload_mb, 1, 4096, upload_mb),
           num("--max-pixels", max_pixels, 1, 1LL << 32, max_pixels),
@@ -207,6 +211,7 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
           num("--body-budget-mb", body_budget_mb, 1, 1 << 20, body_budget_mb)})
         if (err) return err;
     c.cache_bytes = static_cast<std::size_t>(cache_mb) << 20;
+    render::TableBudget::instance().set_limit(static_cast<std::size_t>(table_cache_mb) << 20);
     c.max_upload_bytes = static_cast<std::size_t>(upload_mb) << 20;
     c.max_pixels = static_cast<std::uint64_t>(max_pixels);
     c.max_header_bytes = static_cast<std::size_t>(header_kb) << 10;

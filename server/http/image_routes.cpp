@@ -138,10 +138,17 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
     }
     const auto t2 = Clock::now();
     m_metrics.stage("render", seconds(t1, t2));
-    auto bytes = m_images.encode(std::move(image.value()), format, quality, id);
+    // A client gone (or a deadline passed) during the render gets no encode: a large WebP or AVIF
+    // had run for seconds after a client that hung up. A WebP encode also stops as it goes.
+    if (cancel.stop()) {
+        m_gate.send_work_error(res, render::abandoned(&cancel, "the encode"), cancel);
+        return nullptr;
+    }
+    auto bytes = m_images.encode(std::move(image.value()), format, quality, id,
+                                 [&] { return cancel.stop(); });
     m_metrics.stage("encode", seconds(t2, Clock::now()));
     if (!bytes) {
-        send_error(res, to_api_error(bytes.error()));
+        m_gate.send_work_error(res, bytes.error(), cancel);
         return nullptr;
     }
     auto entry = std::make_shared<CachedImage>();

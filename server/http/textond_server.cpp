@@ -340,6 +340,15 @@ void TextondServer::install_hooks() {
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ctx.start)
                 .count();
         res.set_header("X-Request-Id", ctx.id);
+        // Said on GET as on HEAD (cpp-httplib added it to HEAD answers only): a success is
+        // served in byte ranges (pre_route), an error whole. An edge (nginx) serves ranges of
+        // what it caches only from an upstream that says so.
+        if (req.method == "GET" || req.method == "HEAD") {
+            res.headers.erase("Accept-Ranges");
+            res.set_header("Accept-Ranges",
+                           (res.status >= 200 && res.status < 300) || res.status == 304 ? "bytes"
+                                                                                        : "none");
+        }
         apply_cors(m_cors_any, m_cors_origins, req, res);
         apply_security_headers(res);
         announce_close(res);

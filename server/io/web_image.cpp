@@ -70,7 +70,7 @@ Result<std::string> encode_avif(const core::Image& image, int quality) {
     return encode_avif(std::move(rgb.value()), quality);
 }
 
-Result<std::string> encode_webp(Rgb8 rgb, int quality) {
+Result<std::string> encode_webp(Rgb8 rgb, int quality, const std::function<bool()>& stop) {
     if (quality < 0 || quality > 100)
         return make_error(ErrorCode::invalid_argument, "WebP quality must be in [1, 100]");
     WebPConfig config;
@@ -94,12 +94,20 @@ Result<std::string> encode_webp(Rgb8 rgb, int quality) {
     WebPMemoryWriterInit(&writer);
     pic.writer = WebPMemoryWrite;
     pic.custom_ptr = &writer;
+    if (stop) {
+        pic.user_data = const_cast<std::function<bool()>*>(&stop);
+        pic.progress_hook = [](int, const WebPPicture* p) {
+            return (*static_cast<const std::function<bool()>*>(p->user_data))() ? 0 : 1;
+        };
+    }
     std::unique_ptr<WebPPicture, void (*)(WebPPicture*)> owned_pic(&pic, WebPPictureFree);
     std::unique_ptr<WebPMemoryWriter, void (*)(WebPMemoryWriter*)> owned_out(&writer,
                                                                              WebPMemoryWriterClear);
     const bool imported = WebPPictureImportRGB(&pic, rgb.pixels.data(), rgb.width * 3) != 0;
     std::vector<std::uint8_t>().swap(rgb.pixels); // the picture holds its own copy
-    if (!imported || !WebPEncode(&config, &pic))
+    if (imported && !WebPEncode(&config, &pic) && pic.error_code == VP8_ENC_ERROR_USER_ABORT)
+        return make_error(ErrorCode::cancelled, "the WebP encode was abandoned");
+    if (!imported || pic.error_code != VP8_ENC_OK)
         return make_error(ErrorCode::internal,
                           "libwebp could not encode the image (error " +
                               std::to_string(static_cast<int>(pic.error_code)) + ")");

@@ -7,6 +7,7 @@
 #include "core/result.h"
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -25,8 +26,9 @@ Result<Rgb8> to_rgb8(const core::Image& image);
 // copying them.
 Result<Rgb8> take_rgb8(core::Image& image);
 
-// `quality` in [1, 100]; 0: lossless.
-Result<std::string> encode_webp(Rgb8 rgb, int quality);
+// `quality` in [1, 100]; 0: lossless. `stop`, asked as the encoder goes, abandons it (cancelled):
+// the client of a large WebP left (libavif has no such hook: an AVIF runs to its end).
+Result<std::string> encode_webp(Rgb8 rgb, int quality, const std::function<bool()>& stop = {});
 Result<std::string> encode_webp(const core::Image& image, int quality);
 // `quality` in [1, 100] (100: the finest quantiser, not lossless).
 Result<std::string> encode_avif(Rgb8 rgb, int quality);

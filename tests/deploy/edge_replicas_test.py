@@ -228,6 +228,25 @@ def kit_after_delete(edge, replicas, exemplars):
           "texton is deleted")
 
 
+def ranges_through_the_edge(edge, replicas, exemplars):
+    """A Range through the edge is 206 with its bytes, whether the edge has the tile or not (it
+    answered 200 with the whole tile: nginx serves ranges only of an upstream that says it takes
+    them, and textond said Accept-Ranges on HEAD answers alone)."""
+    st, body = post_exemplar(edge, exemplars, "etr_sand01.png", "size=16&iterations=5&seed=71")
+    assert st in (200, 201), body
+    tid = json.loads(body)["id"]
+    st, whole = http(f"{replicas[0]}/v1/textons/{tid}/tiles/0/3/3.png")
+    assert st == 200, st
+    for attempt in ("a miss", "a hit"):
+        req = urllib.request.Request(f"{edge}/v1/textons/{tid}/tiles/0/3/3.png",
+                                     headers={"Range": "bytes=100-199"})
+        with urllib.request.urlopen(req, timeout=60) as r:
+            got = (r.status, r.headers.get("Content-Range"), r.read())
+        assert got == (206, f"bytes 100-199/{len(whole)}", whole[100:200]), \
+            f"{attempt}: {got[0]} {got[1]} {len(got[2])} bytes"
+    print("a Range through the edge: 206 with those bytes, on a miss and on a hit")
+
+
 def async_status_on_the_other_replica(edge, replicas, exemplars):
     """An upload that polls (202) is answered for by either replica: the one that does not run the
     analysis gives the state the other publishes (it had said 404 for the whole analysis, which
@@ -332,6 +351,8 @@ def main():
                  lambda: async_status_on_the_other_replica(edge, replicas, exemplars)),
                 ("a kit after a delete on the other replica",
                  lambda: kit_after_delete(edge, replicas, exemplars)),
+                ("a Range through the edge",
+                 lambda: ranges_through_the_edge(edge, replicas, exemplars)),
                 # last: it stops Redis
                 ("a Redis outage behind the edge",
                  lambda: redis_outage(procs[0], edge, replicas, exemplars))):

@@ -42,8 +42,8 @@ double wasserstein1(std::vector<double> a, std::vector<double> b) {
     double s = 0;
     for (int j = 0; j < k; ++j) {
         const double p = (j + 0.5) / k;
-        s += std::fabs(a[static_cast<std::size_t>(p * a.size())] -
-                       b[static_cast<std::size_t>(p * b.size())]);
+        s += std::fabs(a[static_cast<std::size_t>(p * static_cast<double>(a.size()))] -
+                       b[static_cast<std::size_t>(p * static_cast<double>(b.size()))]);
     }
     return s / k;
 }

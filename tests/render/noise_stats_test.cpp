@@ -42,7 +42,7 @@ TEST_P(Campbell, MomentsMatchTheTexton) {
     const int windows = 60, side = 192;
     for (int ch = 0; ch < tex->channels(); ++ch) {
         // The Gauss-Legendre integral and the lag-0 covariance are two routes to the variance.
-        EXPECT_NEAR(cm.h2[static_cast<std::size_t>(ch)], tex->covariance().at(ch, ch, 0, 0),
+        EXPECT_NEAR(cm.h2[static_cast<std::size_t>(ch)], tex->covariance()->at(ch, ch, 0, 0),
                     1e-5 * cm.h2[static_cast<std::size_t>(ch)]);
     }
     std::vector<std::vector<double>> mean(3), var(3), kurt(3);
@@ -113,7 +113,7 @@ TEST(Campbell, KurtosisAtMni30IsSmallButNotZero) {
 // Colour covariance C(0) of the field against the texton model, MNI 30, near and far.
 TEST(NoiseStatistics, ColourCovarianceMatchesTheModel) {
     const auto tex = analysed_texton("etr_pebbles04.png", 32);
-    const core::ColourMatrix model = tex->covariance().matrix(0, 0);
+    const core::ColourMatrix model = tex->covariance()->matrix(0, 0);
     CpuBackend cpu;
     std::vector<double> cov[3][3];
     for (int w = 0; w < 40; ++w) {
@@ -146,7 +146,8 @@ TEST(NoiseStatistics, ColourCovarianceMatchesTheModel) {
 // |alpha^|^2 b^ seen through the window, i.e. the DFT of C(v) (1 - |v1|/N)(1 - |v2|/N).
 TEST(NoiseStatistics, PeriodogramMatchesTheModelSpectrum) {
     const auto tex = analysed_texton("skimage_gravel.png", 32);
-    const core::LagCovariance& cov = tex->covariance();
+    const auto held = tex->covariance();
+    const core::LagCovariance& cov = *held;
     constexpr int N = 128;
     const int R = cov.radius();
     std::vector<float> lag(static_cast<std::size_t>(N) * N, 0.0f);
@@ -250,7 +251,7 @@ TEST(NoiseLevels, LimitModelKeepsMeanAndVarianceUpToLevel24) {
     for (int level = 1; level <= 24; level += (level < 10 ? 1 : 7)) {
         const double st = std::ldexp(1.0, level);
         const core::ColourMatrix c0 =
-            core::box_average_covariance(tex->covariance(), std::int64_t{1} << level, 0, 0);
+            core::box_average_covariance(*tex->covariance(), std::int64_t{1} << level, 0, 0);
         std::vector<double> mean, var;
         for (int w = 0; w < 12; ++w) {
             NoiseRequest q;
@@ -301,7 +302,7 @@ TEST(NoiseLevels, LimitModelHasTheColourCovarianceAndShortRangeCorrelation) {
     const int lags[][2] = {{1, 0}, {0, 1}, {2, 0}, {1, 1}};
     for (int level : {k0, k0 + 1}) {
         const std::int64_t st = std::int64_t{1} << level;
-        const core::ColourMatrix c0 = core::box_average_covariance(tex->covariance(), st, 0, 0);
+        const core::ColourMatrix c0 = core::box_average_covariance(*tex->covariance(), st, 0, 0);
         const core::noise::LimitModel& model = tex->limit(level);
         auto kappa = [&](int dx, int dy) {
             return std::abs(dx) > 2 || std::abs(dy) > 2
@@ -357,7 +358,7 @@ TEST(NoiseLevels, LimitModelHasTheColourCovarianceAndShortRangeCorrelation) {
             EXPECT_NEAR(e.mean, predicted, kSigmas * e.se)
                 << "level " << level << " lag (" << lx << ", " << ly << ")";
             const core::ColourMatrix cl =
-                core::box_average_covariance(tex->covariance(), st, lx, ly);
+                core::box_average_covariance(*tex->covariance(), st, lx, ly);
             const double rho = (cl(0, 0) + cl(1, 1) + cl(2, 2)) / trace0;
             std::printf(
                 "level %d lag (%d,%d): measured %.4f +- %.4f, kappa %.4f, box average %.4f\n",

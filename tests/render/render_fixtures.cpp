@@ -91,7 +91,7 @@ int first_tile_off_the_region(const RenderFn& render, const render::NoiseRequest
 }
 
 double field_std(const render::PreparedTexton& t, int c) {
-    return std::sqrt(t.covariance().at(c, c, 0, 0));
+    return std::sqrt(t.covariance()->at(c, c, 0, 0));
 }
 
 } // namespace textond::test

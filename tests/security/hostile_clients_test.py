@@ -1515,6 +1515,64 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
+    def test_a_webp_encode_stops_when_its_client_leaves(self):
+        # The render stopped for a client gone, the encode did not: a 2896 x 2896 WebP at quality
+        # 100 (a second of libwebp) ran to its end after its client had hung up, in a render slot.
+        # The encode is now skipped when the client left during the render, and a WebP encode
+        # stops as it goes (libwebp's progress hook).
+        data = tempfile.mkdtemp(prefix="textond-encode-gone-")
+        s = Server(data, defaults=True)
+        try:
+            with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
+                st, _, body = s.request("POST", "/v1/textons?size=16&iterations=5", f.read(),
+                                        {"Content-Type": "image/png"}, timeout=120)
+            self.assertIn(st, (200, 201), body)
+            tid = json.loads(body)["id"]
+            stage = 'textond_image_stage_seconds_count{stage="render"}'
+            renders, gone = metric(s, stage), metric(s, 'textond_abandoned_total{reason="gone"}')
+            c = socket.create_connection(("127.0.0.1", s.port))
+            c.sendall(f"GET /v1/textons/{tid}/region.webp?x=0&y=0&w=2896&h=2896&quality=100 "
+                      f"HTTP/1.1\r\nHost: t\r\n\r\n".encode())
+            wait_until("the render", lambda: metric(s, stage) > renders)  # the encode has begun
+            c.close()
+            wait_until("the encode abandoned",
+                       lambda: metric(s, 'textond_abandoned_total{reason="gone"}') > gone, 30)
+            self.assertEqual(s.request("GET", "/healthz")[0], 200)
+        finally:
+            s.stop()
+            shutil.rmtree(data, ignore_errors=True)
+
+    def test_level_tables_stay_within_their_budget(self):
+        # What a prepared texton derives for a level (its coefficient table, the covariance of
+        # the limit levels) was kept while the texton stayed prepared: one tile at every level of
+        # a mix of 64 levels of r = 256 took a server from 248 MiB to 5.2 GiB. A mix of 16 levels
+        # here; the tables and covariances kept are now held to --table-cache-mb.
+        data = tempfile.mkdtemp(prefix="textond-tables-mem-")
+        s = Server(data, extra=("--table-cache-mb", "48", "--cache-mb", "1"), defaults=True)
+        try:
+            ids = []
+            for seed in (1, 2):
+                with open(os.path.join(EXEMPLARS, "mypaint_HR_Cork.png"), "rb") as f:
+                    st, _, body = s.request(
+                        "POST", f"/v1/textons?size=256&iterations=1&seed={seed}", f.read(),
+                        {"Content-Type": "image/png"}, timeout=120)
+                self.assertIn(st, (200, 201), body)
+                ids.append(json.loads(body)["id"])
+            st, _, body = s.request("POST", f"/v1/mixes?u={ids[0]}&v={ids[1]}&levels=16&width=4096",
+                                    b"", timeout=120)
+            self.assertEqual(st, 201, body)
+            mix = json.loads(body)["id"]
+            before = rss_bytes(s.proc.pid)
+            sts = [s.request("GET", f"/v1/mixes/{mix}/tiles/{z}/0/0.png", timeout=120)[0]
+                   for z in range(-2, 13)]
+            grown = rss_bytes(s.proc.pid) - before
+            print(f"\n  a tile at levels -2 to 12 of a mix of 16 levels: {grown / MIB:.0f} MiB grown")
+            self.assertEqual(sts, [200] * len(sts))
+            self.assertLess(grown, 200 * MIB, f"{grown / MIB:.0f} MiB grown")
+        finally:
+            s.stop()
+            shutil.rmtree(data, ignore_errors=True)
+
     def test_a_png_of_compressed_text_chunks_costs_no_memory(self):
         # 100 zTXt chunks before the pixels, each inflating to 7.9 MB: 771 kB on the wire. libpng
         # kept them all and OpenImageIO read them on open (790 MB here, 3 GiB for 400); the text

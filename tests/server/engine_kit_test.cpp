@@ -150,7 +150,7 @@ TEST(EngineKit, KitGlslUnderOsmesaReproducesTheServersTiles) {
         ASSERT_TRUE(prepared.ok());
         double var = 0;
         for (int ch = 0; ch < 3; ++ch)
-            var = std::max(var, prepared.value()->covariance().at(ch, ch, 0, 0));
+            var = std::max(var, prepared.value()->covariance()->at(ch, ch, 0, 0));
 
         struct Tile {
             std::int64_t x, y;

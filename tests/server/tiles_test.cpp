@@ -6,7 +6,9 @@
 #include "tests/support/test_support.h"
 
 #include <gtest/gtest.h>
+
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include <chrono>
 #include <cmath>
@@ -356,6 +358,33 @@ TEST_F(Tiles, EtagNotModifiedCacheHeadersCorsAndHead) {
         EXPECT_EQ(cache_control(base + file), "no-cache") << file;
     EXPECT_EQ(cache_control(base + "/kit.tar"), "no-cache");
     EXPECT_EQ(cache_control(base + "/tiles/0/0/0.png"), "public, max-age=31536000, immutable");
+}
+
+// HEAD says what GET says: cpp-httplib added Accept-Ranges to HEAD answers alone, so a client or
+// an edge (nginx serves ranges of a cached answer only when its upstream says so) saw byte
+// ranges on one method and not the other. Successes take ranges; errors are answered whole.
+TEST_F(Tiles, HeadAndGetSayTheSameHeaders) {
+    auto c = server->client();
+    for (const auto& [path, status] : std::vector<std::pair<std::string, int>>{
+             {"/v1/textons/" + id + "/tiles/0/1/2.png", 200},
+             {"/v1/textons/" + id, 200},
+             {"/v1/textons/" + std::string(64, 'f') + "/tiles/0/1/2.png", 404},
+             {"/v1/textons/nope", 400}}) {
+        SCOPED_TRACE(path);
+        auto get = c.Get(path.c_str());
+        auto head = c.Head(path.c_str());
+        ASSERT_TRUE(get && head);
+        EXPECT_EQ(get->status, status);
+        EXPECT_EQ(head->status, status);
+        std::set<std::string> got, headed;
+        for (const auto& [name, value] : get->headers) got.insert(name);
+        for (const auto& [name, value] : head->headers) headed.insert(name);
+        EXPECT_EQ(got, headed);
+        EXPECT_EQ(get->get_header_value_count("Accept-Ranges"), 1u);
+        EXPECT_EQ(head->get_header_value_count("Accept-Ranges"), 1u);
+        EXPECT_EQ(get->get_header_value("Accept-Ranges"), status == 200 ? "bytes" : "none");
+        EXPECT_EQ(head->get_header_value("Accept-Ranges"), get->get_header_value("Accept-Ranges"));
+    }
 }
 
 TEST(TilesCors, ListedOriginsAreEchoedWithVary) {
