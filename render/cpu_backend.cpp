@@ -766,12 +766,9 @@ Result<core::Image> CpuBackend::render_mix(const PreparedMix& mix, const NoiseRe
         }
         return out;
     }
-    std::vector<std::shared_ptr<const LevelTable>> keep;
+    const auto keep = mix.tables(q.level);
     std::vector<const LevelTable*> tables;
-    for (int l = 0; l < mix.levels(); ++l) {
-        keep.push_back(mix.level(l).table(q.level));
-        tables.push_back(keep.back().get());
-    }
+    for (const auto& t : *keep) tables.push_back(t.get());
     return render_exact(first, tables, &mix, q, stats);
 }
 

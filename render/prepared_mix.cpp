@@ -1,5 +1,9 @@
 #include "render/prepared_mix.h"
 
+#include "render/table_budget.h"
+
+#include <algorithm>
+
 namespace textond::render {
 
 Result<std::shared_ptr<const PreparedMix>> PreparedMix::make(std::vector<core::Texton> levels,
@@ -19,6 +23,26 @@ Result<std::shared_ptr<const PreparedMix>> PreparedMix::make(std::vector<core::T
     }
     m->m_field = std::move(field);
     return std::shared_ptr<const PreparedMix>(std::move(m));
+}
+
+std::shared_ptr<const PreparedMix::Tables> PreparedMix::tables(int level) const {
+    const int key = std::max(0, level);
+    std::shared_ptr<const Tables> set;
+    {
+        std::lock_guard<std::mutex> lock(m_mutex);
+        auto& kept = m_tables[key];
+        set = kept.lock();
+        if (!set) {
+            auto made = std::make_shared<Tables>();
+            for (const auto& l : m_levels) made->push_back(l->derived_table(key));
+            set = made;
+            kept = set;
+        }
+    }
+    std::size_t bytes = 0;
+    for (const auto& t : *set) bytes += level_table_bytes(*t);
+    TableBudget::instance().use(set, bytes);
+    return set;
 }
 
 double PreparedMix::mean_of(double rho, int c) const {

@@ -4,7 +4,9 @@
 #include "core/texture_mix.h"
 #include "render/prepared_texton.h"
 
+#include <map>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 namespace textond::render {
@@ -30,10 +32,19 @@ public:
 
     std::optional<Error> check(const NoiseRequest& req) const;
 
+    // Every level's table at `level` (of the output), in level order: one item of the table
+    // budget, kept or let go together. A tile of a mix reads them all in turn, and tables let go
+    // one by one were each let go before the next tile came back to them: a mix larger than the
+    // budget built all its tables again for every tile.
+    using Tables = std::vector<std::shared_ptr<const LevelTable>>;
+    std::shared_ptr<const Tables> tables(int level) const;
+
 private:
     PreparedMix() = default;
     std::vector<std::shared_ptr<const PreparedTexton>> m_levels;
     core::MixField m_field;
+    mutable std::mutex m_mutex;
+    mutable std::map<int, std::weak_ptr<const Tables>> m_tables; // kept by the table budget
 };
 
 } // namespace textond::render

@@ -144,29 +144,25 @@ void split_by_phase(LevelTable& t, int st) {
 
 } // namespace
 
-namespace {
-std::size_t table_bytes(const LevelTable& t) {
+std::size_t level_table_bytes(const LevelTable& t) {
     return (t.data.capacity() + t.phase_data.capacity()) * sizeof(float);
 }
-} // namespace
 
 std::shared_ptr<const LevelTable> PreparedTexton::table(int level) const {
+    auto t = derived_table(level);
+    TableBudget::instance().use(t, level_table_bytes(*t));
+    return t;
+}
+
+// Built under the texton's lock, once: concurrent tiles of a new level wait for the one build
+// (each had built its own copy, 16 x 30 MB at once for a viewport).
+std::shared_ptr<const LevelTable> PreparedTexton::derived_table(int level) const {
     const int key = std::max(0, level); // every magnification level uses alpha itself
-    {
-        std::lock_guard<std::mutex> lock(m_mutex);
-        auto it = m_tables.find(key);
-        if (it != m_tables.end())
-            if (auto t = it->second.lock()) {
-                TableBudget::instance().use(t, table_bytes(*t));
-                return t;
-            }
-    }
-    auto t = build_table(key);
     std::lock_guard<std::mutex> lock(m_mutex);
     auto& kept = m_tables[key];
-    if (auto other = kept.lock()) t = other; // another thread built it meanwhile
+    if (auto t = kept.lock()) return t;
+    auto t = build_table(key);
     kept = t;
-    TableBudget::instance().use(t, table_bytes(*t));
     return t;
 }
 
@@ -194,23 +190,18 @@ std::shared_ptr<const LevelTable> PreparedTexton::build_table(int key) const {
 }
 
 std::shared_ptr<const core::LagCovariance> PreparedTexton::covariance() const {
-    auto bytes = [](const core::LagCovariance& c) {
-        const auto n = static_cast<std::size_t>(2 * c.radius() + 1);
-        const auto k = static_cast<std::size_t>(c.channels());
-        return n * n * k * k * sizeof(double);
-    };
+    std::shared_ptr<const core::LagCovariance> c;
     {
-        std::lock_guard<std::mutex> lock(m_mutex);
-        if (auto c = m_cov.lock()) {
-            TableBudget::instance().use(c, bytes(*c));
-            return c;
+        std::lock_guard<std::mutex> lock(m_mutex); // made once, as a table is
+        c = m_cov.lock();
+        if (!c) {
+            c = std::make_shared<const core::LagCovariance>(core::sampled_covariance(m_texton));
+            m_cov = c;
         }
     }
-    auto c = std::make_shared<const core::LagCovariance>(core::sampled_covariance(m_texton));
-    std::lock_guard<std::mutex> lock(m_mutex);
-    if (auto other = m_cov.lock()) c = other; // another thread made it meanwhile
-    m_cov = c;
-    TableBudget::instance().use(c, bytes(*c));
+    const auto n = static_cast<std::size_t>(2 * c->radius() + 1);
+    const auto k = static_cast<std::size_t>(c->channels());
+    TableBudget::instance().use(c, n * n * k * k * sizeof(double));
     return c;
 }
 
@@ -260,7 +251,7 @@ const core::noise::LimitModel& PreparedTexton::limit(int level) const {
     const auto cov = covariance();
     core::noise::LimitModel model = core::noise::limit_model(*cov, std::int64_t{1} << level);
     std::lock_guard<std::mutex> lock(m_mutex);
-    return m_limits.emplace(level, std::move(model)).first->second;
+    return m_limits.emplace(level, model).first->second;
 }
 
 Result<std::shared_ptr<const PreparedTexton>>

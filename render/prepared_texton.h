@@ -59,6 +59,9 @@ struct LevelTable {
     }
 };
 
+// What a table holds, in bytes.
+std::size_t level_table_bytes(const LevelTable& t);
+
 // Zeros on each side of a level table for interpolation order `order`.
 inline int table_pad(int order) {
     return order == 3 ? 3 : 1;
@@ -88,7 +91,11 @@ public:
     // Why `req` cannot be evaluated (a clear message), or nothing when it can.
     std::optional<Error> check(const NoiseRequest& req) const;
 
+    // The level's table, kept by the table budget (render/table_budget.h).
     std::shared_ptr<const LevelTable> table(int level) const;
+    // The same, made once while someone holds it, left out of the budget: for a holder that
+    // budgets a group of tables as one (PreparedMix::tables).
+    std::shared_ptr<const LevelTable> derived_table(int level) const;
     const core::noise::LimitModel& limit(int level) const;
     // Held by the caller while used: the table budget may let it go (render/table_budget.h).
     std::shared_ptr<const core::LagCovariance> covariance() const;

@@ -31,13 +31,14 @@ FenceWait await_fence(const std::function<FenceState()>& poll, microseconds expe
 
 void PassTimeEstimate::measured(double gpu_ms, std::size_t pixels) {
     if (!(gpu_ms > 0) || pixels == 0) return;
-    const double ns = gpu_ms * 1e6 / static_cast<double>(pixels);
-    // A moving average: the clock of a GPU rises under load, and one pass's time is noisy.
-    m_ns_per_pixel = m_ns_per_pixel > 0 ? 0.75 * m_ns_per_pixel + 0.25 * ns : ns;
+    m_recent[m_count++ % 16] = gpu_ms * 1e6 / static_cast<double>(pixels);
 }
 
 microseconds PassTimeEstimate::of(std::size_t pixels) const {
-    return microseconds{static_cast<long long>(m_ns_per_pixel * static_cast<double>(pixels) / 1e3)};
+    if (m_count == 0) return microseconds{0};
+    const double* end = m_recent + std::min(m_count, 16);
+    const double ns = *std::min_element(m_recent, end);
+    return microseconds{static_cast<long long>(ns * static_cast<double>(pixels) / 1e3)};
 }
 
 } // namespace textond::render::gl

@@ -5,6 +5,7 @@
 // the thread sleeping most of the pass's expected time first and then in short steps. No GL
 // here: the backend passes its poll and the test a fake one.
 #include <chrono>
+#include <cstddef>
 #include <functional>
 
 namespace textond::render::gl {
@@ -25,14 +26,18 @@ struct FenceWait {
 FenceWait await_fence(const std::function<FenceState()>& poll, std::chrono::microseconds expected,
                       const std::function<void(std::chrono::microseconds)>& sleep);
 
-// The backend's estimate of a pass's GPU time: nanoseconds a pixel, from the passes measured.
+// The backend's estimate of a pass's GPU time: the fewest nanoseconds a pixel of the last 16
+// passes measured. Passes differ 10-100x a pixel (a mix of 64 levels, a limit level): the fewest
+// keeps a cheap pass from sleeping through an expensive one's average, at the cost of a few more
+// polls of an expensive one.
 class PassTimeEstimate {
 public:
     void measured(double gpu_ms, std::size_t pixels);
     std::chrono::microseconds of(std::size_t pixels) const;
 
 private:
-    double m_ns_per_pixel = 0; // 0 until a pass is measured
+    double m_recent[16] = {};
+    int m_count = 0; // passes measured
 };
 
 } // namespace textond::render::gl

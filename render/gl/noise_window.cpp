@@ -140,8 +140,9 @@ void write_mix(NoiseWindow& win, Record& rec, const PreparedMix& mix, const Leve
     const int side = table.side(), nl = mix.levels();
     const std::size_t layer = static_cast<std::size_t>(side) * side * 4;
     win.mix_tables.assign(layer * static_cast<std::size_t>(nl), 0.0f);
+    const auto tables = mix.tables(level);
     for (int l = 0; l < nl; ++l)
-        interleave_table(*mix.level(l).table(level), 4,
+        interleave_table(*(*tables)[static_cast<std::size_t>(l)], 4,
                          win.mix_tables.data() + layer * static_cast<std::size_t>(l));
     const core::MixField& f = mix.field();
     if (f.kind == core::MixField::Kind::ramp) {

@@ -20,12 +20,16 @@ void JobBoard::publish(const std::shared_ptr<AnalysisJob>& job) {
     const bool end = ended(job->state());
     if (end) {
         const std::lock_guard<std::mutex> lock(m_mutex);
-        auto& published = m_finished[job->id()];
-        if (published.lock() == job) return;
-        published = job;
+        if (m_finished[job->id()].lock() == job) return;
     }
-    // Best effort: a store that is down loses a status answer, never an upload.
-    (void)m_shared->put_job(job->id(), m_describe(*job).dump(), end ? kFinishedTtl : kRunningTtl);
+    // Best effort: a store that is down loses a status answer, never an upload. An end is
+    // remembered as published only once stored, so the next sweep tries a lost one again.
+    auto put =
+        m_shared->put_job(job->id(), m_describe(*job).dump(), end ? kFinishedTtl : kRunningTtl);
+    if (end && put && put.value()) {
+        const std::lock_guard<std::mutex> lock(m_mutex);
+        m_finished[job->id()] = job;
+    }
 }
 
 std::optional<nlohmann::json> JobBoard::find(const std::string& id) {
@@ -41,12 +45,16 @@ std::optional<nlohmann::json> JobBoard::find(const std::string& id) {
 void JobBoard::sweep() {
     // An id's newest job only: one in flight, else the last to end (the pool lists those in
     // flight first, then the ended oldest first). An older end would overwrite a newer answer.
-    std::map<std::string, std::shared_ptr<AnalysisJob>> newest;
+    // Each job's state is read once: one that ends during the loop keeps its place.
+    std::map<std::string, std::pair<std::shared_ptr<AnalysisJob>, bool>> newest; // job, ended
     for (const auto& job : m_pool.jobs()) {
-        auto& kept = newest[job->id()];
-        if (!kept || ended(kept->state())) kept = job;
+        auto& [kept, kept_ended] = newest[job->id()];
+        if (!kept || kept_ended) {
+            kept = job;
+            kept_ended = ended(job->state());
+        }
     }
-    for (const auto& [id, job] : newest) publish(job);
+    for (const auto& [id, job] : newest) publish(job.first);
     const std::lock_guard<std::mutex> lock(m_mutex);
     for (auto it = m_finished.begin(); it != m_finished.end();)
         it = it->second.expired() ? m_finished.erase(it) : std::next(it);

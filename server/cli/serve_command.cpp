@@ -1,4 +1,3 @@
-#include "render/table_budget.h"
 #include "server/app/build_id.h"
 #include "server/cli/args.h"
 #include "server/cli/commands.h"
@@ -169,8 +168,8 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
         out = static_cast<std::remove_reference_t<decltype(out)>>(v.value());
         return std::nullopt;
     };
-    long long cache_mb = 256, table_cache_mb = 256, upload_mb = 32, max_pixels = 16'777'216,
-              header_kb = 64, body_budget_mb = 256, cpu_s = 20;
+    long long cache_mb = 256, upload_mb = 32, max_pixels = 16'777'216, header_kb = 64,
+              body_budget_mb = 256, cpu_s = 20;
     for (auto err :
          {num("--port", c.port, 0, 65535, c.port),
           num("--http-threads", c.http_threads, 1, 4096, c.http_threads),
@@ -185,7 +184,6 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
           num("--analysis-workers", c.analysis_workers, 1, 64, c.analysis_workers),
           num("--analysis-queue", c.analysis_queue, 0, 10000, c.analysis_queue),
           num("--cache-mb", cache_mb, 0, 1 << 20, cache_mb),
-          num("--table-cache-mb", table_cache_mb, 0, 1 << 20, table_cache_mb),
           num("--png-compression", c.png_compression, 0, 9, c.png_compression),
           num("--max-upload-mb", upload_mb, 1, 4096, upload_mb),
           num("--max-pixels", max_pixels, 1, 1LL << 32, max_pixels),
@@ -211,7 +209,6 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
           num("--body-budget-mb", body_budget_mb, 1, 1 << 20, body_budget_mb)})
         if (err) return err;
     c.cache_bytes = static_cast<std::size_t>(cache_mb) << 20;
-    render::TableBudget::instance().set_limit(static_cast<std::size_t>(table_cache_mb) << 20);
     c.max_upload_bytes = static_cast<std::size_t>(upload_mb) << 20;
     c.max_pixels = static_cast<std::uint64_t>(max_pixels);
     c.max_header_bytes = static_cast<std::size_t>(header_kb) << 10;
@@ -221,6 +218,14 @@ std::optional<Error> read_numbers(const Args& a, http::ServeConfig& c) {
         return Error{ErrorCode::invalid_argument,
                      "--body-budget-mb must be at least --max-upload-mb"};
     if (c.max_connections < c.http_threads) c.max_connections = c.http_threads;
+    return std::nullopt;
+}
+
+// What prepared textons derive, kept within this many MiB (render/table_budget.h).
+std::optional<Error> read_table_cache(const Args& a, http::ServeConfig& c) {
+    auto mb = a.get_int("--table-cache-mb", 256, 0, 1 << 20);
+    if (!mb) return mb.error();
+    c.table_cache_bytes = static_cast<std::size_t>(mb.value()) << 20;
     return std::nullopt;
 }
 
@@ -241,6 +246,7 @@ std::optional<Error> read_formats(const Args& a, http::ServeConfig& c) {
 Result<http::ServeConfig> config_from(const Args& a) {
     http::ServeConfig c;
     if (auto err = read_numbers(a, c)) return *err;
+    if (auto err = read_table_cache(a, c)) return *err;
     c.host = a.get("--host", c.host);
     c.data_dir = a.get("--data", c.data_dir);
     c.store_url = a.get("--store", c.store_url);

@@ -68,6 +68,7 @@ struct ServeConfig {
     std::size_t body_budget_bytes = std::size_t{256} << 20;
 
     std::size_t cache_bytes = std::size_t{256} << 20;
+    std::size_t table_cache_bytes = std::size_t{256} << 20; // render/table_budget.h
     std::size_t max_upload_bytes = std::size_t{32} << 20;
     std::uint64_t max_pixels = 16'777'216; // exemplar pixels, checked from the header
     // OpenEXR is opt-in (--formats ...,openexr): the fuzzer found three ways for a few kB of

@@ -138,14 +138,15 @@ ImageRoutes::produce_in_slot(httplib::Response& res, const std::string& id, api:
     }
     const auto t2 = Clock::now();
     m_metrics.stage("render", seconds(t1, t2));
-    // A client gone (or a deadline passed) during the render gets no encode: a large WebP or AVIF
-    // had run for seconds after a client that hung up. A WebP encode also stops as it goes.
-    if (cancel.stop()) {
+    // A client gone during the render gets no encode: a large WebP or AVIF had run for seconds
+    // after a client that hung up. A WebP encode also stops as it goes. A passed deadline does
+    // not stop it: the render is done, and its image is served and cached.
+    auto gone = [&] { return cancel.stop() && !cancel.deadline_passed(); };
+    if (gone()) {
         m_gate.send_work_error(res, render::abandoned(&cancel, "the encode"), cancel);
         return nullptr;
     }
-    auto bytes = m_images.encode(std::move(image.value()), format, quality, id,
-                                 [&] { return cancel.stop(); });
+    auto bytes = m_images.encode(std::move(image.value()), format, quality, id, gone);
     m_metrics.stage("encode", seconds(t2, Clock::now()));
     if (!bytes) {
         m_gate.send_work_error(res, bytes.error(), cancel);

@@ -1,4 +1,5 @@
 #include "server/http/textond_server.h"
+#include "render/table_budget.h"
 
 #include "api/query_text.h"
 
@@ -52,7 +53,9 @@ void apply_cors(bool any, const std::vector<std::string>& listed, const httplib:
 TextondServer::TextondServer(ServeConfig config)
     : m_config(std::move(config)), m_cache(m_config.cache_bytes), m_gate(m_config, m_metrics),
       m_cors_any(m_config.cors_origin == "*"),
-      m_cors_origins(m_cors_any ? std::vector<std::string>{} : split_list(m_config.cors_origin)) {}
+      m_cors_origins(m_cors_any ? std::vector<std::string>{} : split_list(m_config.cors_origin)) {
+    render::TableBudget::instance().set_limit(m_config.table_cache_bytes);
+}
 
 TextondServer::~TextondServer() {
     stop();
@@ -197,6 +200,9 @@ void TextondServer::add_gauges() {
             count([cache] { return cache->entries(); }));
     m.gauge("textond_image_cache_budget_bytes", "The image cache's byte budget.",
             count([cache] { return cache->budget(); }));
+    m.gauge("textond_table_cache_bytes",
+            "Bytes of level tables and covariances kept for prepared textons (--table-cache-mb).",
+            count([] { return render::TableBudget::instance().bytes(); }));
 }
 
 namespace {
@@ -340,14 +346,15 @@ void TextondServer::install_hooks() {
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ctx.start)
                 .count();
         res.set_header("X-Request-Id", ctx.id);
-        // Said on GET as on HEAD (cpp-httplib added it to HEAD answers only): a success is
-        // served in byte ranges (pre_route), an error whole. An edge (nginx) serves ranges of
-        // what it caches only from an upstream that says so.
+        // Said on GET as on HEAD (cpp-httplib added it to HEAD answers only): bytes where a
+        // Range is honoured (an image, a file, the page; a 304 of one; a 416 says a Range could
+        // not be read), none for a JSON answer or an error, always whole. An edge (nginx) serves
+        // ranges of what it caches only from an upstream that says so.
         if (req.method == "GET" || req.method == "HEAD") {
+            const bool whole = (res.status >= 300 && res.status != 304 && res.status != 416) ||
+                               res.get_header_value("Content-Type") == "application/json";
             res.headers.erase("Accept-Ranges");
-            res.set_header("Accept-Ranges",
-                           (res.status >= 200 && res.status < 300) || res.status == 304 ? "bytes"
-                                                                                        : "none");
+            res.set_header("Accept-Ranges", whole ? "none" : "bytes");
         }
         apply_cors(m_cors_any, m_cors_origins, req, res);
         apply_security_headers(res);

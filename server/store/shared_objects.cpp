@@ -37,7 +37,12 @@ void SharedObjects::sweep() {
         if (!presence) return; // the store down: tried again next round
         if (presence.value() == RedisStore::Presence::deleted) {
             // Not while the id is being created again here: those files are the new object's.
-            if (m_creating.unless_marked(id, [&] { erase_local(id); }))
+            // Asked again under the creations' lock, which a creation takes before its files: one
+            // that marked, stored over the tombstone and unmarked since the look above is seen.
+            if (m_creating.unless_marked(id, [&] {
+                    auto now = m_shared->object_presence(m_kind, id);
+                    if (now && now.value() == RedisStore::Presence::deleted) erase_local(id);
+                }))
                 spdlog::info("store: {} {} was deleted from the shared store; its files here "
                              "erased",
                              m_kind, id);
@@ -90,7 +95,11 @@ Result<bool> SharedObjects::publish(const std::string& id, bool write_back) {
         if (!bytes) return bytes.error();
         files.emplace(f.suffix, std::move(bytes.value()));
     }
-    if (!files.count(m_files.back().suffix)) return false; // erased meanwhile: nothing whole
+    if (!files.count(m_files.back().suffix)) { // erased meanwhile (a delete): nothing whole
+        if (write_back) return false;
+        return make_error(ErrorCode::not_found,
+                          m_kind + " " + id + " was deleted while it was made");
+    }
     auto stored = m_shared->put_object(m_kind, id, files, write_back);
     if (stored) {
         std::lock_guard lock(m_mutex);

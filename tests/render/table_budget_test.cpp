@@ -7,6 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <thread>
+#include <vector>
+
 using namespace textond;
 using render::TableBudget;
 
@@ -68,4 +71,35 @@ TEST(TableBudget, ATextonRendersTheSameBitsFromTablesDerivedAgain) {
         EXPECT_LE(TableBudget::instance().bytes(),
                   std::size_t{8} << 20); // one table or covariance at most
     }
+}
+
+// A mix's tables of one level are one item: a tile reads every level's in turn, and a budget that
+// let them go one by one had each gone before the next tile came back to it, so a mix larger than
+// the budget built all its tables again for every tile.
+TEST(TableBudget, AMixKeepsItsTablesOfALevelTogether) {
+    core::MixField ramp;
+    ramp.width = 64;
+    const auto mix = test::analysed_mix("etr_sand01.png", "etr_pebbles04.png", 16, 4, ramp);
+    const BudgetOf budget(1); // less than any one table
+    auto serials = [&](int level) {
+        std::vector<std::uint64_t> s;
+        for (const auto& t : *mix->tables(level)) s.push_back(t->serial);
+        return s;
+    };
+    const auto first = serials(3);
+    ASSERT_EQ(first.size(), 4u);
+    EXPECT_EQ(serials(3), first); // the set, the most recent item, stays whole
+    (void)serials(2);             // another level's set takes its place
+    EXPECT_NE(serials(3), first); // derived again, as one
+}
+
+// Concurrent tiles of a new level wait for one build of its table (each had built its own).
+TEST(TableBudget, ATableIsBuiltOnceWhateverAsksAtOnce) {
+    const auto tex = test::analysed_texton("etr_pebbles04.png", 64);
+    std::vector<std::uint64_t> got(8);
+    std::vector<std::thread> threads;
+    for (std::size_t i = 0; i < got.size(); ++i)
+        threads.emplace_back([&, i] { got[i] = tex->table(5)->serial; });
+    for (auto& t : threads) t.join();
+    for (auto s : got) EXPECT_EQ(s, got.front());
 }

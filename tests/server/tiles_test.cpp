@@ -367,7 +367,7 @@ TEST_F(Tiles, HeadAndGetSayTheSameHeaders) {
     auto c = server->client();
     for (const auto& [path, status] : std::vector<std::pair<std::string, int>>{
              {"/v1/textons/" + id + "/tiles/0/1/2.png", 200},
-             {"/v1/textons/" + id, 200},
+             {"/v1/textons/" + id + "/texton.exr", 200},
              {"/v1/textons/" + std::string(64, 'f') + "/tiles/0/1/2.png", 404},
              {"/v1/textons/nope", 400}}) {
         SCOPED_TRACE(path);
@@ -384,6 +384,13 @@ TEST_F(Tiles, HeadAndGetSayTheSameHeaders) {
         EXPECT_EQ(head->get_header_value_count("Accept-Ranges"), 1u);
         EXPECT_EQ(get->get_header_value("Accept-Ranges"), status == 200 ? "bytes" : "none");
         EXPECT_EQ(head->get_header_value("Accept-Ranges"), get->get_header_value("Accept-Ranges"));
+    }
+    // A JSON answer is always whole, and says so.
+    for (const std::string& path : std::vector<std::string>{"/v1/textons/" + id, "/healthz"}) {
+        auto get = c.Get(path.c_str(), {{"Range", "bytes=0-9"}});
+        ASSERT_TRUE(get);
+        EXPECT_EQ(get->status, 200) << path;
+        EXPECT_EQ(get->get_header_value("Accept-Ranges"), "none") << path;
     }
 }
 
