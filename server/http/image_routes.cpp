@@ -339,12 +339,21 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
         return send_error(res, to_api_error(order.error()));
     auto cached = m_cache.get(key);
     m_metrics.tile_cache(cached != nullptr);
+    // The same kit is the same bytes (for a build): a client revalidates it for a 304, as an
+    // image, where it had fetched the whole tar each time.
+    const std::string etag = cached ? cached->etag : m_images.etag(key);
     const auto headers = [&] {
-        // It holds texton.exr: gone from caches a minute after a DELETE, like that file.
+        // It holds texton.exr: revalidated, never served from a cache after a DELETE.
         res.set_header("Cache-Control", kDeletableFor);
+        res.set_header("ETag", etag);
         res.set_header("Content-Disposition",
                        "attachment; filename=\"" + engine_kit_directory(id) + ".tar\"");
     };
+    if (etag_matches(req.get_header_value("If-None-Match"), etag)) {
+        headers();
+        res.status = 304;
+        return;
+    }
     if (cached) {
         headers();
         return send_cached(res, m_metrics, std::move(cached));
@@ -363,6 +372,7 @@ void ImageRoutes::kit(const httplib::Request& req, httplib::Response& res) {
     entry->body = std::move(tar.value());
     entry->content_type = "application/x-tar";
     entry->texton_id = id;
+    entry->etag = etag;
     m_cache.put(key, entry);
     headers();
     send_cached(res, m_metrics, std::move(entry));

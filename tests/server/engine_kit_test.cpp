@@ -106,9 +106,22 @@ TEST(EngineKit, HoldsEveryFileTheReadmeNames) {
     EXPECT_EQ(c.Get("/v1/textons/" + id + "/kit.tar?mni=0")->status, 400);
     EXPECT_EQ(c.Get("/v1/textons/" + id + "/kit.tar?lod=2")->status, 400);
     EXPECT_EQ(c.Get("/v1/textons/" + std::string(64, 'a') + "/kit.tar")->status, 404);
-    // Same kit, same bytes (so it caches like a tile).
-    EXPECT_EQ(c.Get("/v1/textons/" + id + "/kit.tar")->body,
-              c.Get("/v1/textons/" + id + "/kit.tar")->body);
+    // Same kit, same bytes (so it caches like a tile), under one strong ETag that a client sends
+    // back for a 304 (each fetch had sent the whole tar); another MNI, another tag.
+    const auto a = c.Get("/v1/textons/" + id + "/kit.tar");
+    const auto b = c.Get("/v1/textons/" + id + "/kit.tar");
+    ASSERT_TRUE(a && b);
+    EXPECT_EQ(a->body, b->body);
+    const std::string etag = a->get_header_value("ETag");
+    ASSERT_GE(etag.size(), 3u);
+    EXPECT_EQ(etag.front(), '"');
+    EXPECT_EQ(b->get_header_value("ETag"), etag);
+    const auto again = c.Get("/v1/textons/" + id + "/kit.tar", {{"If-None-Match", etag}});
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->status, 304);
+    EXPECT_TRUE(again->body.empty());
+    EXPECT_EQ(again->get_header_value("ETag"), etag);
+    EXPECT_NE(c.Get("/v1/textons/" + id + "/kit.tar?mni=5")->get_header_value("ETag"), etag);
     // The 16-bit PNG decodes to the coefficients within its quantisation step.
     const core::Image exr = io::decode_image_file((kit.dir / "texton.exr").string()).value();
     const core::Image png = io::decode_image_file((kit.dir / "texton16.png").string()).value();
