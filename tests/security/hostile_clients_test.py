@@ -1488,6 +1488,14 @@ class HostileClients(unittest.TestCase):
             s.stop()
             shutil.rmtree(data, ignore_errors=True)
 
+    def sand_texton(self, s):
+        """A texton of r = 16 on server `s`: its id."""
+        with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
+            st, _, body = s.request("POST", "/v1/textons?size=16&iterations=5", f.read(),
+                                    {"Content-Type": "image/png"}, timeout=120)
+        self.assertIn(st, (200, 201), body)
+        return json.loads(body)["id"]
+
     def test_render_scratch_does_not_grow_with_the_connections_that_rendered(self):
         # A level-3 tile of a texton of 16 lists about 1.2 million points. Each connection thread
         # (and the libgomp team each one opens) kept its largest scratch: 160 tiles, each on a new
@@ -1496,11 +1504,7 @@ class HostileClients(unittest.TestCase):
         data = tempfile.mkdtemp(prefix="textond-scratch-mem-")
         s = Server(data, defaults=True)
         try:
-            with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
-                st, _, body = s.request("POST", "/v1/textons?size=16&iterations=5", f.read(),
-                                        {"Content-Type": "image/png"}, timeout=120)
-            self.assertIn(st, (200, 201), body)
-            tid = json.loads(body)["id"]
+            tid = self.sand_texton(s)
 
             def tile(i):
                 return s.request("GET", f"/v1/textons/{tid}/tiles/3/{i}/7.png", timeout=120)[0]
@@ -1523,11 +1527,7 @@ class HostileClients(unittest.TestCase):
         data = tempfile.mkdtemp(prefix="textond-encode-gone-")
         s = Server(data, defaults=True)
         try:
-            with open(os.path.join(EXEMPLARS, "etr_sand01.png"), "rb") as f:
-                st, _, body = s.request("POST", "/v1/textons?size=16&iterations=5", f.read(),
-                                        {"Content-Type": "image/png"}, timeout=120)
-            self.assertIn(st, (200, 201), body)
-            tid = json.loads(body)["id"]
+            tid = self.sand_texton(s)
             stage = 'textond_image_stage_seconds_count{stage="render"}'
             renders, gone = metric(s, stage), metric(s, 'textond_abandoned_total{reason="gone"}')
             c = socket.create_connection(("127.0.0.1", s.port))

@@ -29,36 +29,6 @@ and the perimeter of {u > t}:
   chiabs:  log((sum |chi| of the syntheses + 1) / (sum |chi| of the exemplar + 1)): fewer
            components and holes than a Gaussian field of the same spectrum;
   perlog:  log(perimeter of the syntheses / perimeter of the exemplar): shorter outlines.
-Two more families of micro/macro candidates, each comparing an exemplar with syntheses of its
-own Gaussian model (core/README.md "Micro or macro", the refit studies): nearest-neighbour tests
-on patches, and the geometry of excursion sets (Minkowski functionals). Prints, a statistic a row,
-the AUC (the probability that a macro texture's value exceeds a micro one's) on each labelled
-corpus and on all six, the micro crops' 95th percentile, and the value on each of the nine shared
-photos; with --features, also the shipped verdict's four statistics refitted with and without each
-family's best, scored on each corpus by a fit on the other five.
-
-  tests/verdict/synthesis_null_study.py ../shared/data/exemplars [--features features.tsv]
-
-features.tsv: build/release/tests/verdict_features over the six corpora (fit_verdict.py's usage).
-Needs numpy (/usr/bin/python3) and oiiotool (openimageio-tools), which turns every crop into a
-PPM under a temporary directory; about 8 minutes on 2 cores. Each crop: grey level, box-reduced to
-about 256 pixels, its periodic component (Moisan), centred.
-
-Patches: 4 ADSN syntheses of its periodogram (fixed seed); 8 x 8 patches on a grid (step 8 at
-full scale, 4 at half scale):
-  nnratio: log of the median distance from the synthesis's lower-half patches to the exemplar's
-           upper-half patches over the same from the exemplar's own lower half;
-  henze:   Henze's two-sample statistic, the share of pooled patches whose nearest neighbour is
-           from their own image, less 0.5;
-  nnnorm:  nnratio on patches with their mean removed and their norm divided out.
-Excursion sets: the crop's grey levels mapped by rank onto a standard normal (its marginal made
-Gaussian), and 4 ADSN syntheses of that image's periodogram, so that the syntheses share its
-marginal and its spectrum and differ only in geometry; both blurred by a Gaussian of sigma 1 (_s1)
-or 2 (_s2); at 17 thresholds from -2 to 2, the Euler characteristic (8-connected, on the torus)
-and the perimeter of {u > t}:
-  chiabs:  log((sum |chi| of the syntheses + 1) / (sum |chi| of the exemplar + 1)): fewer
-           components and holes than a Gaussian field of the same spectrum;
-  perlog:  log(perimeter of the syntheses / perimeter of the exemplar): shorter outlines.
 """
 import csv
 import glob
