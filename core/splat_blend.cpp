@@ -43,7 +43,10 @@ std::optional<Error> SplatWeights::validate(int layers) const {
         const double lim = 2305843009213693952.0; // 2^61
         if (!std::isfinite(s.scale) || s.scale < 1.0 / 16 || s.scale > 1e9)
             return bad("scale must be in [1/16, 1e9] texels per weight pixel");
-        const double w = s.weights.width * s.scale, h = s.weights.height * s.scale;
+        // The far edge in long double: at 2^61 a double's step is 512 texels, and x0 = 2^61
+        // plus an extent of 256 rounded back to 2^61 and passed.
+        const long double w = static_cast<long double>(s.weights.width) * s.scale,
+                          h = static_cast<long double>(s.weights.height) * s.scale;
         if (!std::isfinite(s.x0) || !std::isfinite(s.y0) || s.x0 < -lim || s.y0 < -lim ||
             s.x0 + w > lim || s.y0 + h > lim)
             return bad("the weights must lie within |x|, |y| <= 2^61 texels (x0 and y0 place "

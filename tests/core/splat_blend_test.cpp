@@ -158,6 +158,14 @@ TEST(SplatBlend, WeightsAreValidated) {
     SplatWeights big;
     big.image.weights = Image(2049, 2048, 2, 0.5f); // over 2048 x 2048
     EXPECT_TRUE(big.validate(2));
+    // Corner and extent within 2^61, to the texel: at 2^61 a double's step is 512 texels, and
+    // 2^61 + 256 had rounded back to 2^61 and passed.
+    SplatWeights edge;
+    edge.image.weights = Image(256, 1, 2, 0.5f);
+    edge.image.x0 = 2305843009213693952.0 - 256; // 2^61 - 256: its far edge is 2^61
+    EXPECT_FALSE(edge.validate(2));
+    edge.image.x0 = 2305843009213693952.0; // 2^61: its far edge is 2^61 + 256
+    EXPECT_TRUE(edge.validate(2));
 }
 
 } // namespace
