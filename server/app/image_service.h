@@ -21,7 +21,7 @@ namespace textond::app {
 // An image's bytes in an API format, tagged (PNG, EXR) with the noise version and the id: what
 // every image endpoint and `textond export` write. The pixels are released (recycled) as soon as
 // the encoder no longer needs them, before it has finished.
-// `stop` abandons a WebP encode (cancelled) once it is true: a client gone, a deadline passed.
+// `stop` abandons a WebP encode (cancelled) once it is true (the image routes': their client gone).
 Result<std::string> encode_image(core::Image&& image, api::ImageFormat format, int quality,
                                  const std::string& id, int png_compression,
                                  const std::function<bool()>& stop = {});

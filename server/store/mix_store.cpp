@@ -1,13 +1,11 @@
 #include "server/store/mix_store.h"
 
-#include "server/io/atomic_file.h"
 #include "server/io/slow_point.h"
 #include "server/store/quarantine.h"
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <optional>
 
 namespace textond::store {
@@ -36,13 +34,9 @@ MixStore::MixStore(std::string dir, RedisStore* shared, std::chrono::millisecond
 
 Result<std::unique_ptr<MixStore>> MixStore::open(const std::string& data_dir, RedisStore* shared,
                                                  std::chrono::milliseconds recheck) {
-    const std::string dir = data_dir + "/mixes";
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
-    for (const std::string& name : io::remove_unfinished_writes(dir))
-        spdlog::warn("mixes: removed an unfinished write {}", name);
-    return std::unique_ptr<MixStore>(new MixStore(dir, shared, recheck));
+    auto dir = open_object_directory(data_dir, "mixes");
+    if (!dir) return dir.error();
+    return std::unique_ptr<MixStore>(new MixStore(dir.value(), shared, recheck));
 }
 
 bool MixStore::contains(const std::string& id) {

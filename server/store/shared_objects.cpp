@@ -1,5 +1,6 @@
 #include "server/store/shared_objects.h"
 
+#include "server/io/atomic_file.h"
 #include "server/io/image_io.h"
 #include "server/store/read_through.h"
 
@@ -9,6 +10,16 @@
 #include <malloc.h>
 
 namespace textond::store {
+
+Result<std::string> open_object_directory(const std::string& data_dir, const std::string& name) {
+    const std::string dir = data_dir + "/" + name;
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
+    for (const std::string& file : io::remove_unfinished_writes(dir))
+        spdlog::warn("{}: removed an unfinished write {}", name, file);
+    return dir;
+}
 
 SharedObjects::SharedObjects(RedisStore* shared, std::string kind, std::string dir,
                              std::vector<File> files, std::chrono::milliseconds recheck)

@@ -22,6 +22,11 @@
 
 namespace textond::store {
 
+// <data_dir>/<name>, the directory of one kind of object (mixes, splats): made if missing, and
+// rid of the temporaries of writes a crash interrupted (a kill -9 mid-write had left a 40 MB one
+// for good), before the store that opens it writes or sweeps.
+Result<std::string> open_object_directory(const std::string& data_dir, const std::string& name);
+
 class SharedObjects {
 public:
     struct File {

@@ -1,14 +1,12 @@
 #include "server/store/splat_store.h"
 
 #include "core/material_set.h"
-#include "server/io/atomic_file.h"
 #include "server/io/slow_point.h"
 #include "server/store/quarantine.h"
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <filesystem>
 
 namespace textond::store {
 
@@ -33,13 +31,9 @@ SplatStore::SplatStore(std::string dir, TextonStore& textons, std::chrono::milli
 Result<std::unique_ptr<SplatStore>> SplatStore::open(const std::string& data_dir,
                                                      TextonStore& textons,
                                                      std::chrono::milliseconds recheck) {
-    const std::string dir = data_dir + "/splats";
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    if (ec) return make_error(ErrorCode::io, "cannot create " + dir + ": " + ec.message());
-    for (const std::string& name : io::remove_unfinished_writes(dir))
-        spdlog::warn("splats: removed an unfinished write {}", name);
-    return std::unique_ptr<SplatStore>(new SplatStore(dir, textons, recheck));
+    auto dir = open_object_directory(data_dir, "splats");
+    if (!dir) return dir.error();
+    return std::unique_ptr<SplatStore>(new SplatStore(dir.value(), textons, recheck));
 }
 
 bool SplatStore::contains(const std::string& id) {
